@@ -1,0 +1,152 @@
+"""Typed messages exchanged between simulator, driver, GUI and recorders.
+
+Every message carries sim time as ``stamp_ns`` [ns]. Fields are SI units in
+the frames of :mod:`vilma.core.geometry` (ENU world, body x forward, y left).
+Positional field order is part of the format: sensors build messages from
+rows of their sample arrays in that order.
+"""
+
+from __future__ import annotations
+
+import math
+from enum import StrEnum
+
+import msgspec
+
+from vilma.core.geometry import quaternion_from_euler
+
+
+class Message(msgspec.Struct, frozen=True, tag=True):
+    """Base of every message: ``stamp_ns`` is sim time [ns]."""
+
+    stamp_ns: int
+
+
+class Pose(Message, frozen=True):
+    """Ground-truth pose of the car's reference point: position [m], ZYX Euler angles [rad]."""
+
+    x: float
+    y: float
+    z: float
+    roll: float
+    pitch: float
+    yaw: float
+
+    @property
+    def quaternion(self) -> tuple[float, float, float, float]:
+        """Orientation as ``(x, y, z, w)``."""
+        return tuple(float(q) for q in quaternion_from_euler(self.roll, self.pitch, self.yaw))
+
+
+class Velocity(Message, frozen=True):
+    """Linear velocity in body and world frames [m/s] and body angular velocity [rad/s]."""
+
+    vx: float
+    vy: float
+    vz: float
+    vx_world: float
+    vy_world: float
+    vz_world: float
+    wx: float
+    wy: float
+    wz: float
+
+    @property
+    def speed(self) -> float:
+        """Planar speed [m/s]."""
+        return math.hypot(self.vx, self.vy)
+
+
+class GpsFix(Message, frozen=True):
+    """GPS fix: WGS84 latitude, longitude [deg], altitude [m], and local ENU x, y, z [m]."""
+
+    latitude: float
+    longitude: float
+    altitude: float
+    x: float
+    y: float
+    z: float
+
+
+class Imu(Message, frozen=True):
+    """IMU: specific force incl. gravity [m/s^2], angular velocity [rad/s] (body), orientation quaternion."""
+
+    ax: float
+    ay: float
+    az: float
+    wx: float
+    wy: float
+    wz: float
+    qx: float
+    qy: float
+    qz: float
+    qw: float
+
+
+class WheelSpeeds(Message, frozen=True):
+    """Wheel angular speeds [rad/s], positive rolling forward (order FL, FR, RL, RR as the original)."""
+
+    fl: float
+    fr: float
+    rl: float
+    rr: float
+
+
+class Odometry(Message, frozen=True):
+    """Dead-reckoned pose from wheel speeds: position [m], yaw [rad], speed [m/s], yaw rate [rad/s]."""
+
+    x: float
+    y: float
+    yaw: float
+    speed: float
+    yaw_rate: float
+
+
+class ActuatorState(Message, frozen=True):
+    """What the car applies now: front-wheel angle [rad], drive force [N] at the wheels, brake force [N]."""
+
+    steer: float
+    drive_force: float
+    brake_force: float
+
+
+class Longitudinal(StrEnum):
+    """How :class:`ActuatorCommand` ``drive`` and ``brake`` are read.
+
+    - ``force``: ``drive`` is the drive force at the wheels [N] (negative drives
+      backwards), ``brake`` the total brake force [N].
+    - ``accel``: ``drive`` is an acceleration request [m/s^2] met by the car's
+      own drive/brake split; ``brake`` an extra brake force [N].
+    - ``power``: the original VILMA semantics: ``drive`` is ``powerAmount``
+      (engine force on each of the 4 wheels, original units), ``velocity_limit``
+      is ``velocityAmount`` [m/s] (above it the engine is cut and brake 30 is
+      applied), ``brake`` is ``brakeAmount`` (original units per wheel).
+    """
+
+    FORCE = "force"
+    ACCEL = "accel"
+    POWER = "power"
+
+
+class ActuatorCommand(Message, frozen=True, kw_only=True):
+    """Actuator command. ``steer`` is the front-wheel angle [rad], positive left.
+
+    ``autonomous`` marks commands from a self-driver: while the last command was
+    autonomous, the simulator's watchdog stops the car when commands stop.
+    """
+
+    stamp_ns: int = 0
+    steer: float = 0.0
+    longitudinal: Longitudinal = Longitudinal.FORCE
+    drive: float = 0.0
+    brake: float = 0.0
+    velocity_limit: float = math.inf
+    autonomous: bool = False
+
+
+class SimStatus(Message, frozen=True, kw_only=True):
+    """Simulator status: real-time factor (sim s per wall s), autonomy and watchdog flags."""
+
+    real_time_factor: float = math.nan
+    autonomous: bool = False
+    watchdog_tripped: bool = False

@@ -1,0 +1,87 @@
+"""What every sensor shares: the samples it reads and the readings it makes."""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from vilma.core.messages import Message
+
+
+@dataclass(frozen=True, slots=True)
+class Samples:
+    """The plant at a sensor's sample ticks.
+
+    Attributes:
+        stamp_ns: sim time of each sample [ns], shape (n,).
+        z: plant vectors (layout of :mod:`vilma.vehicle.state`), shape (n, NZ).
+        dx: vehicle state derivatives, shape (n, NX).
+    """
+
+    stamp_ns: np.ndarray
+    z: np.ndarray
+    dx: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.stamp_ns)
+
+
+@dataclass(frozen=True, slots=True)
+class Readings:
+    """Readings of one sensor: ``values[i]`` holds the fields of ``message`` (after ``stamp_ns``) at ``stamp_ns[i]``."""
+
+    name: str
+    message: type[Message]
+    stamp_ns: np.ndarray
+    values: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.stamp_ns)
+
+    def latest(self) -> Message | None:
+        """The newest reading as a message, or None if there is none."""
+        return self.at(-1) if len(self) else None
+
+    def at(self, i: int) -> Message:
+        """Reading ``i`` as a message."""
+        return self.message(int(self.stamp_ns[i]), *self.values[i].tolist())
+
+    def messages(self) -> list[Message]:
+        """Every reading as a message, oldest first."""
+        return [self.message(int(t), *row) for t, row in zip(self.stamp_ns.tolist(), self.values.tolist(),
+                                                               strict=True)]
+
+    def field(self, name: str) -> np.ndarray:
+        """One field over all readings, shape (n,)."""
+        return self.values[:, self.message.__struct_fields__.index(name) - 1]
+
+    @staticmethod
+    def concat(parts: list[Readings]) -> Readings:
+        """Join readings of one sensor in time order."""
+        first = parts[0]
+        if len(parts) == 1:
+            return first
+        return Readings(first.name, first.message, np.concatenate([r.stamp_ns for r in parts]),
+                        np.concatenate([r.values for r in parts]))
+
+
+class Sensor(Protocol):
+    """A sensor: ``name``, ``message`` type and ``rate_hz``; :meth:`measure` maps samples to value rows."""
+
+    name: str
+    message: type[Message]
+    rate_hz: float
+
+    def reset(self, z0: np.ndarray, rng: np.random.Generator) -> None:
+        """Start over from plant vector ``z0`` with a fresh noise generator."""
+
+    def measure(self, s: Samples) -> np.ndarray:
+        """Value rows for samples ``s``, shape (len(s), number of message fields after the stamp)."""
+
+
+def sensor_rng(seed: int, name: str) -> np.random.Generator:
+    """The noise generator of sensor ``name`` for run ``seed``: independent of which other sensors exist."""
+    return np.random.default_rng([seed, zlib.crc32(name.encode())])

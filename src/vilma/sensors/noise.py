@@ -1,0 +1,55 @@
+"""Noise models: white Gaussian noise and a slowly drifting (first-order Gauss-Markov) bias."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+def standard_normals(rng: np.random.Generator, n: int, dims: int) -> np.ndarray:
+    """All the standard normal draws of ``n`` samples, (n, dims), in one call.
+
+    A sensor takes all its noise for a batch from one call, row by row, so
+    sample ``i`` gets the same numbers however the run is split into batches.
+    """
+    return rng.standard_normal((n, dims))
+
+
+@njit(cache=True)
+def _ar1(b0, phi, w):
+    out = np.empty_like(w)
+    b = b0
+    for i in range(w.shape[0]):
+        b = phi * b + w[i]
+        out[i] = b
+    return out
+
+
+class GaussMarkovBias:
+    """Bias that drifts as ``b[k] = phi b[k-1] + w[k]`` with ``phi = exp(-T/tau)``.
+
+    Its stationary standard deviation is ``sigma`` [unit of the signal] and its
+    correlation time ``tau`` [s]; ``sigma = 0`` gives no bias.
+    """
+
+    def __init__(self, sigma: float, tau: float, period: float, dims: int) -> None:
+        self.sigma, self.dims = sigma, dims
+        self.phi = math.exp(-period / tau) if tau > 0 else 0.0
+        self.step_sigma = sigma * math.sqrt(1.0 - self.phi**2)
+        self.b = np.zeros(dims)
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """Draw the starting bias from the stationary distribution."""
+        self.b = rng.standard_normal(self.dims) * self.sigma
+
+    def draw(self, normals: np.ndarray) -> np.ndarray:
+        """The bias at the next samples, driven by standard normals (n, dims); shape (n, dims)."""
+        if self.sigma == 0.0:
+            return np.zeros_like(normals)
+        w = normals * self.step_sigma
+        out = np.column_stack([_ar1(self.b[d], self.phi, w[:, d]) for d in range(self.dims)])
+        if len(out):
+            self.b = out[-1].copy()
+        return out

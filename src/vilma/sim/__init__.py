@@ -1,0 +1,5 @@
+"""The simulator: fixed-step plant, actuators, sensors at their rates, command watchdog; pacing on top."""
+
+from vilma.sim.simulator import SimConfig, Simulator
+
+__all__ = ["SimConfig", "Simulator"]

@@ -1,0 +1,1 @@
+"""Vehicle: parameters, pure dynamics models, actuators and integrators."""

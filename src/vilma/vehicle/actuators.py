@@ -1,0 +1,122 @@
+"""Actuators: command validation, command -> force targets, and the actuators' own dynamics.
+
+A command (:class:`~vilma.core.messages.ActuatorCommand`) is validated in
+Python (NaN or infinity rejected naming the field, out-of-range values
+clamped and reported), then turned into targets for the front-wheel angle,
+drive force and brake force each physics step (:func:`targets`), which the
+actuators follow with a first-order lag, and the steering also with a rate
+limit (:func:`actuator_step`, exact for a target held over the step).
+"""
+
+from __future__ import annotations
+
+import math
+
+import msgspec
+from numba import njit
+
+from vilma.core.messages import ActuatorCommand, Longitudinal
+from vilma.vehicle.models.common import V_SIGN
+from vilma.vehicle.params import VehicleParams
+from vilma.vehicle.state import VX, VY
+
+FORCE, ACCEL, POWER, STOP = 0, 1, 2, 3
+"""Longitudinal modes as compiled ids; STOP is the watchdog's controlled stop."""
+MODE_IDS = {Longitudinal.FORCE: FORCE, Longitudinal.ACCEL: ACCEL, Longitudinal.POWER: POWER}
+
+ORIGINAL_OVERSPEED_BRAKE = 30.0
+"""Brake the original applies on each wheel above ``velocityAmount`` (``applyBraking(30)``), original units."""
+
+
+class CommandError(ValueError):
+    """A command that cannot be applied (NaN, infinity, unknown mode)."""
+
+
+def _limits(cmd: ActuatorCommand, p: VehicleParams) -> dict[str, tuple[float, float]]:
+    a = p.actuators
+    if cmd.longitudinal == Longitudinal.FORCE:
+        drive, brake = (-p.max_drive_force, p.max_drive_force), (0.0, p.max_brake_force)
+    elif cmd.longitudinal == Longitudinal.ACCEL:
+        drive, brake = (-a.max_decel, a.max_accel), (0.0, p.max_brake_force)
+    else:
+        top = p.max_drive_force / p.power_unit_force
+        drive, brake = (-top, top), (0.0, p.max_brake_force / (4.0 * p.brake_unit_force))
+    return {"steer": (-p.max_steer, p.max_steer), "drive": drive, "brake": brake,
+            "velocity_limit": (0.0, math.inf)}
+
+
+def validate_command(cmd: ActuatorCommand, p: VehicleParams) -> tuple[ActuatorCommand, tuple[str, ...]]:
+    """Check a command against the car.
+
+    Returns:
+        The command with out-of-range values clamped, and one note per clamped field.
+
+    Raises:
+        CommandError: a field is NaN or infinite (``velocity_limit`` may be
+            +inf, meaning no limit), or the longitudinal mode is unknown.
+    """
+    try:
+        mode = Longitudinal(cmd.longitudinal)
+    except ValueError:
+        raise CommandError(
+            f"command field 'longitudinal' is {cmd.longitudinal!r}: use one of "
+            f"{', '.join(m.value for m in Longitudinal)}"
+        ) from None
+    cmd = msgspec.structs.replace(cmd, longitudinal=mode)
+    notes: list[str] = []
+    changes: dict[str, float] = {}
+    for name, (lo, hi) in _limits(cmd, p).items():
+        v = getattr(cmd, name)
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise CommandError(f"command field '{name}' is {v!r}: must be a number")
+        if math.isnan(v) or (math.isinf(v) and not (name == "velocity_limit" and v > 0)):
+            raise CommandError(f"command field '{name}' is {v}: must be a finite number")
+        if v < lo or v > hi:
+            changes[name] = min(max(v, lo), hi)
+            notes.append(f"command field '{name}' = {v:g} out of [{lo:g}, {hi:g}] ({mode.value} mode), "
+                         f"clamped to {changes[name]:g}")
+    if changes:
+        cmd = msgspec.structs.replace(cmd, **changes)
+    return cmd, tuple(notes)
+
+
+@njit(cache=True)
+def targets(mode, cmd, x, u, p):
+    """Actuator targets ``(steer [rad], drive [N], brake [N])`` for a command.
+
+    ``cmd`` is ``(steer, drive, brake, velocity_limit)`` as in
+    :class:`~vilma.core.messages.ActuatorCommand`, already validated; ``x``
+    the vehicle state and ``u`` the actuators' present outputs.
+    ``accel`` mode adds the car's own resistance (feed-forward) to
+    ``m a``; it drives forward and brakes to a stop, never backwards.
+    """
+    if mode == STOP:
+        return u[0], 0.0, p.m * p.stop_decel
+    if mode == FORCE:
+        return cmd[0], cmd[1], cmd[2]
+    vx = x[VX]
+    if mode == ACCEL:
+        need = p.m * cmd[1] + p.k_drag * vx * abs(vx) + p.f_roll * math.tanh(vx / V_SIGN)
+        if need >= 0.0:
+            return cmd[0], need, cmd[2]
+        return cmd[0], 0.0, cmd[2] - need
+    if math.hypot(vx, x[VY]) < cmd[3]:
+        return cmd[0], p.power_unit * cmd[1], 4.0 * p.brake_unit * cmd[2]
+    return cmd[0], 0.0, 4.0 * p.brake_unit * ORIGINAL_OVERSPEED_BRAKE
+
+
+@njit(cache=True)
+def lag_gain(tau, dt):
+    """Share of the gap a first-order lag of time constant ``tau`` [s] closes in ``dt`` [s] (1 if tau <= 0)."""
+    return 1.0 if tau <= 0.0 else 1.0 - math.exp(-dt / tau)
+
+
+@njit(cache=True)
+def actuator_step(u, steer, drive, brake, p, dt):
+    """Advance the actuators ``u = (steer, drive, brake)`` one step toward the targets, in place."""
+    steer = min(max(steer, -p.max_steer), p.max_steer)
+    d = lag_gain(p.tau_steer, dt) * (steer - u[0])
+    limit = p.rate_steer * dt
+    u[0] += min(max(d, -limit), limit)
+    u[1] += lag_gain(p.tau_drive, dt) * (drive - u[1])
+    u[2] += lag_gain(p.tau_brake, dt) * (max(brake, 0.0) - u[2])

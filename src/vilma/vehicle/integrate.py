@@ -1,0 +1,101 @@
+"""Integrators and the compiled plant loop.
+
+The vehicle state is integrated with RK4 (default) or explicit Euler while
+the actuator outputs are held over the step; the actuators advance first,
+exactly, toward the command's targets. :func:`advance` runs many steps in
+compiled code and records the plant at chosen steps for the sensors.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from vilma.vehicle.actuators import actuator_step, targets
+from vilma.vehicle.models import kinematic, kinematic_constrain, single_track, single_track_constrain
+from vilma.vehicle.state import NX
+
+KINEMATIC, SINGLE_TRACK = 0, 1
+"""Model ids (see :data:`vilma.vehicle.models.MODELS`)."""
+RK4, EULER = 0, 1
+"""Integrator ids."""
+INTEGRATORS = ("rk4", "euler")
+
+
+@njit(cache=True)
+def derivative(model, x, u, p):
+    """dx/dt of model ``model`` (an id)."""
+    if model == KINEMATIC:
+        return kinematic(x, u, p)
+    return single_track(x, u, p)
+
+
+@njit(cache=True)
+def constrain(model, x, u, p):
+    """Model-specific projection applied after each step."""
+    if model == KINEMATIC:
+        return kinematic_constrain(x, u, p)
+    return single_track_constrain(x, u, p)
+
+
+@njit(cache=True)
+def axpy(x, a, k):
+    """``x + a k`` for 6-tuples (states stay tuples in compiled code: no allocation)."""
+    return (x[0] + a * k[0], x[1] + a * k[1], x[2] + a * k[2], x[3] + a * k[3], x[4] + a * k[4], x[5] + a * k[5])
+
+
+@njit(cache=True)
+def rk4(model, x, u, p, dt):
+    """One classical Runge-Kutta step of length ``dt`` [s] with ``u`` held; ``x`` a 6-tuple."""
+    k1 = derivative(model, x, u, p)
+    k2 = derivative(model, axpy(x, 0.5 * dt, k1), u, p)
+    k3 = derivative(model, axpy(x, 0.5 * dt, k2), u, p)
+    k4 = derivative(model, axpy(x, dt, k3), u, p)
+    return (x[0] + dt / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+            x[1] + dt / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+            x[2] + dt / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
+            x[3] + dt / 6.0 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
+            x[4] + dt / 6.0 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
+            x[5] + dt / 6.0 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]))
+
+
+@njit(cache=True)
+def euler(model, x, u, p, dt):
+    """One explicit Euler step of length ``dt`` [s] with ``u`` held; ``x`` a 6-tuple."""
+    return axpy(x, dt, derivative(model, x, u, p))
+
+
+@njit(cache=True)
+def advance(model, integrator, z, mode, cmd, p, dt, n, record, out_z, out_dx):
+    """Run ``n`` physics steps of ``dt`` [s] on the plant vector ``z`` (updated in place).
+
+    ``mode``/``cmd`` are the longitudinal mode id and ``(steer, drive, brake,
+    velocity_limit)``, held for all ``n`` steps. After step ``record[j]``
+    (1-based, increasing), the plant vector goes to ``out_z[j]`` and its
+    derivative to ``out_dx[j]``.
+    """
+    x = (z[0], z[1], z[2], z[3], z[4], z[5])
+    u = z[NX:].copy()
+    j = 0
+    for i in range(1, n + 1):
+        steer, drive, brake = targets(mode, cmd, x, u, p)
+        actuator_step(u, steer, drive, brake, p, dt)
+        x = rk4(model, x, u, p, dt) if integrator == RK4 else euler(model, x, u, p, dt)
+        x = constrain(model, x, u, p)
+        if j < record.shape[0] and record[j] == i:
+            dx = derivative(model, x, u, p)
+            for k in range(NX):
+                out_z[j, k] = x[k]
+                out_dx[j, k] = dx[k]
+            out_z[j, NX:] = u
+            j += 1
+    for k in range(NX):
+        z[k] = x[k]
+    z[NX:] = u
+
+
+def empty_records(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Output arrays for :func:`advance` with ``n`` recorded steps."""
+    from vilma.vehicle.state import NZ
+
+    return np.empty((n, NZ)), np.empty((n, NX))

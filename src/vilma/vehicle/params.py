@@ -1,0 +1,287 @@
+"""Vehicle and actuator parameters (frozen, SI units) and named presets.
+
+Presets:
+    ``vilma``: the paper's car (the MORSE/Bullet model of the original code,
+        ../shared/reference/vilma-original.md section 5). Values the original
+        leaves open are marked *assumed* with the reasoning.
+    ``bmw_320i``: CommonRoad vehicle parameter set 2 (BMW 320i), M. Althoff,
+        M. Koschi, S. Manzinger, "CommonRoad: Composable benchmarks for motion
+        planning on roads", IEEE IV 2017; values of ``parameters_vehicle2``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+GRAVITY = 9.81
+"""Gravitational acceleration [m/s^2]."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ActuatorParams:
+    """Actuator dynamics between a command and what the car applies."""
+
+    steer_time_constant: float = 0.05
+    """First-order lag of the front-wheel angle [s] (0: none)."""
+    steer_rate_limit: float = 0.8
+    """Largest front-wheel angle rate [rad/s]."""
+    drive_time_constant: float = 0.1
+    """First-order lag of the drive force [s] (0: none)."""
+    brake_time_constant: float = 0.1
+    """First-order lag of the brake force [s] (0: none)."""
+    dead_time: float = 0.0
+    """Delay from a command's arrival to its effect [s], rounded to whole physics steps."""
+    max_accel: float = 4.0
+    """Largest acceleration request accepted in ``accel`` mode [m/s^2]."""
+    max_decel: float = 8.0
+    """Largest deceleration request accepted in ``accel`` mode [m/s^2]."""
+    stop_deceleration: float = 3.0
+    """Deceleration of the watchdog's controlled stop [m/s^2]."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class VehicleParams:
+    """A car for the planar models. Lengths [m], masses [kg], forces [N], angles [rad]."""
+
+    name: str
+    mass: float
+    """Total mass [kg]."""
+    yaw_inertia: float
+    """Moment of inertia about the vertical axis through the centre of mass [kg m^2]."""
+    cg_to_front: float
+    """Centre of mass to front axle [m]."""
+    cg_to_rear: float
+    """Centre of mass to rear axle [m]."""
+    track: float
+    """Distance between left and right wheel centres [m]."""
+    wheel_radius: float
+    """Effective rolling radius [m]."""
+    max_steer: float
+    """Front-wheel angle limit [rad] (symmetric)."""
+    cornering_stiffness_front: float
+    """Front axle (both tyres) cornering stiffness [N/rad]."""
+    cornering_stiffness_rear: float
+    """Rear axle (both tyres) cornering stiffness [N/rad]."""
+    tyre_shape: float = 1.3
+    """Pacejka shape factor C of the lateral force [-]."""
+    tyre_curvature: float = 0.0
+    """Pacejka curvature factor E of the lateral force [-], <= 1."""
+    friction: float = 1.0
+    """Tyre-road friction coefficient [-]."""
+    max_power: float
+    """Largest drive power at the wheels [W]."""
+    max_drive_force: float
+    """Largest drive force at the wheels [N] (engine torque limit, before traction)."""
+    drive_split_front: float
+    """Share of the drive force on the front axle [-] (0 rear drive, 1 front drive)."""
+    brake_split_front: float = 0.6
+    """Share of the brake force on the front axle [-]."""
+    max_brake_force: float
+    """Largest total brake force [N] (before traction)."""
+    drag_area: float
+    """Drag coefficient times frontal area, Cd*A [m^2]."""
+    air_density: float = 1.225
+    """Air density [kg/m^3]."""
+    rolling_resistance: float = 0.013
+    """Rolling resistance coefficient [-]."""
+    blend_speed_low: float = 1.0
+    """Below this speed the single-track model is purely kinematic [m/s]."""
+    blend_speed_high: float = 3.0
+    """Above this speed the single-track model is purely dynamic [m/s]."""
+    power_unit_force: float
+    """Total drive force of one original ``powerAmount`` unit on four wheels [N] (``power`` mode)."""
+    brake_unit_force: float = 30.0
+    """Brake force of one original ``brakeAmount`` unit on one wheel [N] (``power`` mode).
+
+    Bullet's ``applyBraking`` value is an impulse per physics step [N s]; at
+    MORSE's 30 steps/s that is 30 N per unit."""
+    actuators: ActuatorParams = ActuatorParams()
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float | int) and not isinstance(v, bool) and not math.isfinite(v):
+                raise ValueError(f"vehicle '{self.name}': {f.name} must be finite, got {v!r}")
+        positive = ("mass", "yaw_inertia", "cg_to_front", "cg_to_rear", "track", "wheel_radius", "max_steer",
+                    "cornering_stiffness_front", "cornering_stiffness_rear", "tyre_shape", "friction",
+                    "max_power", "max_drive_force", "max_brake_force", "power_unit_force")
+        for name in positive:
+            if getattr(self, name) <= 0:
+                raise ValueError(f"vehicle '{self.name}': {name} must be > 0, got {getattr(self, name)!r}")
+        if not 0 <= self.blend_speed_low < self.blend_speed_high:
+            raise ValueError(f"vehicle '{self.name}': need 0 <= blend_speed_low < blend_speed_high")
+        if not self.max_steer < math.pi / 2:
+            raise ValueError(f"vehicle '{self.name}': max_steer must be below pi/2 rad")
+
+    @property
+    def wheelbase(self) -> float:
+        """Front to rear axle [m]."""
+        return self.cg_to_front + self.cg_to_rear
+
+    @property
+    def load_front(self) -> float:
+        """Static front axle load [N]."""
+        return self.mass * GRAVITY * self.cg_to_rear / self.wheelbase
+
+    @property
+    def load_rear(self) -> float:
+        """Static rear axle load [N]."""
+        return self.mass * GRAVITY * self.cg_to_front / self.wheelbase
+
+    @property
+    def understeer_gradient(self) -> float:
+        """Linear understeer gradient K [rad/(m/s^2)]: delta = L/R + K a_y (> 0 understeer)."""
+        return self.mass / self.wheelbase * (
+            self.cg_to_rear / self.cornering_stiffness_front - self.cg_to_front / self.cornering_stiffness_rear
+        )
+
+    def resistance(self, speed: float) -> float:
+        """Drag plus rolling resistance at a forward ``speed`` > 0 [N]."""
+        return 0.5 * self.air_density * self.drag_area * speed * speed + self.rolling_resistance * self.mass * GRAVITY
+
+
+def vilma() -> VehicleParams:
+    """The paper's car, from the original MORSE model (vilma-original.md section 5).
+
+    From the original: mass 1211 kg; wheels at y = +1.1 (front) and -1.35 (rear)
+    from the chassis origin, taken as the centre of mass; track 0.77 + 0.8 =
+    1.57 m; wheel radius 0.4 m; steering limit 0.6 rad (GUI side); drive on all
+    four wheels (``applyEngineForce`` on each); "power 1000 takes 0 to 100 km/h
+    in about 10.8 s".
+
+    Assumed (the original leaves them open; a compact hatchback of 1.2 t):
+    yaw inertia m*lf*lr (dynamic index 1); cornering stiffness 75 / 110 kN/rad
+    front / rear, which with this mass split gives an understeer gradient of
+    about 2.3 deg/g (characteristic speed about 25 m/s, typical of such cars);
+    Cd*A = 0.32 * 2.1 m^2; rolling resistance 0.013; 85 kW at the wheels;
+    friction 1.0 (dry asphalt; the .blend's ground had 0.5 with Bullet grip 30).
+
+    Calibrated: ``power_unit_force`` = 3.43 N per unit so that power 1000 gives
+    0 to 100 km/h in 10.8 s on this model (tests/vehicle check it).
+    """
+    return VehicleParams(
+        name="vilma",
+        mass=1211.0,
+        yaw_inertia=1211.0 * 1.1 * 1.35,
+        cg_to_front=1.1,
+        cg_to_rear=1.35,
+        track=1.57,
+        wheel_radius=0.4,
+        max_steer=0.6,
+        cornering_stiffness_front=75_000.0,
+        cornering_stiffness_rear=110_000.0,
+        friction=1.0,
+        max_power=85_000.0,
+        max_drive_force=6_000.0,
+        drive_split_front=0.5,
+        max_brake_force=12_000.0,
+        drag_area=0.32 * 2.1,
+        rolling_resistance=0.013,
+        power_unit_force=3.43,
+        actuators=ActuatorParams(steer_rate_limit=1.0),
+    )
+
+
+def bmw_320i() -> VehicleParams:
+    """BMW 320i, CommonRoad vehicle parameter set 2 (Althoff et al., IEEE IV 2017).
+
+    From the set: m = 1093.3 kg, I_z = 1791.6 kg m^2, a = 1.156 m, b = 1.422 m,
+    track 1.387 m (front), R_w = 0.344 m, steering limit 1.066 rad and rate
+    0.4 rad/s, friction 1.0489, cornering stiffness 20.89 /rad per unit axle
+    load (C_Sf = C_Sr), lateral shape 1.3507, rear drive (T_se = 0), brake
+    split 0.66 front (T_sb), a_max 11.5 m/s^2 and switching speed 7.319 m/s, so
+    drive force m*a_max and power m*a_max*v_switch = 92 kW.
+
+    Assumed (not in the set): Cd*A = 0.30 * 2.0 m^2, rolling resistance 0.013;
+    ``power`` mode uses the vilma calibration (3.43 N per unit).
+    """
+    m, a, b = 1093.3, 1.156, 1.422
+    load_f, load_r = m * GRAVITY * b / (a + b), m * GRAVITY * a / (a + b)
+    return VehicleParams(
+        name="bmw_320i",
+        mass=m,
+        yaw_inertia=1791.6,
+        cg_to_front=a,
+        cg_to_rear=b,
+        track=1.387,
+        wheel_radius=0.344,
+        max_steer=1.066,
+        cornering_stiffness_front=20.89 * load_f,
+        cornering_stiffness_rear=20.89 * load_r,
+        tyre_shape=1.3507,
+        friction=1.0489,
+        max_power=m * 11.5 * 7.319,
+        max_drive_force=m * 11.5,
+        drive_split_front=0.0,
+        brake_split_front=0.66,
+        max_brake_force=m * 11.5,
+        drag_area=0.30 * 2.0,
+        power_unit_force=3.43,
+        actuators=ActuatorParams(steer_rate_limit=0.4),
+    )
+
+
+PRESETS = {"vilma": vilma, "bmw_320i": bmw_320i}
+"""Named presets: name -> constructor."""
+
+
+def preset(name: str) -> VehicleParams:
+    """The preset called ``name``; a clear error lists the known ones."""
+    try:
+        return PRESETS[name]()
+    except KeyError:
+        raise ValueError(f"unknown vehicle preset {name!r}; known: {', '.join(sorted(PRESETS))}") from None
+
+
+class PlantConsts(NamedTuple):
+    """Flat float constants handed to the compiled dynamics (derived from :class:`VehicleParams`)."""
+
+    m: float
+    iz: float
+    lf: float
+    lr: float
+    tw: float
+    rw: float
+    cf: float
+    cr: float
+    shape: float
+    curv: float
+    mu: float
+    fzf: float
+    fzr: float
+    p_max: float
+    fd_max: float
+    split_d: float
+    split_b: float
+    fb_max: float
+    k_drag: float
+    f_roll: float
+    v_lo: float
+    v_hi: float
+    max_steer: float
+    power_unit: float
+    brake_unit: float
+    tau_steer: float
+    rate_steer: float
+    tau_drive: float
+    tau_brake: float
+    stop_decel: float
+
+
+def plant_consts(p: VehicleParams) -> PlantConsts:
+    """Flatten parameters for the compiled plant."""
+    a = p.actuators
+    return PlantConsts(
+        m=p.mass, iz=p.yaw_inertia, lf=p.cg_to_front, lr=p.cg_to_rear, tw=p.track, rw=p.wheel_radius,
+        cf=p.cornering_stiffness_front, cr=p.cornering_stiffness_rear, shape=p.tyre_shape,
+        curv=p.tyre_curvature, mu=p.friction, fzf=p.load_front, fzr=p.load_rear, p_max=p.max_power,
+        fd_max=p.max_drive_force, split_d=p.drive_split_front, split_b=p.brake_split_front,
+        fb_max=p.max_brake_force, k_drag=0.5 * p.air_density * p.drag_area,
+        f_roll=p.rolling_resistance * p.mass * GRAVITY, v_lo=p.blend_speed_low, v_hi=p.blend_speed_high,
+        max_steer=p.max_steer, power_unit=p.power_unit_force, brake_unit=p.brake_unit_force,
+        tau_steer=a.steer_time_constant, rate_steer=a.steer_rate_limit, tau_drive=a.drive_time_constant,
+        tau_brake=a.brake_time_constant, stop_decel=a.stop_deceleration,
+    )

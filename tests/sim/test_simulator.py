@@ -1,0 +1,133 @@
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from tests.conftest import physics_only
+from vilma.core.clock import RateError
+from vilma.core.messages import ActuatorCommand, Longitudinal
+from vilma.sensors import SensorSuite
+from vilma.sensors.gps import GpsParams
+from vilma.sim import SimConfig, Simulator
+from vilma.vehicle.params import vilma
+from vilma.vehicle.state import VehicleState
+
+SUITE = SensorSuite()
+RATES = {"pose": 50, "velocity": 50, "gps": 10, "imu": 100, "wheel_speed": 50, "odometry": 50, "actuators": 50}
+
+
+def test_every_sensor_at_its_rate_with_integer_stamps():
+    sim = Simulator()
+    r = sim.run_for(2.0)
+    assert {k: len(v) for k, v in r.items()} == {k: 2 * v for k, v in RATES.items()}
+    for name, readings in r.items():
+        period = 1_000_000_000 // RATES[name]
+        assert readings.stamp_ns.dtype == np.int64
+        assert np.array_equal(readings.stamp_ns, period * np.arange(1, 2 * RATES[name] + 1))
+        assert readings.latest().stamp_ns == 2_000_000_000
+
+
+def test_rate_that_is_not_a_multiple_of_the_step_is_an_error():
+    config = SimConfig(sensors=dataclasses.replace(SUITE, gps=GpsParams(rate_hz=30.0)))
+    with pytest.raises(RateError, match=r"sensor 'gps'.*30 Hz.*5 ms"):
+        Simulator(config)
+    fixed = dataclasses.replace(config, sensors=dataclasses.replace(SUITE, gps=GpsParams(rate_hz=40.0)))
+    assert len(Simulator(fixed).run_for(1.0)["gps"]) == 40
+
+
+def _record(chunks, seed=7, commands=((0.0, ActuatorCommand(steer=0.2, drive=2500.0)),
+                                      (3.0, ActuatorCommand(steer=-0.3, longitudinal=Longitudinal.POWER,
+                                                            drive=800.0)))):
+    sim = Simulator(SimConfig(seed=seed))
+    out = {}
+    t, pending = 0.0, list(commands)
+    for dt in chunks:
+        while pending and pending[0][0] <= t + 1e-9:
+            sim.command(pending.pop(0)[1])
+        for name, r in sim.run_for(dt).items():
+            out.setdefault(name, []).append(r.values)
+        t += dt
+    return sim._z.copy(), {k: np.concatenate(v) for k, v in out.items()}
+
+
+def test_deterministic_bit_for_bit_however_the_run_is_chunked():
+    z1, r1 = _record([3.0, 3.0])
+    z2, r2 = _record([0.005] * 200 + [0.25] * 8 + [1.0] * 3)
+    z3, r3 = _record([3.0, 3.0])
+    assert np.array_equal(z1, z2) and np.array_equal(z1, z3)
+    for name in r1:
+        assert np.array_equal(r1[name], r2[name]), name
+        assert np.array_equal(r1[name], r3[name]), name
+
+
+def test_another_seed_changes_the_noise_not_the_physics():
+    z1, r1 = _record([6.0], seed=1)
+    z2, r2 = _record([6.0], seed=2)
+    assert np.array_equal(z1, z2)
+    assert not np.array_equal(r1["gps"], r2["gps"])
+    assert np.array_equal(r1["pose"], r2["pose"])
+
+
+def test_reset_restarts_time_state_and_noise():
+    sim = Simulator()
+    sim.command(ActuatorCommand(drive=2000.0))
+    first = sim.run_for(1.0)["gps"].values
+    sim.reset()
+    assert sim.time_ns == 0 and sim.state == VehicleState()
+    sim.command(ActuatorCommand(drive=2000.0))
+    assert np.array_equal(sim.run_for(1.0)["gps"].values, first)
+
+
+def test_watchdog_stops_the_car_when_autonomous_commands_stop():
+    p = vilma()
+    sim = Simulator(physics_only())
+    v0 = 15.0
+    sim.reset(VehicleState(vx=v0, drive_force=p.resistance(v0)))
+    sim.command(ActuatorCommand(longitudinal=Longitudinal.ACCEL, autonomous=True))
+    sim.run_for(0.49)
+    assert not sim.watchdog_tripped and sim.state.vx == pytest.approx(v0, abs=0.01)
+    sim.run_for(0.02)
+    assert sim.watchdog_tripped and sim.status().watchdog_tripped
+    x_trip = sim.state.x
+    sim.run_for(10.0)
+    s = sim.state
+    assert abs(s.vx) < 0.01
+    # controlled stop: v^2 / (2 a) plus about one brake time constant at v0
+    a = p.actuators.stop_deceleration
+    assert s.x - x_trip == pytest.approx(v0**2 / (2 * a) + v0 * p.actuators.brake_time_constant, rel=0.1)
+
+
+def test_watchdog_resumes_when_commands_come_back():
+    sim = Simulator(physics_only())
+    sim.command(ActuatorCommand(drive=2000.0, autonomous=True))
+    sim.run_for(2.0)
+    assert sim.watchdog_tripped
+    sim.command(ActuatorCommand(drive=2000.0, autonomous=True))
+    assert not sim.watchdog_tripped
+    v = sim.state.vx
+    sim.run_for(0.4)
+    assert sim.state.vx > v and not sim.watchdog_tripped
+
+
+def test_manual_commands_hold_without_watchdog():
+    sim = Simulator(physics_only())
+    sim.command(ActuatorCommand(drive=2000.0))
+    sim.run_for(5.0)
+    assert not sim.watchdog_tripped and sim.state.vx > 5.0
+
+
+def test_clamped_command_is_reported(caplog):
+    sim = Simulator(physics_only())
+    notes = sim.command(ActuatorCommand(steer=-2.0))
+    assert notes and "'steer'" in notes[0] and "'steer'" in caplog.text
+    sim.run_for(3.0)
+    assert sim.state.steer == pytest.approx(-0.6)
+
+
+def test_status_message():
+    sim = Simulator()
+    sim.run_for(0.5)
+    st = sim.status(real_time_factor=2.0)
+    assert st.stamp_ns == 500_000_000 and st.real_time_factor == 2.0 and not st.autonomous
+    assert math.isnan(sim.status().real_time_factor)

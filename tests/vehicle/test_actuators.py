@@ -1,0 +1,106 @@
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from tests.conftest import drive, physics_only
+from vilma.core.messages import ActuatorCommand, Longitudinal
+from vilma.sim import Simulator
+from vilma.vehicle.actuators import CommandError, validate_command
+from vilma.vehicle.params import ActuatorParams, vilma
+from vilma.vehicle.state import BRAKE, DRIVE, STEER, VX, VehicleState
+
+P = vilma()
+
+
+@pytest.mark.parametrize("field", ["steer", "drive", "brake"])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_nan_and_infinity_are_rejected_naming_the_field(field, bad):
+    with pytest.raises(CommandError, match=f"'{field}'"):
+        validate_command(ActuatorCommand(**{field: bad}), P)
+
+
+def test_velocity_limit_may_be_infinite_but_not_nan():
+    validate_command(ActuatorCommand(velocity_limit=math.inf), P)
+    with pytest.raises(CommandError, match="velocity_limit"):
+        validate_command(ActuatorCommand(velocity_limit=math.nan), P)
+
+
+def test_unknown_mode_is_rejected():
+    with pytest.raises(CommandError, match="longitudinal"):
+        validate_command(ActuatorCommand(longitudinal="warp"), P)
+
+
+def test_out_of_range_values_are_clamped_and_reported():
+    cmd, notes = validate_command(ActuatorCommand(steer=1.0, brake=-5.0), P)
+    assert cmd.steer == P.max_steer and cmd.brake == 0.0
+    assert len(notes) == 2 and "'steer'" in notes[0] and "clamped to 0.6" in notes[0]
+
+
+@given(st.floats(allow_nan=True, allow_infinity=True), st.floats(allow_nan=True, allow_infinity=True),
+       st.sampled_from(list(Longitudinal)))
+def test_validated_commands_are_always_finite_and_in_range(steer, drive, mode):
+    try:
+        cmd, _ = validate_command(ActuatorCommand(steer=steer, drive=drive, longitudinal=mode), P)
+    except CommandError:
+        assert not (math.isfinite(steer) and math.isfinite(drive))
+        return
+    assert abs(cmd.steer) <= P.max_steer and math.isfinite(cmd.drive)
+
+
+def test_rejected_command_leaves_the_previous_one_in_force():
+    sim = Simulator(physics_only())
+    sim.command(ActuatorCommand(drive=2000.0))
+    with pytest.raises(CommandError):
+        sim.command(ActuatorCommand(drive=math.nan))
+    sim.run_for(2.0)
+    assert np.isfinite(sim._z).all()
+    assert sim.state.drive_force == pytest.approx(2000.0, rel=1e-6)
+
+
+def test_steering_rate_limit_and_lag():
+    rate = P.actuators.steer_rate_limit
+    z = drive(physics_only(), ActuatorCommand(steer=0.6), 2.0, initial=VehicleState(vx=5.0))
+    t = np.arange(1, len(z) + 1) * 0.005
+    assert np.all(np.abs(z[:, STEER]) <= rate * t + 1e-12)
+    assert z[-1, STEER] == pytest.approx(0.6, abs=1e-3)
+
+
+def test_drive_force_first_order_lag():
+    tau = P.actuators.drive_time_constant
+    z = drive(physics_only(), ActuatorCommand(drive=1000.0), 1.0)
+    i = round(tau / 0.005) - 1  # state after the step ending at t = tau
+    assert z[i, DRIVE] == pytest.approx(1000.0 * (1 - math.exp(-1)), rel=1e-9)
+
+
+def test_dead_time_delays_the_effect():
+    p = dataclasses.replace(P, actuators=ActuatorParams(dead_time=0.2))
+    z = drive(physics_only(vehicle=p), ActuatorCommand(drive=1000.0), 0.5)
+    assert np.all(z[:39, DRIVE] == 0.0)  # the first 0.2 s: 40 steps, effect from step 41
+    assert z[40, DRIVE] > 0.0
+
+
+def test_accel_mode_holds_speed_and_brakes_to_rest():
+    z = drive(physics_only(), ActuatorCommand(longitudinal=Longitudinal.ACCEL), 10.0,
+              initial=VehicleState(vx=15.0, drive_force=P.resistance(15.0)))
+    assert z[-1, VX] == pytest.approx(15.0, abs=1e-3)  # feed-forward cancels drag and rolling
+    z = drive(physics_only(), ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=-3.0), 10.0,
+              initial=VehicleState(vx=15.0))
+    assert abs(z[-1, VX]) < 0.01 and z[-1, BRAKE] > 0
+
+
+def test_accel_mode_reaches_the_requested_acceleration():
+    z = drive(physics_only(), ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=2.0), 5.0,
+              initial=VehicleState(vx=5.0))
+    assert (z[-1, VX] - z[-201, VX]) / 1.0 == pytest.approx(2.0, rel=0.01)
+
+
+def test_original_velocity_amount_cuts_the_engine_and_brakes():
+    cmd = ActuatorCommand(longitudinal=Longitudinal.POWER, drive=1000.0, velocity_limit=10.0)
+    z = drive(physics_only(), cmd, 20.0)
+    # above velocityAmount: engine force 0 and applyBraking(30) on each wheel
+    assert z[-1, VX] == pytest.approx(10.0, abs=0.3)
+    assert z[:, BRAKE].max() > 0.5 * 4 * 30 * P.brake_unit_force

@@ -1,0 +1,61 @@
+import dataclasses
+import math
+
+import pytest
+
+from vilma.vehicle.params import GRAVITY, PRESETS, bmw_320i, plant_consts, preset, vilma
+
+
+def test_vilma_preset_is_the_papers_car():
+    p = vilma()
+    assert p.mass == 1211.0
+    assert (p.cg_to_front, p.cg_to_rear) == (1.1, 1.35)
+    assert p.wheelbase == pytest.approx(2.45)
+    assert p.track == pytest.approx(1.57)
+    assert p.wheel_radius == 0.4
+    assert p.max_steer == 0.6
+    assert p.drive_split_front == 0.5  # engine force on all four wheels
+
+
+def test_bmw_is_commonroad_vehicle_2():
+    p = bmw_320i()
+    # parameters_vehicle2: m = 74.91452 lb s^2/ft, a = 3.793293 ft, b = 4.667707 ft
+    assert p.mass == pytest.approx(74.91452 * 14.5939029, rel=1e-4)
+    assert p.cg_to_front == pytest.approx(3.793293 * 0.3048, rel=1e-3)
+    assert p.cg_to_rear == pytest.approx(4.667707 * 0.3048, rel=1e-3)
+    assert p.cornering_stiffness_front / p.load_front == pytest.approx(20.89)
+    assert p.max_power == pytest.approx(p.mass * 11.5 * 7.319)
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_axle_loads_sum_to_weight(name):
+    p = preset(name)
+    assert p.load_front + p.load_rear == pytest.approx(p.mass * GRAVITY)
+    assert len(plant_consts(p)) == len(plant_consts(p)._fields)
+
+
+def test_vilma_understeers_moderately():
+    k = vilma().understeer_gradient
+    deg_per_g = math.degrees(k) * GRAVITY
+    assert 1.0 < deg_per_g < 4.0  # typical passenger cars: 1 to 4 deg/g
+
+
+def test_equal_normalised_stiffness_is_neutral():
+    assert bmw_320i().understeer_gradient == pytest.approx(0.0, abs=1e-12)
+
+
+def test_unknown_preset_lists_known_ones():
+    with pytest.raises(ValueError, match="bmw_320i, vilma"):
+        preset("trabant")
+
+
+@pytest.mark.parametrize(("field", "value"), [("mass", 0.0), ("mass", float("nan")), ("max_steer", 2.0),
+                                              ("blend_speed_low", 5.0), ("wheel_radius", -0.3)])
+def test_bad_parameters_are_rejected(field, value):
+    with pytest.raises(ValueError, match=field):
+        dataclasses.replace(vilma(), **{field: value})
+
+
+def test_params_are_frozen():
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        vilma().mass = 1.0
