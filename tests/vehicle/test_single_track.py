@@ -13,7 +13,6 @@ from vilma.vehicle.params import GRAVITY, bmw_320i, preset, vilma
 from vilma.vehicle.state import BRAKE, VX, YAW, YAW_RATE, VehicleState, X, Y
 
 
-
 def test_top_speed_where_drive_equals_drag_plus_rolling():
     p = vilma()
     # full drive force, limited by power: P / v = 1/2 rho CdA v^2 + Crr m g
