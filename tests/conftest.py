@@ -9,6 +9,9 @@ from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import NZ
 
+STEP = SimConfig().step
+"""The default physics step [s]."""
+
 
 def drive(config: SimConfig, cmd: ActuatorCommand, seconds: float, initial=None) -> np.ndarray:
     """Hold ``cmd`` for ``seconds``; returns the plant vector after every step, shape (steps, NZ)."""

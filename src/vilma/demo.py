@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 from vilma.core.geometry import wrap_angle
 from vilma.core.messages import ActuatorCommand, Longitudinal, Pose, Velocity
-from vilma.sim import SimConfig, Simulator
+from vilma.sensors import Readings
+from vilma.sim import Pacer, SimConfig, Simulator
 
 CONTROL_PERIOD = 0.05
 """Demo controller period [s]."""
@@ -41,29 +42,36 @@ def _phase(t: float) -> tuple[str, float, float]:
     return "brake", 0.0, 3.5
 
 
-def drive(duration: float = 22.0, config: SimConfig | None = None, every: float = 1.0) -> list[DemoRow]:
-    """Run the demo; returns one row per ``every`` seconds of sim time."""
+def drive(duration: float = 22.0, config: SimConfig | None = None, every: float = 1.0,
+          speed: float | None = None) -> list[DemoRow]:
+    """Run the demo, as fast as possible or paced to ``speed`` x real time; one row per ``every`` s of sim time."""
     sim = Simulator(config)
-    pose: Pose | None = None
-    vel: Velocity | None = None
+    latest: dict[str, Pose | Velocity] = {}
     rows: list[DemoRow] = []
-    steps = round(duration / CONTROL_PERIOD)
     report_every = max(1, round(every / CONTROL_PERIOD))
-    for k in range(steps):
-        t = k * CONTROL_PERIOD
-        phase, v_ref, y_ref = _phase(t)
+
+    def control(readings: dict[str, Readings]) -> None:
+        for name in ("pose", "velocity"):
+            if name in readings:
+                latest[name] = readings[name].latest()
+        t = sim.time_ns / 1e9
+        _, v_ref, y_ref = _phase(t)
+        pose, vel = latest.get("pose"), latest.get("velocity")
         if pose is not None and vel is not None:
             accel = min(max(0.8 * (v_ref - vel.speed), -3.0), 2.0)
             heading_ref = math.atan(0.1 * (y_ref - pose.y))
             steer = 1.0 * wrap_angle(heading_ref - pose.yaw)
             sim.command(ActuatorCommand(stamp_ns=sim.time_ns, steer=max(-0.3, min(0.3, steer)),
                                         longitudinal=Longitudinal.ACCEL, drive=accel, autonomous=True))
-        readings = sim.run_for(CONTROL_PERIOD)
-        pose = readings["pose"].latest() if "pose" in readings else pose
-        vel = readings["velocity"].latest() if "velocity" in readings else vel
-        if (k + 1) % report_every == 0:
+        if round(t / CONTROL_PERIOD) % report_every == 0:
             s = sim.state
-            rows.append(DemoRow(t + CONTROL_PERIOD, s.x, s.y, s.yaw, s.speed, s.steer, phase))
+            rows.append(DemoRow(t, s.x, s.y, s.yaw, s.speed, s.steer, _phase(t - CONTROL_PERIOD)[0]))
+
+    if speed is None:
+        for _ in range(round(duration / CONTROL_PERIOD)):
+            control(sim.run_for(CONTROL_PERIOD))
+    else:
+        Pacer(sim, speed=speed, period=CONTROL_PERIOD).run(duration, on_period=control)
     return rows
 
 

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.conftest import physics_only
+from tests.conftest import STEP, physics_only
 from vilma.core.clock import RateError
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sensors import SensorSuite
@@ -30,10 +30,10 @@ def test_every_sensor_at_its_rate_with_integer_stamps():
 
 def test_rate_that_is_not_a_multiple_of_the_step_is_an_error():
     config = SimConfig(sensors=dataclasses.replace(SUITE, gps=GpsParams(rate_hz=30.0)))
-    with pytest.raises(RateError, match=r"sensor 'gps'.*30 Hz.*5 ms"):
+    with pytest.raises(RateError, match=rf"sensor 'gps'.*30 Hz.*{STEP * 1e3:g} ms"):
         Simulator(config)
-    fixed = dataclasses.replace(config, sensors=dataclasses.replace(SUITE, gps=GpsParams(rate_hz=40.0)))
-    assert len(Simulator(fixed).run_for(1.0)["gps"]) == 40
+    fixed = dataclasses.replace(config, sensors=dataclasses.replace(SUITE, gps=GpsParams(rate_hz=25.0)))
+    assert len(Simulator(fixed).run_for(1.0)["gps"]) == 25
 
 
 def _record(chunks, seed=7, commands=((0.0, ActuatorCommand(steer=0.2, drive=2500.0)),
@@ -53,7 +53,7 @@ def _record(chunks, seed=7, commands=((0.0, ActuatorCommand(steer=0.2, drive=250
 
 def test_deterministic_bit_for_bit_however_the_run_is_chunked():
     z1, r1 = _record([3.0, 3.0])
-    z2, r2 = _record([0.005] * 200 + [0.25] * 8 + [1.0] * 3)
+    z2, r2 = _record([STEP] * round(1 / STEP) + [0.25] * 8 + [1.0] * 3)
     z3, r3 = _record([3.0, 3.0])
     assert np.array_equal(z1, z2) and np.array_equal(z1, z3)
     for name in r1:

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tests.conftest import drive, physics_only
+from tests.conftest import STEP, drive, physics_only
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sim import Simulator
 from vilma.vehicle.actuators import CommandError, validate_command
@@ -64,7 +64,7 @@ def test_rejected_command_leaves_the_previous_one_in_force():
 def test_steering_rate_limit_and_lag():
     rate = P.actuators.steer_rate_limit
     z = drive(physics_only(), ActuatorCommand(steer=0.6), 2.0, initial=VehicleState(vx=5.0))
-    t = np.arange(1, len(z) + 1) * 0.005
+    t = np.arange(1, len(z) + 1) * STEP
     assert np.all(np.abs(z[:, STEER]) <= rate * t + 1e-12)
     assert z[-1, STEER] == pytest.approx(0.6, abs=1e-3)
 
@@ -72,15 +72,16 @@ def test_steering_rate_limit_and_lag():
 def test_drive_force_first_order_lag():
     tau = P.actuators.drive_time_constant
     z = drive(physics_only(), ActuatorCommand(drive=1000.0), 1.0)
-    i = round(tau / 0.005) - 1  # state after the step ending at t = tau
+    i = round(tau / STEP) - 1  # state after the step ending at t = tau
     assert z[i, DRIVE] == pytest.approx(1000.0 * (1 - math.exp(-1)), rel=1e-9)
 
 
 def test_dead_time_delays_the_effect():
     p = dataclasses.replace(P, actuators=ActuatorParams(dead_time=0.2))
     z = drive(physics_only(vehicle=p), ActuatorCommand(drive=1000.0), 0.5)
-    assert np.all(z[:39, DRIVE] == 0.0)  # the first 0.2 s: 40 steps, effect from step 41
-    assert z[40, DRIVE] > 0.0
+    delay = round(0.2 / STEP)  # the command acts from the step after the dead time
+    assert np.all(z[: delay - 1, DRIVE] == 0.0)
+    assert z[delay, DRIVE] > 0.0
 
 
 def test_accel_mode_holds_speed_and_brakes_to_rest():
@@ -95,7 +96,7 @@ def test_accel_mode_holds_speed_and_brakes_to_rest():
 def test_accel_mode_reaches_the_requested_acceleration():
     z = drive(physics_only(), ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=2.0), 5.0,
               initial=VehicleState(vx=5.0))
-    assert (z[-1, VX] - z[-201, VX]) / 1.0 == pytest.approx(2.0, rel=0.01)
+    assert (z[-1, VX] - z[-1 - round(1 / STEP), VX]) / 1.0 == pytest.approx(2.0, rel=0.01)
 
 
 def test_original_velocity_amount_cuts_the_engine_and_brakes():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from tests.conftest import drive, fit_circle, physics_only
+from tests.conftest import STEP, drive, fit_circle, physics_only
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sim import Simulator
 from vilma.vehicle.params import GRAVITY, bmw_320i, preset, vilma
@@ -30,7 +30,7 @@ def test_zero_to_100_kmh_with_original_power_1000():
     z = drive(physics_only(), ActuatorCommand(longitudinal=Longitudinal.POWER, drive=1000.0), 20.0)
     i = int(np.argmax(z[:, VX] >= 100 / 3.6))
     assert i > 0
-    assert (i + 1) * 0.005 == pytest.approx(10.8, rel=0.10)
+    assert (i + 1) * STEP == pytest.approx(10.8, rel=0.10)
 
 
 def test_coasting_deceleration_from_drag_and_rolling_resistance():

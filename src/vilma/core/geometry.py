@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 
 def wrap_angle(a):
@@ -20,6 +21,13 @@ def wrap_angle(a):
     w = np.mod(np.asarray(a, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
     w = np.where(w <= -math.pi, w + 2.0 * math.pi, w)
     return float(w) if np.ndim(w) == 0 else w
+
+
+@njit(cache=True)
+def wrap(a: float) -> float:
+    """Compiled scalar :func:`wrap_angle`: angle [rad] to (-pi, pi]."""
+    w = (a + math.pi) % (2.0 * math.pi) - math.pi
+    return w + 2.0 * math.pi if w <= -math.pi else w
 
 
 def quaternion_from_euler(roll, pitch, yaw):

@@ -8,7 +8,7 @@ import numpy as np
 
 from vilma.core.messages import ActuatorState
 from vilma.sensors.base import Samples
-from vilma.vehicle.state import BRAKE, DRIVE, STEER
+from vilma.vehicle.state import BRAKE, STEER
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -32,4 +32,4 @@ class ActuatorStateSensor:
         """Nothing to reset: the report is exact."""
 
     def measure(self, s: Samples) -> np.ndarray:
-        return s.z[:, [STEER, DRIVE, BRAKE]].copy()
+        return s.z[s.rows, STEER:BRAKE + 1]

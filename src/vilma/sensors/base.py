@@ -7,26 +7,39 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+from numba import njit
 
 from vilma.core.messages import Message
 
 
 @dataclass(frozen=True, slots=True)
 class Samples:
-    """The plant at a sensor's sample ticks.
+    """The plant at a sensor's sample ticks: rows ``rows`` of the recorded arrays.
 
     Attributes:
-        stamp_ns: sim time of each sample [ns], shape (n,).
-        z: plant vectors (layout of :mod:`vilma.vehicle.state`), shape (n, NZ).
-        dx: vehicle state derivatives, shape (n, NX).
+        rows: indices of this sensor's samples in ``z`` and ``dx``, shape (n,).
+        z: recorded plant vectors (layout of :mod:`vilma.vehicle.state`), shape (m, NZ), m >= n.
+        dx: recorded vehicle state derivatives, shape (m, NX).
     """
 
-    stamp_ns: np.ndarray
+    rows: np.ndarray
     z: np.ndarray
     dx: np.ndarray
 
     def __len__(self) -> int:
-        return len(self.stamp_ns)
+        return len(self.rows)
+
+
+@njit(cache=True)
+def rows_of(ticks, period, count):
+    """Indices of the ``count`` entries of ``ticks`` that are multiples of ``period``."""
+    out = np.empty(count, dtype=np.int64)
+    k = 0
+    for i in range(ticks.shape[0]):
+        if ticks[i] % period == 0:
+            out[k] = i
+            k += 1
+    return out
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,14 +12,16 @@ Each channel gets white noise and a Gauss-Markov bias.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from vilma.core.geometry import quaternion_from_euler, wrap_angle
+from vilma.core.geometry import wrap
 from vilma.core.messages import Imu
 from vilma.sensors.base import Samples
-from vilma.sensors.noise import GaussMarkovBias, standard_normals
+from vilma.sensors.noise import GaussMarkovBias, gauss_markov_step, standard_normals
 from vilma.vehicle.params import GRAVITY
 from vilma.vehicle.state import VX, VY, YAW, YAW_RATE
 
@@ -46,6 +48,26 @@ class ImuParams:
     """Mounting point in the body frame from the centre of mass [m]."""
 
 
+@njit(cache=True)
+def _measure(rows, z, dx, noise, offset, sigma_a, sigma_w, sigma_yaw, bias_a, bias_w, phi, step_a, step_w):
+    out = np.zeros((rows.shape[0], 10))
+    rx, ry = offset[0], offset[1]
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        w, dw = z[i, YAW_RATE], dx[i, YAW_RATE]
+        ba = gauss_markov_step(bias_a, phi, step_a, noise[k, 6:9])
+        bw = gauss_markov_step(bias_w, phi, step_w, noise[k, 9:12])
+        out[k, 0] = dx[i, VX] - w * z[i, VY] - dw * ry - w * w * rx + sigma_a * noise[k, 0] + ba[0]
+        out[k, 1] = dx[i, VY] + w * z[i, VX] + dw * rx - w * w * ry + sigma_a * noise[k, 1] + ba[1]
+        out[k, 2] = GRAVITY + sigma_a * noise[k, 2] + ba[2]
+        out[k, 3] = sigma_w * noise[k, 3] + bw[0]
+        out[k, 4] = sigma_w * noise[k, 4] + bw[1]
+        out[k, 5] = w + sigma_w * noise[k, 5] + bw[2]
+        half = 0.5 * wrap(z[i, YAW] + sigma_yaw * noise[k, 12])
+        out[k, 8], out[k, 9] = math.sin(half), math.cos(half)
+    return out
+
+
 class ImuSensor:
     """Specific force (ax, ay, az) [m/s^2], angular velocity (wx, wy, wz) [rad/s], quaternion (x, y, z, w)."""
 
@@ -57,6 +79,7 @@ class ImuSensor:
         period = 1.0 / params.rate_hz
         self.accel_bias = GaussMarkovBias(params.accel_bias, params.bias_tau, period, 3)
         self.gyro_bias = GaussMarkovBias(params.gyro_bias, params.bias_tau, period, 3)
+        self._offset = np.array(params.offset, dtype=float)
 
     def reset(self, z0: np.ndarray, rng: np.random.Generator) -> None:
         self.rng = rng
@@ -64,17 +87,6 @@ class ImuSensor:
         self.gyro_bias.reset(rng)
 
     def measure(self, s: Samples) -> np.ndarray:
-        n, p = len(s), self.params
-        rx, ry, _ = p.offset
-        w, dw = s.z[:, YAW_RATE], s.dx[:, YAW_RATE]
-        out = np.zeros((n, 10))
-        out[:, 0] = s.dx[:, VX] - w * s.z[:, VY] - dw * ry - w * w * rx
-        out[:, 1] = s.dx[:, VY] + w * s.z[:, VX] + dw * rx - w * w * ry
-        out[:, 2] = GRAVITY
-        out[:, 5] = w
-        noise = standard_normals(self.rng, n, 13)
-        out[:, :3] += noise[:, 0:3] * p.accel_noise + self.accel_bias.draw(noise[:, 6:9])
-        out[:, 3:6] += noise[:, 3:6] * p.gyro_noise + self.gyro_bias.draw(noise[:, 9:12])
-        yaw = wrap_angle(s.z[:, YAW] + noise[:, 12] * p.orientation_noise)
-        out[:, 6:10] = np.column_stack(quaternion_from_euler(0.0, 0.0, yaw))
-        return out
+        p, a, g = self.params, self.accel_bias, self.gyro_bias
+        return _measure(s.rows, s.z, s.dx, standard_normals(self.rng, len(s), 13), self._offset, p.accel_noise,
+                        p.gyro_noise, p.orientation_noise, a.b, g.b, a.phi, a.step_sigma, g.step_sigma)

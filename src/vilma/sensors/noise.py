@@ -17,21 +17,12 @@ def standard_normals(rng: np.random.Generator, n: int, dims: int) -> np.ndarray:
     return rng.standard_normal((n, dims))
 
 
-@njit(cache=True)
-def _ar1(b0, phi, w):
-    out = np.empty_like(w)
-    b = b0
-    for i in range(w.shape[0]):
-        b = phi * b + w[i]
-        out[i] = b
-    return out
-
-
 class GaussMarkovBias:
     """Bias that drifts as ``b[k] = phi b[k-1] + w[k]`` with ``phi = exp(-T/tau)``.
 
     Its stationary standard deviation is ``sigma`` [unit of the signal] and its
-    correlation time ``tau`` [s]; ``sigma = 0`` gives no bias.
+    correlation time ``tau`` [s]; ``sigma = 0`` gives no bias. The state ``b``
+    is advanced in compiled sensor code by :func:`gauss_markov_step`.
     """
 
     def __init__(self, sigma: float, tau: float, period: float, dims: int) -> None:
@@ -44,12 +35,10 @@ class GaussMarkovBias:
         """Draw the starting bias from the stationary distribution."""
         self.b = rng.standard_normal(self.dims) * self.sigma
 
-    def draw(self, normals: np.ndarray) -> np.ndarray:
-        """The bias at the next samples, driven by standard normals (n, dims); shape (n, dims)."""
-        if self.sigma == 0.0:
-            return np.zeros_like(normals)
-        w = normals * self.step_sigma
-        out = np.column_stack([_ar1(self.b[d], self.phi, w[:, d]) for d in range(self.dims)])
-        if len(out):
-            self.b = out[-1].copy()
-        return out
+
+@njit(cache=True)
+def gauss_markov_step(b, phi, step_sigma, normals):
+    """Advance bias state ``b`` (in place) by one sample driven by ``normals``; returns ``b``."""
+    for d in range(b.shape[0]):
+        b[d] = phi * b[d] + step_sigma * normals[d]
+    return b

@@ -2,17 +2,19 @@
 
 Speed ``v = R (w_RL + w_RR) / 2`` and yaw rate ``R (w_RR - w_RL) / track``
 from noisy rear wheel speeds (with a per-run scale error), integrated at the
-sensor's rate with the trapezoidal rule and the midpoint heading. It starts at the car's initial pose
-and drifts, as odometry does.
+sensor's rate with the trapezoidal rule and the midpoint heading. It starts
+at the car's initial pose and drifts, as odometry does.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from vilma.core.geometry import wrap_angle
+from vilma.core.geometry import wrap
 from vilma.core.messages import Odometry
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
@@ -36,6 +38,25 @@ class OdometryParams:
     drift ``v * mismatch / track``): 0.1 % is a calibrated car."""
 
 
+@njit(cache=True)
+def _integrate(rear, noise, sigma, scale, radius, track, period, state):
+    """Dead-reckon over rows of true rear wheel speeds; ``state`` = (x, y, yaw, speed, rate), updated in place."""
+    out = np.empty((rear.shape[0], 5))
+    for i in range(rear.shape[0]):
+        wl = rear[i, 0] * scale[0] + sigma * noise[i, 0]
+        wr = rear[i, 1] * scale[1] + sigma * noise[i, 1]
+        speed, rate = radius * 0.5 * (wl + wr), radius * (wr - wl) / track
+        ds = 0.5 * (state[3] + speed) * period
+        dyaw = 0.5 * (state[4] + rate) * period
+        mid = state[2] + 0.5 * dyaw
+        state[0] += ds * math.cos(mid)
+        state[1] += ds * math.sin(mid)
+        state[2] += dyaw
+        state[3], state[4] = speed, rate
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = state[0], state[1], wrap(state[2]), speed, rate
+    return out
+
+
 class OdometrySensor:
     """Dead-reckoned x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]."""
 
@@ -46,28 +67,18 @@ class OdometrySensor:
         self.params, self.vehicle, self.rate_hz = params, vehicle, params.rate_hz
         self.period = 1.0 / params.rate_hz
 
+    def _rear(self, rows: np.ndarray, z: np.ndarray) -> np.ndarray:
+        v = self.vehicle
+        return wheel_speeds(rows, z, v.cg_to_front, v.track, v.wheel_radius)[:, 2:]
+
     def reset(self, z0: np.ndarray, rng: np.random.Generator) -> None:
         self.rng = rng
         self.scale = 1.0 + rng.standard_normal(2) * self.params.scale_error
-        self.x, self.y, self.yaw = float(z0[X]), float(z0[Y]), float(z0[YAW])
-        self.speed, self.rate = self._kinematics(wheel_speeds(z0[None, :], self.vehicle)[:, 2:])
-
-    def _kinematics(self, rear: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        v = self.vehicle
-        return v.wheel_radius * 0.5 * (rear[:, 0] + rear[:, 1]), v.wheel_radius * (rear[:, 1] - rear[:, 0]) / v.track
+        v, rear = self.vehicle, self._rear(np.zeros(1, dtype=np.int64), z0[None, :])[0]
+        speed, rate = v.wheel_radius * 0.5 * (rear[0] + rear[1]), v.wheel_radius * (rear[1] - rear[0]) / v.track
+        self.state = np.array([z0[X], z0[Y], z0[YAW], speed, rate])
 
     def measure(self, s: Samples) -> np.ndarray:
-        n, t = len(s), self.period
-        rear = wheel_speeds(s.z, self.vehicle)[:, 2:] * self.scale
-        speed, rate = self._kinematics(rear + standard_normals(self.rng, n, 2) * self.params.wheel_noise)
-        ds = 0.5 * (np.concatenate([self.speed, speed[:-1]]) + speed) * t
-        dyaw = 0.5 * (np.concatenate([self.rate, rate[:-1]]) + rate) * t
-        # accumulate left to right from the carried state, so chunking never changes a bit
-        yaw = np.add.accumulate(np.concatenate([[self.yaw], dyaw]))
-        mid = yaw[:-1] + 0.5 * dyaw
-        x = np.add.accumulate(np.concatenate([[self.x], ds * np.cos(mid)]))
-        y = np.add.accumulate(np.concatenate([[self.y], ds * np.sin(mid)]))
-        if n:
-            self.x, self.y, self.yaw = float(x[-1]), float(y[-1]), float(yaw[-1])
-            self.speed, self.rate = speed[-1:], rate[-1:]
-        return np.column_stack([x[1:], y[1:], wrap_angle(yaw[1:]), speed, rate])
+        v = self.vehicle
+        return _integrate(self._rear(s.rows, s.z), standard_normals(self.rng, len(s), 2), self.params.wheel_noise,
+                          self.scale, v.wheel_radius, v.track, self.period, self.state)

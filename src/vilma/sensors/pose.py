@@ -5,8 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from vilma.core.geometry import wrap_angle
+from vilma.core.geometry import wrap
 from vilma.core.messages import Pose
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
@@ -25,6 +26,17 @@ class PoseParams:
     """Standard deviation of yaw [rad]."""
 
 
+@njit(cache=True)
+def _measure(rows, z, noise, sigma_xy, sigma_yaw):
+    out = np.zeros((rows.shape[0], 6))
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        out[k, 0] = z[i, X] + sigma_xy * noise[k, 0]
+        out[k, 1] = z[i, Y] + sigma_xy * noise[k, 1]
+        out[k, 5] = wrap(z[i, YAW] + sigma_yaw * noise[k, 2])
+    return out
+
+
 class PoseSensor:
     """Position [m] and ZYX Euler angles [rad]; the planar plant has z = roll = pitch = 0."""
 
@@ -38,12 +50,5 @@ class PoseSensor:
         self.rng = rng
 
     def measure(self, s: Samples) -> np.ndarray:
-        n, p = len(s), self.params
-        out = np.zeros((n, 6))
-        out[:, 0] = s.z[:, X]
-        out[:, 1] = s.z[:, Y]
-        out[:, 5] = s.z[:, YAW]
-        noise = standard_normals(self.rng, n, 3)
-        out[:, :2] += noise[:, :2] * p.position_noise
-        out[:, 5] = wrap_angle(out[:, 5] + noise[:, 2] * p.yaw_noise)
-        return out
+        p = self.params
+        return _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.position_noise, p.yaw_noise)

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from vilma.core.messages import Velocity
 from vilma.sensors.base import Samples
@@ -24,6 +26,20 @@ class VelocityParams:
     """Standard deviation of the yaw rate [rad/s]."""
 
 
+@njit(cache=True)
+def _measure(rows, z, noise, sigma_v, sigma_w):
+    out = np.zeros((rows.shape[0], 9))
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        vx = z[i, VX] + sigma_v * noise[k, 0]
+        vy = z[i, VY] + sigma_v * noise[k, 1]
+        c, s = math.cos(z[i, YAW]), math.sin(z[i, YAW])
+        out[k, 0], out[k, 1] = vx, vy
+        out[k, 3], out[k, 4] = vx * c - vy * s, vx * s + vy * c
+        out[k, 8] = z[i, YAW_RATE] + sigma_w * noise[k, 2]
+    return out
+
+
 class VelocitySensor:
     """Body (vx, vy, vz), world (vx, vy, vz) [m/s] and body angular (wx, wy, wz) [rad/s]."""
 
@@ -37,13 +53,5 @@ class VelocitySensor:
         self.rng = rng
 
     def measure(self, s: Samples) -> np.ndarray:
-        n, p = len(s), self.params
-        noise = standard_normals(self.rng, n, 3)
-        vx = s.z[:, VX] + noise[:, 0] * p.linear_noise
-        vy = s.z[:, VY] + noise[:, 1] * p.linear_noise
-        c, sn = np.cos(s.z[:, YAW]), np.sin(s.z[:, YAW])
-        out = np.zeros((n, 9))
-        out[:, 0], out[:, 1] = vx, vy
-        out[:, 3], out[:, 4] = vx * c - vy * sn, vx * sn + vy * c
-        out[:, 8] = s.z[:, YAW_RATE] + noise[:, 2] * p.angular_noise
-        return out
+        p = self.params
+        return _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.linear_noise, p.angular_noise)

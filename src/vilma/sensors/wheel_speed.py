@@ -9,9 +9,11 @@ angular speed [rad/s]. Both front wheels turn by the one front-wheel angle
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from vilma.core.messages import WheelSpeeds
 from vilma.sensors.base import Samples
@@ -30,14 +32,24 @@ class WheelSpeedParams:
     """Standard deviation of each wheel's angular speed [rad/s]."""
 
 
-def wheel_speeds(z: np.ndarray, v: VehicleParams) -> np.ndarray:
-    """True angular speeds [rad/s] of (FL, FR, RL, RR) for plant vectors ``z`` (n, NZ), shape (n, 4)."""
-    vx, vy, w, d = z[:, VX], z[:, VY], z[:, YAW_RATE], z[:, STEER]
-    half = 0.5 * v.track
-    c, s = np.cos(d), np.sin(d)
-    front_lat = vy + w * v.cg_to_front
-    left, right = vx - w * half, vx + w * half
-    return np.column_stack([left * c + front_lat * s, right * c + front_lat * s, left, right]) / v.wheel_radius
+@njit(cache=True)
+def wheel_speeds(rows, z, lf, track, radius):
+    """True angular speeds [rad/s] of (FL, FR, RL, RR) at rows ``rows`` of plant vectors ``z``, shape (n, 4).
+
+    ``lf`` centre of mass to front axle, ``track``, ``radius`` rolling radius [m].
+    """
+    out = np.empty((rows.shape[0], 4))
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        vx, w, d = z[i, VX], z[i, YAW_RATE], z[i, STEER]
+        front_lat = z[i, VY] + w * lf
+        left, right = vx - 0.5 * w * track, vx + 0.5 * w * track
+        c, s = math.cos(d), math.sin(d)
+        out[k, 0] = (left * c + front_lat * s) / radius
+        out[k, 1] = (right * c + front_lat * s) / radius
+        out[k, 2] = left / radius
+        out[k, 3] = right / radius
+    return out
 
 
 class WheelSpeedSensor:
@@ -53,4 +65,6 @@ class WheelSpeedSensor:
         self.rng = rng
 
     def measure(self, s: Samples) -> np.ndarray:
-        return wheel_speeds(s.z, self.vehicle) + standard_normals(self.rng, len(s), 4) * self.params.noise
+        v = self.vehicle
+        return wheel_speeds(s.rows, s.z, v.cg_to_front, v.track, v.wheel_radius) + standard_normals(
+            self.rng, len(s), 4) * self.params.noise

@@ -1,5 +1,6 @@
 """The simulator: fixed-step plant, actuators, sensors at their rates, command watchdog; pacing on top."""
 
+from vilma.sim.pacing import Pacer, PaceStats
 from vilma.sim.simulator import SimConfig, Simulator
 
-__all__ = ["SimConfig", "Simulator"]
+__all__ = ["PaceStats", "Pacer", "SimConfig", "Simulator"]

@@ -13,7 +13,7 @@ from numba import njit
 
 from vilma.vehicle.actuators import actuator_step, targets
 from vilma.vehicle.models import kinematic, kinematic_constrain, single_track, single_track_constrain
-from vilma.vehicle.state import NX
+from vilma.vehicle.state import NX, NZ
 
 KINEMATIC, SINGLE_TRACK = 0, 1
 """Model ids (see :data:`vilma.vehicle.models.MODELS`)."""
@@ -66,13 +66,15 @@ def euler(model, x, u, p, dt):
 
 
 @njit(cache=True)
-def advance(model, integrator, z, mode, cmd, p, dt, n, record, out_z, out_dx):
+def advance(model, integrator, z, mode, cmd, p, dt, n, tick, periods, out_z, out_dx, out_tick):
     """Run ``n`` physics steps of ``dt`` [s] on the plant vector ``z`` (updated in place).
 
     ``mode``/``cmd`` are the longitudinal mode id and ``(steer, drive, brake,
-    velocity_limit)``, held for all ``n`` steps. After step ``record[j]``
-    (1-based, increasing), the plant vector goes to ``out_z[j]`` and its
-    derivative to ``out_dx[j]``.
+    velocity_limit)``, held for all ``n`` steps; ``tick`` is the clock tick
+    before the first step. After each step whose tick is a multiple of one
+    of ``periods`` [ticks] (the sensors' sample ticks), the tick, the plant
+    vector and its derivative go to the next row of ``out_tick``, ``out_z``
+    and ``out_dx``. Returns the number of rows written.
     """
     x = (z[0], z[1], z[2], z[3], z[4], z[5])
     u = z[NX:].copy()
@@ -82,20 +84,25 @@ def advance(model, integrator, z, mode, cmd, p, dt, n, record, out_z, out_dx):
         actuator_step(u, steer, drive, brake, p, dt)
         x = rk4(model, x, u, p, dt) if integrator == RK4 else euler(model, x, u, p, dt)
         x = constrain(model, x, u, p)
-        if j < record.shape[0] and record[j] == i:
+        sampled = False
+        for period in periods:
+            if (tick + i) % period == 0:
+                sampled = True
+                break
+        if sampled:
             dx = derivative(model, x, u, p)
             for k in range(NX):
                 out_z[j, k] = x[k]
                 out_dx[j, k] = dx[k]
             out_z[j, NX:] = u
+            out_tick[j] = tick + i
             j += 1
     for k in range(NX):
         z[k] = x[k]
     z[NX:] = u
+    return j
 
 
-def empty_records(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Output arrays for :func:`advance` with ``n`` recorded steps."""
-    from vilma.vehicle.state import NZ
-
-    return np.empty((n, NZ)), np.empty((n, NX))
+def empty_records(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Output arrays ``(out_z, out_dx, out_tick)`` of :func:`advance` for up to ``n`` samples."""
+    return np.empty((n, NZ)), np.empty((n, NX)), np.empty(n, dtype=np.int64)
