@@ -150,3 +150,36 @@ class SimStatus(Message, frozen=True, kw_only=True):
     real_time_factor: float = math.nan
     autonomous: bool = False
     watchdog_tripped: bool = False
+
+
+class DriverStatus(Message, frozen=True):
+    """The self-driver's state: mode, target and measured speed [m/s], position on the path, errors.
+
+    ``index`` is the active waypoint or path segment, ``progress`` and
+    ``remaining`` the arc length done and left [m], ``cross_track`` the signed
+    distance from the path [m] (positive left; NaN without a path).
+    """
+
+    mode: str
+    target_speed: float
+    speed: float
+    index: int
+    progress: float
+    remaining: float
+    cross_track: float
+    arrived: bool
+    error: str
+
+
+class PoseEstimate(Message, frozen=True):
+    """Estimated pose of the centre of mass: x, y [m], yaw [rad], forward speed [m/s], yaw rate [rad/s],
+    and 1-sigma uncertainties of x, y [m] and yaw [rad] (0 for the exact pose)."""
+
+    x: float
+    y: float
+    yaw: float
+    speed: float
+    yaw_rate: float
+    std_x: float
+    std_y: float
+    std_yaw: float

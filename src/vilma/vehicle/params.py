@@ -159,6 +159,11 @@ def vilma() -> VehicleParams:
     Cd*A = 0.32 * 2.1 m^2; rolling resistance 0.013; 85 kW at the wheels;
     friction 1.0 (dry asphalt; the .blend's ground had 0.5 with Bullet grip 30).
 
+    Steering as MORSE/Bullet applied it: at once (no lag; a 10 rad/s rate
+    limit). A real steering actuator is slower; model it with
+    :class:`ActuatorParams` (the paper's Turn-Wheels controller needs the
+    fast one: with a 50 ms lag and 1 rad/s it loses the path).
+
     Calibrated: ``power_unit_force`` = 3.43 N per unit so that power 1000 gives
     0 to 100 km/h in 10.8 s on this model (tests/vehicle check it).
     """
@@ -181,7 +186,7 @@ def vilma() -> VehicleParams:
         drag_area=0.32 * 2.1,
         rolling_resistance=0.013,
         power_unit_force=3.43,
-        actuators=ActuatorParams(steer_rate_limit=1.0),
+        actuators=ActuatorParams(steer_time_constant=0.0, steer_rate_limit=10.0),
     )
 
 

@@ -1,0 +1,1 @@
+"""The car's autonomous functions: speed controllers, path controllers and the self-driver."""

@@ -1,0 +1,101 @@
+"""The original VILMA speed controller: a gain-scheduled PID on the engine power.
+
+From ``vilma_self_driver::maintainSpeedWorker`` (vilma-original.md section 2;
+paper section 4.3). Every period (250 ms), with ``e = v_d - v`` and ``d`` the
+last front-wheel command [rad]:
+
+- ``|e| > 1 m/s``: pure P, ``Kp = 200 + 350|d|``, and the PID is reset;
+- otherwise PI: ``Kp = 200 + 350|d|``, ``Ki = 50 + 800|d|``, integral term
+  clamped to ``+-(25 v_d + 500|d|)`` (ROS control_toolbox 1.13.1: the integral
+  of the error is not clamped, only ``Ki`` times it);
+- the power may rise by at most 10 and fall by at most 40 per period;
+- it is capped at ``50 v_d + 800|d|``;
+- the output is the original's ``powerAmount`` (``power`` mode,
+  ``velocityAmount`` 100 as the original transmitter sent).
+
+Quirks of the shipped binary, off by default (the paper's intent), on with
+``VilmaPidParams.original()``: ``abs`` is C's integer ``abs`` (so the P-only
+regime starts at ``|e| >= 2`` and the |d| terms are truncated), the target is
+truncated to an integer, and a negative command is mirrored to positive
+instead of clamped at zero. The 250 ms actuation delay and the measured-speed
+formula belong to the driver (:class:`~vilma.control.driver.DriverParams`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from vilma.control.speed.base import LongitudinalOutput
+from vilma.core.messages import Longitudinal
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class VilmaPidParams:
+    """Gains and limits of the original speed controller (original units: power per m/s, per rad)."""
+
+    period: float = 0.25
+    """Control period [s]."""
+    kp: float = 200.0
+    kp_steer: float = 350.0
+    """Added to Kp per rad of steering."""
+    ki: float = 50.0
+    ki_steer: float = 800.0
+    i_limit_speed: float = 25.0
+    """Integral-term limit per m/s of target."""
+    i_limit_steer: float = 500.0
+    large_error: float = 1.0
+    """Above this |error| [m/s] the controller is pure P and reset."""
+    rise_per_period: float = 10.0
+    fall_per_period: float = 40.0
+    max_power_speed: float = 50.0
+    """Power cap per m/s of target."""
+    max_power_steer: float = 800.0
+    velocity_amount: float = 100.0
+    """``velocityAmount`` sent with every power command [m/s]."""
+    integer_abs: bool = False
+    """Use C ``int abs()`` as the shipped binary: truncate before the absolute value."""
+    integer_target: bool = False
+    """Truncate the target speed to an integer, as the original ``maintainSpeed(int)``."""
+    mirror_negative: bool = False
+    """Mirror a negative power to positive (original) instead of clamping it at zero."""
+
+    @classmethod
+    def original(cls) -> VilmaPidParams:
+        """The shipped binary's behaviour, quirks included."""
+        return cls(integer_abs=True, integer_target=True, mirror_negative=True)
+
+
+class VilmaPid:
+    """The original gain-scheduled PID; outputs ``power`` commands."""
+
+    def __init__(self, params: VilmaPidParams | None = None) -> None:
+        self.params = params or VilmaPidParams()
+        self.period = self.params.period
+        self.reset()
+
+    def reset(self) -> None:
+        self.i_error = 0.0
+        self.power = 0.0
+
+    def _abs(self, v: float) -> float:
+        return float(abs(math.trunc(v))) if self.params.integer_abs else abs(v)
+
+    def step(self, target: float, speed: float, steer: float) -> LongitudinalOutput:
+        p = self.params
+        v_d = float(math.trunc(target)) if p.integer_target else target
+        e = v_d - speed
+        kp = p.kp + self._abs(p.kp_steer * steer)
+        if self._abs(e) > p.large_error:
+            self.i_error = 0.0  # setGains(Kp, 0, 0, 0, 0) then reset()
+            u = kp * e
+        else:
+            ki = p.ki + self._abs(p.ki_steer * steer)
+            i_max = p.i_limit_speed * v_d + self._abs(p.i_limit_steer * steer)
+            self.i_error += p.period * e
+            u = kp * e + min(max(ki * self.i_error, -i_max), i_max)
+        u = min(max(u, self.power - p.fall_per_period), self.power + p.rise_per_period)
+        u = min(u, p.max_power_speed * v_d + self._abs(p.max_power_steer * steer))
+        u = abs(u) if p.mirror_negative else max(u, 0.0)
+        self.power = u
+        return LongitudinalOutput(Longitudinal.POWER, u, velocity_limit=p.velocity_amount)

@@ -1,0 +1,43 @@
+import math
+
+import pytest
+
+from tests.control.speed.conftest import speed_run, time_to
+from vilma.control.speed import PiFf, PiFfParams, VilmaPid
+from vilma.core.messages import Longitudinal
+from vilma.vehicle.params import vilma
+
+
+def test_beats_the_original_pid():
+    t0, v0 = speed_run(VilmaPid(), 10.0, seconds=40.0, delay=True)
+    t, v = speed_run(PiFf(vilma()), 10.0, seconds=40.0)
+    assert time_to(t, v, 9.0) <= 0.6 * time_to(t0, v0, 9.0)
+    assert v.max() < 10.0 * 1.01
+    assert abs(v[-20:] - 10.0).max() < 0.05
+
+
+def test_feed_forward_holds_speed_without_integral():
+    p = vilma()
+    ctrl = PiFf(p, PiFfParams(kp=0.0, ki=0.0))
+    ctrl.v_ref, ctrl.a_ref = 20.0, 0.0
+    out = ctrl.step(20.0, 20.0, 0.0)
+    assert out.mode is Longitudinal.FORCE
+    assert out.drive == pytest.approx(p.resistance(20.0))
+
+
+def test_brakes_when_slowing_and_respects_limits():
+    p = vilma()
+    params = PiFfParams()
+    ctrl = PiFf(p, params)
+    outs = [ctrl.step(0.0, 15.0, 0.0) for _ in range(100)]
+    assert any(o.brake > 0 for o in outs)
+    # the request never exceeds the deceleration limit (plus the resistance it no longer needs)
+    assert max(o.brake for o in outs) <= p.mass * params.max_decel
+    # jerk limit: the reference acceleration changes by at most max_jerk * period per step
+    ctrl.reset()
+    a = []
+    for _ in range(round(2 * params.max_accel / params.max_jerk / params.period)):
+        ctrl.step(30.0, 0.0, 0.0)
+        a.append(ctrl.a_ref)
+    assert max(abs(x - y) for x, y in zip(a[1:], a, strict=False)) <= params.max_jerk * params.period + 1e-12
+    assert math.isclose(max(a), params.max_accel)
