@@ -4,15 +4,19 @@ import sys
 from vilma.cli import main
 
 
-def test_demo_drives_and_reports(capsys):
-    assert main(["demo", "--duration", "22"]) == 0
+def test_demo_follows_the_course_and_stops_on_its_end(capsys):
+    assert main(["demo"]) == 0
     out = capsys.readouterr().out
-    lines = out.splitlines()
-    assert "vilma demo drive" in lines[0]
-    last = next(ln for ln in lines if ln.strip().startswith("22.0")).split()
-    x, y, speed = float(last[1]), float(last[2]), float(last[4])
-    # accelerates to 10 m/s, changes lane 3.5 m left, brakes: far down the road, in the new lane, nearly stopped
-    assert x > 100.0 and abs(y - 3.5) < 0.1 and speed < 0.5
+    assert out.startswith("vilma demo: the vilma car")
+    summary = out.strip().splitlines()[-1]
+    assert summary.startswith("Arrived: ")
+    end_distance = float(summary.split()[1])
+    assert end_distance < 1.0  # the driver stops within 1 m of the last point
+
+
+def test_demo_with_the_original_controllers(capsys):
+    assert main(["demo", "--speed-controller", "vilma_pid", "--path-controller", "pure_pursuit"]) == 0
+    assert "Arrived" in capsys.readouterr().out
 
 
 def test_bad_arguments_exit_2_without_traceback():

@@ -1,9 +1,9 @@
-"""A short closed-loop demo drive on the simulator (until the scenario runner exists).
+"""A closed-loop demo drive (until the scenario runner exists).
 
-The car starts at rest, accelerates to 10 m/s, changes lane 3.5 m to the
-left, and brakes to a stop. A proportional speed controller (``accel``
-commands) and a heading controller toward the lane read the pose and
-velocity sensors at 20 Hz, as a self-driver would.
+The paper's car starts at rest on the paper-style course through (0, 0),
+(100, 0), (100, -30), (50, -20), (60, 0) (a smooth spline), follows it at
+30 km/h with the self-driver (by default ``pi_ff`` speed and ``stanley``
+path control, from the exact pose), and stops on its last point.
 """
 
 from __future__ import annotations
@@ -11,18 +11,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from vilma.core.geometry import wrap_angle
-from vilma.core.messages import ActuatorCommand, Longitudinal, Pose, Velocity
+import numpy as np
+
+from vilma.control.driver import Driver, DriverParams
 from vilma.sensors import Readings
 from vilma.sim import Pacer, SimConfig, Simulator
+from vilma.trajectory.course import spline_course
+from vilma.vehicle.state import VehicleState
 
-CONTROL_PERIOD = 0.05
-"""Demo controller period [s]."""
+COURSE_SPEED = 30 / 3.6
+"""Set speed on the demo course [m/s]."""
 
 
 @dataclass(frozen=True, slots=True)
 class DemoRow:
-    """One printed line of the demo."""
+    """One printed line of the demo: time [s], pose, speed [m/s], steer [rad], cross-track error [m]."""
 
     t: float
     x: float
@@ -30,54 +33,64 @@ class DemoRow:
     yaw: float
     speed: float
     steer: float
-    phase: str
+    cross_track: float
 
 
-def _phase(t: float) -> tuple[str, float, float]:
-    """Phase name, target speed [m/s] and target lane y [m] at time ``t`` [s]."""
-    if t < 8.0:
-        return "accelerate", 10.0, 0.0
-    if t < 16.0:
-        return "change lane", 10.0, 3.5
-    return "brake", 0.0, 3.5
+@dataclass(frozen=True, slots=True)
+class DemoResult:
+    """The printed rows and the drive's figures."""
+
+    rows: list[DemoRow]
+    arrived: bool
+    end_distance: float
+    """From the car to the course's last point at the end [m]."""
+    rms_cross_track: float
+    max_cross_track: float
+    sim_seconds: float
 
 
-def drive(duration: float = 22.0, config: SimConfig | None = None, every: float = 1.0,
-          speed: float | None = None) -> list[DemoRow]:
-    """Run the demo, as fast as possible or paced to ``speed`` x real time; one row per ``every`` s of sim time."""
+def drive(config: SimConfig | None = None, params: DriverParams | None = None, duration: float = 120.0,
+          every: float = 2.0, speed: float | None = None) -> DemoResult:
+    """Run the demo until the car stops at the end (or ``duration`` [s]); paced to ``speed`` x real time if given."""
+    path = spline_course()
     sim = Simulator(config)
-    latest: dict[str, Pose | Velocity] = {}
+    x0, y0 = path.xy[0]
+    sim.reset(VehicleState(x=float(x0), y=float(y0), yaw=path.heading_at(0.0)))
+    driver = Driver(sim.config.vehicle, params, step=sim.config.step)
+    driver.update(sim.advance(driver.period_ticks))
+    driver.follow(path, COURSE_SPEED)
     rows: list[DemoRow] = []
-    report_every = max(1, round(every / CONTROL_PERIOD))
+    errors: list[float] = []
+    report_ticks = max(1, round(every / sim.clock.step_s))
 
     def control(readings: dict[str, Readings]) -> None:
-        for name in ("pose", "velocity"):
-            if name in readings:
-                latest[name] = readings[name].latest()
-        t = sim.time_ns / 1e9
-        _, v_ref, y_ref = _phase(t)
-        pose, vel = latest.get("pose"), latest.get("velocity")
-        if pose is not None and vel is not None:
-            accel = min(max(0.8 * (v_ref - vel.speed), -3.0), 2.0)
-            heading_ref = math.atan(0.1 * (y_ref - pose.y))
-            steer = 1.0 * wrap_angle(heading_ref - pose.yaw)
-            sim.command(ActuatorCommand(stamp_ns=sim.time_ns, steer=max(-0.3, min(0.3, steer)),
-                                        longitudinal=Longitudinal.ACCEL, drive=accel, autonomous=True))
-        if round(t / CONTROL_PERIOD) % report_every == 0:
-            s = sim.state
-            rows.append(DemoRow(t, s.x, s.y, s.yaw, s.speed, s.steer, _phase(t - CONTROL_PERIOD)[0]))
+        cmd = driver.update(readings)
+        if cmd is not None:
+            sim.command(cmd)
+        s = sim.state
+        e = path.project(s.x, s.y).cross_track
+        errors.append(e)
+        if sim.clock.tick % report_ticks == 0:
+            rows.append(DemoRow(sim.time_ns / 1e9, s.x, s.y, s.yaw, s.speed, s.steer, e))
+
+    def done() -> bool:
+        return driver.status.arrived and sim.state.speed < 0.01
 
     if speed is None:
-        for _ in range(round(duration / CONTROL_PERIOD)):
-            control(sim.run_for(CONTROL_PERIOD))
+        while sim.clock.time_s < duration and not done():
+            control(sim.advance(driver.period_ticks))
     else:
-        Pacer(sim, speed=speed, period=CONTROL_PERIOD).run(duration, on_period=control)
-    return rows
+        Pacer(sim, speed=speed, period=driver.period).run(duration, on_period=control, should_stop=done)
+    s = sim.state
+    e = np.asarray(errors)
+    return DemoResult(rows, driver.status.arrived, math.hypot(s.x - path.xy[-1, 0], s.y - path.xy[-1, 1]),
+                      float(np.sqrt(np.mean(e**2))), float(np.abs(e).max()), sim.time_ns / 1e9)
 
 
 def format_rows(rows: list[DemoRow]) -> str:
     """The rows as a fixed-width table."""
-    lines = [f"{'t [s]':>6} {'x [m]':>8} {'y [m]':>7} {'yaw [deg]':>9} {'speed [m/s]':>11} {'steer [deg]':>11}  phase"]
-    lines += [f"{r.t:6.1f} {r.x:8.2f} {r.y:7.2f} {math.degrees(r.yaw):9.2f} {r.speed:11.2f} "
-              f"{math.degrees(r.steer):11.2f}  {r.phase}" for r in rows]
+    lines = [f"{'t [s]':>6} {'x [m]':>8} {'y [m]':>8} {'yaw [deg]':>9} {'speed [m/s]':>11} {'steer [deg]':>11} "
+             f"{'off path [m]':>12}"]
+    lines += [f"{r.t:6.1f} {r.x:8.2f} {r.y:8.2f} {math.degrees(r.yaw):9.1f} {r.speed:11.2f} "
+              f"{math.degrees(r.steer):11.2f} {r.cross_track:12.3f}" for r in rows]
     return "\n".join(lines)

@@ -6,7 +6,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from vilma.control.driver import Driver, DriverParams
 from vilma.sim import SimConfig, Simulator
@@ -65,11 +64,3 @@ def curved_log() -> Trajectory:
     """The original's recorded curved drive after Generate Points and Smooth Trajectory, as the paper did."""
     path = load_trajectory(LOGS / "PositionLog_curved.txt")
     return Trajectory.from_points(smooth_iterative(increase_point_count(path).xy))
-
-
-def spline_course(points, spacing: float = 0.5) -> Trajectory:
-    """A C2 cubic spline through ``points`` (chord-length parameter), sampled every ``spacing`` m of chord."""
-    p = np.asarray(points, dtype=float)
-    u = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
-    spline = CubicSpline(u, p, bc_type="natural")
-    return Trajectory.from_points(spline(np.linspace(0.0, u[-1], round(u[-1] / spacing) + 1)))

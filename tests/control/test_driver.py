@@ -3,11 +3,12 @@ import math
 import numpy as np
 import pytest
 
-from tests.control.conftest import drive_path, spline_course
+from tests.control.conftest import drive_path
 from vilma.control.driver import Driver, DriverMode, DriverParams
 from vilma.control.speed import VilmaPidParams
 from vilma.core.clock import RateError
 from vilma.sim import SimConfig, Simulator
+from vilma.trajectory.course import spline_course
 from vilma.vehicle.params import vilma
 
 

@@ -248,7 +248,7 @@ class Driver:
 
     def _target_speed(self, task: _Task) -> float:
         if task.mode == DriverMode.FOLLOW and math.isnan(task.speed):
-            return float(task.path.speed_at(self._progress[1]))
+            return float(task.path.speed_at(self._progress[1] if self._progress else 0.0))
         return task.speed
 
     def _final_stop(self, task: _Task) -> LongitudinalOutput:

@@ -5,12 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from tests.control.conftest import curved_log, drive_path, spline_course
+from tests.control.conftest import curved_log, drive_path
 from vilma.control.driver import DriverParams
 from vilma.control.path import VilmaHeading
 from vilma.control.path.vilma_heading import original_heading_error
 from vilma.core.messages import PoseEstimate
 from vilma.trajectory import Trajectory
+from vilma.trajectory.course import spline_course
 
 COURSE = [(0, 0), (100, 0), (100, -30), (50, -20), (60, 0)]
 
