@@ -1,31 +1,41 @@
-import subprocess
-import sys
+"""The ``vilma trajectory`` tools from the shell."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
 
 from vilma.cli import main
+from vilma.scenario.batch import BUNDLED
+from vilma.trajectory import load_trajectory
+
+CURVED = BUNDLED / "data" / "PositionLog_curved.txt"
 
 
-def test_demo_follows_the_course_and_stops_on_its_end(capsys):
-    assert main(["demo"]) == 0
-    out = capsys.readouterr().out
-    assert out.startswith("vilma demo: the vilma car")
-    summary = out.strip().splitlines()[-1]
-    assert summary.startswith("Arrived: ")
-    end_distance = float(summary.split()[1])
-    assert end_distance < 1.0  # the driver stops within 1 m of the last point
+def test_info_densify_smooth_resample(tmp_path, capsys):
+    assert main(["trajectory", "info", str(CURVED)]) == 0
+    assert f"{CURVED}: 357 points" in capsys.readouterr().out
+    dense, smooth, even = tmp_path / "d.txt", tmp_path / "s.csv", tmp_path / "r.txt"
+    assert main(["trajectory", "densify", str(CURVED), str(dense), "--times", "2"]) == 0
+    assert len(load_trajectory(dense)) == 2 * (2 * 357 - 1) - 1  # n -> 2n - 1, twice
+    assert main(["trajectory", "smooth", str(dense), str(smooth)]) == 0
+    a, b = load_trajectory(dense), load_trajectory(smooth)
+    assert len(b) == len(a) and np.allclose(b.xy[[0, -1]], a.xy[[0, -1]], atol=1e-6)  # ends fixed
+    assert main(["trajectory", "resample", str(smooth), str(even), "--spacing", "2"]) == 0
+    r = load_trajectory(even)
+    # points every 2 m of arc: chords 2 R sin(1 / R) are at least 1.95 m on the tightest 3 m radius
+    assert np.all((np.diff(r.s)[:-1] > 1.95) & (np.diff(r.s)[:-1] <= 2.0 + 1e-9))
 
 
-def test_demo_with_the_original_controllers(capsys):
-    assert main(["demo", "--speed-controller", "vilma_pid", "--path-controller", "pure_pursuit"]) == 0
-    assert "Arrived" in capsys.readouterr().out
-
-
-def test_bad_arguments_exit_2_without_traceback():
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "demo", "--duration", "abc"], capture_output=True,
-                       text=True)
-    assert r.returncode == 2 and "Traceback" not in r.stderr and "--duration" in r.stderr
-
-
-def test_bad_value_is_one_line_error(capsys):
-    assert main(["demo", "--duration", "-1"]) == 2
+@pytest.mark.parametrize(("args", "message"), [
+    (["trajectory", "smooth", str(CURVED)], "give the output file"),
+    (["trajectory", "smooth", str(CURVED), "out.txt", "--beta", "-1"], "beta >= 0"),
+    (["trajectory", "resample", str(CURVED), "out.txt", "--spacing", "0"], "spacing must be a positive"),
+    (["trajectory", "info", "missing.txt"], "missing.txt: no such file"),
+])
+def test_bad_input_is_one_line_and_exit_2(args, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "error" in err
+    assert message in err and err.count("\n") == 1
+    assert not (tmp_path / "out.txt").exists()

@@ -5,57 +5,137 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-import time
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from vilma import demo
-    from vilma.control.driver import DriverParams
-    from vilma.sim import SimConfig
-    from vilma.vehicle.params import preset
+    from pathlib import Path
 
-    if not 0 < args.duration < float("inf"):
-        raise ValueError(f"--duration must be a positive number of seconds, got {args.duration:g}")
-    if args.speed is not None and not 0 < args.speed < float("inf"):
-        raise ValueError(f"--speed must be a positive factor, got {args.speed:g}")
-    config = SimConfig(vehicle=preset(args.vehicle), model=args.model, seed=args.seed)
-    params = DriverParams(speed_controller=args.speed_controller, path_controller=args.path_controller,
-                          pose_source=args.pose)
-    t0 = time.perf_counter()
-    result = demo.drive(config, params, duration=args.duration, speed=args.speed)
-    wall = time.perf_counter() - t0
-    print(f"vilma demo: the {config.vehicle.name} car ({config.model} model, {config.step * 1e3:g} ms step, "
-          f"all sensors, seed {config.seed}) follows the paper-style course at 30 km/h with "
-          f"{params.speed_controller} + {params.path_controller} from the {params.pose_source} pose")
-    print(demo.format_rows(result.rows))
-    print(f"\n{'Arrived' if result.arrived else 'Did not arrive'}: {result.end_distance:.2f} m from the last point "
-          f"after {result.sim_seconds:.1f} s of sim time; off path RMS {result.rms_cross_track:.3f} m, "
-          f"max {result.max_cross_track:.3f} m. Wall {wall:.2f} s, start-up included "
-          f"({result.sim_seconds / wall:.0f}x real time).")
-    return 0 if result.arrived else 1
+    from vilma import demo
+    from vilma.scenario import batch
+
+    _check_factor(args.realtime, "--realtime")
+    console = _console()
+    jobs = batch.plan(demo.scenario_names(), [])
+    root = demo.out_root(Path(args.out) if args.out else None)
+    console.print(f"vilma demo: {len(jobs)} bundled scenarios, headless, files in {root}", highlight=False)
+    results = batch.run_all(jobs, root, args.realtime, console)
+    console.print(demo.comparison_table({r.scenario.name: r for r in results}))
+    return _report_failures(results, console)
+
+
+def _console():
+    from rich.console import Console
+
+    return Console(width=None if sys.stdout.isatty() else 160)
+
+
+def _check_factor(value: float | None, option: str) -> None:
+    if value is not None and not 0 < value < float("inf"):
+        raise ValueError(f"{option} must be a positive factor, got {value:g}")
+
+
+def _report_failures(results, console) -> int:
+    failed = [r for r in results if not r.passed]
+    for r in failed:
+        for line in r.failures:
+            console.print(f"FAIL {r.scenario.name}: {line}", highlight=False)
+    return 1 if failed else 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from vilma.scenario import batch
+
+    _check_factor(args.realtime, "--realtime")
+    jobs = batch.plan(args.scenarios, args.set)
+    console = _console()
+    results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console)
+    if len(results) == 1:
+        console.print(batch.scorecard_table(results[0]))
+    console.print(batch.summary_table(jobs, results))
+    for r in results:
+        console.print(f"{r.scenario.name}: files in {r.out_dir}", highlight=False)
+    return _report_failures(results, console)
+
+
+def _trajectory(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from vilma.scenario.spec import SmoothSpec
+    from vilma.trajectory import (
+        Trajectory,
+        increase_point_count,
+        load_trajectory,
+        resample,
+        save_trajectory,
+        smooth_banded,
+        smooth_iterative,
+    )
+
+    path = load_trajectory(args.input)
+    if args.action == "info":
+        gaps = np.diff(path.s)
+        kappa = np.abs(path.curvature).max() if len(path) > 2 else 0.0
+        gaps = gaps if len(gaps) else np.zeros(1)
+        print(f"{args.input}: {len(path)} points, {path.length:.2f} m long, spacing {gaps.mean():.3f} m "
+              f"(min {gaps.min():.3f}, max {gaps.max():.3f}); "
+              f"x {path.xy[:, 0].min():.2f}..{path.xy[:, 0].max():.2f} m, y {path.xy[:, 1].min():.2f}.."
+              f"{path.xy[:, 1].max():.2f} m; tightest radius {1 / kappa if kappa > 0 else float('inf'):.2f} m; "
+              f"{'with' if path.speed is not None else 'no'} speeds")
+        return 0
+    if args.output is None:
+        raise ValueError(f"trajectory {args.action}: give the output file after the input")
+    if args.action == "smooth":
+        sm = SmoothSpec(alpha=args.alpha, beta=args.beta, tolerance=args.tolerance, solver=args.solver)
+        xy = (smooth_iterative(path.xy, sm.alpha, sm.beta, sm.tolerance) if sm.solver == "iterative"
+              else smooth_banded(path.xy, sm.alpha, sm.beta))
+        out = Trajectory(xy, path.speed)
+    elif args.action == "densify":
+        out = path
+        for _ in range(args.times):
+            out = increase_point_count(out)
+    else:
+        out = resample(path, args.spacing)
+    save_trajectory(args.output, out)
+    print(f"{args.action}: {len(path)} -> {len(out)} points, written to {args.output}")
+    return 0
 
 
 def _parser() -> argparse.ArgumentParser:
     from vilma import __version__
-    from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS
-    from vilma.localization import SOURCES
-    from vilma.vehicle import models
-    from vilma.vehicle.params import PRESETS
+    from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
 
     p = argparse.ArgumentParser(prog="vilma", description="Simulate, drive and monitor an autonomous car.")
     p.add_argument("--version", action="version", version=f"vilma {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    d = sub.add_parser("demo", help="a closed-loop demo drive on the paper-style course, headless")
-    d.add_argument("--vehicle", choices=sorted(PRESETS), default="vilma", help="vehicle preset (default vilma)")
-    d.add_argument("--model", choices=models.MODELS, default="single_track", help="plant model")
-    d.add_argument("--duration", type=float, default=120.0, help="longest sim time to drive [s] (default 120)")
-    d.add_argument("--speed-controller", choices=SPEED_CONTROLLERS, default="pi_ff", help="speed controller")
-    d.add_argument("--path-controller", choices=PATH_CONTROLLERS, default="stanley", help="path controller")
-    d.add_argument("--pose", choices=SOURCES, default="truth", help="pose source for the controllers")
-    d.add_argument("--seed", type=int, default=0, help="noise seed")
-    d.add_argument("--speed", type=float, default=None, metavar="K",
-                   help="pace to K times real time (default: as fast as possible)")
+    d = sub.add_parser("demo", help="the paper's figures and vilma's side by side: runs the bundled scenarios")
+    d.add_argument("--out", metavar="DIR", help="where the runs' files go (default runs/demo-<timestamp>/)")
+    d.add_argument("--realtime", type=float, default=None, metavar="K",
+                   help="pace each run to K times real time (default: as fast as possible)")
     d.set_defaults(func=_demo)
+    r = sub.add_parser("run", help="run scenario files headless and score them")
+    r.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario YAML files (see scenarios/)")
+    r.add_argument("--out", metavar="DIR", help="where the files go (default runs/<name>-<timestamp>/)")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a scenario value (dotted key, YAML value); KEY=a,b,c sweeps over the values")
+    r.add_argument("--realtime", type=float, default=None, metavar="K",
+                   help="pace to K times real time (default: as fast as possible)")
+    r.set_defaults(func=_run)
+    t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
+                       description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "
+                                   "transform it and write it (.csv: CSV, else the original's format).")
+    t.add_argument("action", choices=("info", "smooth", "densify", "resample"))
+    t.add_argument("input", metavar="IN")
+    t.add_argument("output", metavar="OUT", nargs="?")
+    t.add_argument("--alpha", type=float, default=ALPHA, help=f"smooth: weight_data (default {ALPHA})")
+    t.add_argument("--beta", type=float, default=BETA, help=f"smooth: weight_smooth (default {BETA})")
+    t.add_argument("--tolerance", type=float, default=TOLERANCE, help=f"smooth: tolerance [m] (default {TOLERANCE})")
+    t.add_argument("--solver", choices=("iterative", "banded"), default="iterative",
+                   help="smooth: the paper's sweeps or the direct banded solution (same fixed point)")
+    t.add_argument("--times", type=int, default=1, help="densify: Increase Point Count this many times (default 1)")
+    t.add_argument("--spacing", type=float, default=0.5, help="resample: spacing [m] (default 0.5)")
+    t.set_defaults(func=_trajectory)
     return p
 
 

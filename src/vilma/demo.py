@@ -1,96 +1,97 @@
-"""A closed-loop demo drive (until the scenario runner exists).
+"""The paper and vilma side by side: the bundled paper scenarios and the comparison set, one table.
 
-The paper's car starts at rest on the paper-style course through (0, 0),
-(100, 0), (100, -30), (50, -20), (60, 0) (a smooth spline), follows it at
-30 km/h with the self-driver (by default ``pi_ff`` speed and ``stanley``
-path control, from the exact pose), and stops on its last point.
+Runs the paper's Figure 11 speed steps and Figure 12 path with the original's
+controllers, then the same tasks (and the paper-style course) with vilma's
+controllers, writes every run's files, and tabulates the figures next to the
+original program's (measured on its logs with the same code as vilma's runs).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from pathlib import Path
 
-import numpy as np
+from rich.table import Table
+from rich.text import Text
 
-from vilma.control.driver import Driver, DriverParams
-from vilma.sensors import Readings
-from vilma.sim import Pacer, SimConfig, Simulator
-from vilma.trajectory.course import spline_course
-from vilma.vehicle.state import VehicleState
-
-COURSE_SPEED = 30 / 3.6
-"""Set speed on the demo course [m/s]."""
+from vilma.scenario import batch
+from vilma.scenario.metrics import step_response
+from vilma.scenario.runner import RunResult
+from vilma.trajectory import load_speed_log
 
 
 @dataclass(frozen=True, slots=True)
-class DemoRow:
-    """One printed line of the demo: time [s], pose, speed [m/s], steer [rad], cross-track error [m]."""
+class Group:
+    """One task of the table: its title, the original's figures, and the bundled scenarios that drive it."""
 
-    t: float
-    x: float
-    y: float
-    yaw: float
-    speed: float
-    steer: float
-    cross_track: float
-
-
-@dataclass(frozen=True, slots=True)
-class DemoResult:
-    """The printed rows and the drive's figures."""
-
-    rows: list[DemoRow]
-    arrived: bool
-    end_distance: float
-    """From the car to the course's last point at the end [m]."""
-    rms_cross_track: float
-    max_cross_track: float
-    sim_seconds: float
+    title: str
+    original: str | None
+    """The original's speed log (bundled data) for a speed step, else None."""
+    claim: str | None
+    """The lateral error the paper claims for this task (it gives no figure)."""
+    scenarios: tuple[str, ...]
 
 
-def drive(config: SimConfig | None = None, params: DriverParams | None = None, duration: float = 120.0,
-          every: float = 2.0, speed: float | None = None) -> DemoResult:
-    """Run the demo until the car stops at the end (or ``duration`` [s]); paced to ``speed`` x real time if given."""
-    path = spline_course()
-    sim = Simulator(config)
-    x0, y0 = path.xy[0]
-    sim.reset(VehicleState(x=float(x0), y=float(y0), yaw=path.heading_at(0.0)))
-    driver = Driver(sim.config.vehicle, params, step=sim.config.step)
-    driver.update(sim.advance(driver.period_ticks))
-    driver.follow(path, COURSE_SPEED)
-    rows: list[DemoRow] = []
-    errors: list[float] = []
-    report_ticks = max(1, round(every / sim.clock.step_s))
+GROUPS = tuple(
+    [Group(f"Fig. 11: rest to {v} m/s, straight", f"SpeedLog{v}.txt", None,
+           (f"paper_fig11_speed_{v}", f"pi_ff_speed_{v}")) for v in (5, 10, 15)]
+    + [Group("Fig. 12: recorded curve at 5 m/s", None, "centimetres",
+             ("paper_fig12_path", "fig12_path_stanley", "fig12_path_pure_pursuit")),
+       Group("Course at 30 km/h", None, None, ("course_30kmh_vilma_heading", "course_30kmh_pure_pursuit",
+                                               "course_30kmh_stanley", "course_30kmh_ekf"))])
+"""The demo's tasks, in table order."""
 
-    def control(readings: dict[str, Readings]) -> None:
-        cmd = driver.update(readings)
-        if cmd is not None:
-            sim.command(cmd)
-        s = sim.state
-        e = path.project(s.x, s.y).cross_track
-        errors.append(e)
-        if sim.clock.tick % report_ticks == 0:
-            rows.append(DemoRow(sim.time_ns / 1e9, s.x, s.y, s.yaw, s.speed, s.steer, e))
-
-    def done() -> bool:
-        return driver.status.arrived and sim.state.speed < 0.01
-
-    if speed is None:
-        while sim.clock.time_s < duration and not done():
-            control(sim.advance(driver.period_ticks))
-    else:
-        Pacer(sim, speed=speed, period=driver.period).run(duration, on_period=control, should_stop=done)
-    s = sim.state
-    e = np.asarray(errors)
-    return DemoResult(rows, driver.status.arrived, math.hypot(s.x - path.xy[-1, 0], s.y - path.xy[-1, 1]),
-                      float(np.sqrt(np.mean(e**2))), float(np.abs(e).max()), sim.time_ns / 1e9)
+HEADINGS = ("t90 [s]", "overshoot [%]", "lat RMS [m]", "lat max [m]", "done", "pass")
 
 
-def format_rows(rows: list[DemoRow]) -> str:
-    """The rows as a fixed-width table."""
-    lines = [f"{'t [s]':>6} {'x [m]':>8} {'y [m]':>8} {'yaw [deg]':>9} {'speed [m/s]':>11} {'steer [deg]':>11} "
-             f"{'off path [m]':>12}"]
-    lines += [f"{r.t:6.1f} {r.x:8.2f} {r.y:8.2f} {math.degrees(r.yaw):9.1f} {r.speed:11.2f} "
-              f"{math.degrees(r.steer):11.2f} {r.cross_track:12.3f}" for r in rows]
-    return "\n".join(lines)
+def scenario_names() -> list[str]:
+    """Every scenario the demo runs, in order."""
+    return [name for g in GROUPS for name in g.scenarios]
+
+
+def controllers(r: RunResult) -> str:
+    """``speed + path`` controllers of a run, with the pose source when it is not the exact pose."""
+    d = r.scenario.driver
+    text = d.speed_controller if r.scenario.task.kind == "speed" else f"{d.speed_controller} + {d.path_controller}"
+    return text + (f" ({d.pose_source} pose)" if d.pose_source != "truth" else "")
+
+
+def comparison_table(results: dict[str, RunResult]) -> Table:
+    """The original's figures and each run's, task by task."""
+    table = Table(title="vilma demo: the paper's figures and vilma's, side by side")
+    table.add_column("task")
+    table.add_column("who")
+    for h in HEADINGS:
+        table.add_column(Text(h), justify="right")
+    for g in GROUPS:
+        first = True
+        if g.original is not None:
+            t, v = load_speed_log(batch.BUNDLED / "data" / g.original)
+            target = results[g.scenarios[0]].scenario.task.speed
+            s = step_response(t, v, target, 0.02, 5.0)
+            table.add_row(g.title, "original program (log)", _f(s.get("speed_rise_time_90_s")),
+                          _f(s.get("speed_overshoot_pct")), "-", "-", "-", "-")
+            first = False
+        if g.claim is not None:
+            table.add_row(g.title, "original program (paper)", "-", "-", g.claim, "-", "-", "-")
+            first = False
+        for name in g.scenarios:
+            r = results[name]
+            m = r.metrics
+            table.add_row(g.title if first else "", controllers(r), _f(m["speed_rise_time_90_s"]),
+                          _f(m["speed_overshoot_pct"]), _f(m["lateral_error_rms_m"]), _f(m["lateral_error_max_m"]),
+                          "yes" if m["completed"] else "no", "yes" if r.passed else "NO")
+            first = False
+        table.add_section()
+    return table
+
+
+def _f(v) -> str:
+    return "-" if v is None else f"{v:.3g}"
+
+
+def out_root(out: Path | None) -> Path:
+    """Where the demo's runs go: ``out``, else ``runs/demo-<timestamp>``."""
+    from datetime import datetime
+
+    return out or Path("runs") / f"demo-{datetime.now().strftime('%Y%m%d-%H%M%S')}"

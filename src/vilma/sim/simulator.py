@@ -107,6 +107,11 @@ class Simulator:
         return VehicleState.from_array(self._z)
 
     @property
+    def plant(self) -> list[float]:
+        """The plant vector now, as the fields of :class:`VehicleState` in order (cheaper than :attr:`state`)."""
+        return self._z.tolist()
+
+    @property
     def time_ns(self) -> int:
         """Sim time [ns]."""
         return self.clock.time_ns

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 
 CURVATURE_SPAN = 2.0
 """Arc length [m] over which curvature is measured (steady on recorded paths with jitter)."""
@@ -17,6 +18,45 @@ def _circle_curvature(ax, ay, bx, by, cx, cy):
     cross = (bx - ax) * (cy - by) - (by - ay) * (cx - bx)
     d = np.hypot(bx - ax, by - ay) * np.hypot(cx - bx, cy - by) * np.hypot(cx - ax, cy - ay)
     return np.divide(2.0 * cross, d, out=np.zeros_like(np.asarray(d, dtype=float)), where=d > 1e-12)
+
+
+@njit(cache=True)
+def _nearest(xy, seg, seg_len2, x, y, lo, hi):
+    """Nearest segment in ``lo .. hi-1`` to ``(x, y)``: (index, t, squared distance)."""
+    best, bi, bt = np.inf, lo, 0.0
+    for i in range(lo, hi):
+        rx, ry = x - xy[i, 0], y - xy[i, 1]
+        t = (rx * seg[i, 0] + ry * seg[i, 1]) / seg_len2[i] if seg_len2[i] > 1e-18 else 0.0
+        t = min(max(t, 0.0), 1.0)
+        ex, ey = rx - t * seg[i, 0], ry - t * seg[i, 1]
+        d = ex * ex + ey * ey
+        if d < best:
+            best, bi, bt = d, i, t
+    return bi, bt, best
+
+
+@njit(cache=True)
+def _project_track(xy, seg, seg_len, s0, heading, pts, window, jump):
+    """Project a sequence of points, each searched near the previous one (all segments when it is lost)."""
+    n, m = pts.shape[0], seg.shape[0]
+    out = np.empty((n, 3))  # s, cross-track, heading
+    seg_len2 = seg_len * seg_len
+    prev = -1
+    for k in range(n):
+        x, y = pts[k, 0], pts[k, 1]
+        if prev < 0:
+            i, t, d = _nearest(xy, seg, seg_len2, x, y, 0, m)
+        else:
+            i, t, d = _nearest(xy, seg, seg_len2, x, y, max(0, prev - window), min(m, prev + window + 1))
+            if d > jump * jump:
+                i, t, d = _nearest(xy, seg, seg_len2, x, y, 0, m)
+        prev = i
+        h = heading[i]
+        px, py = xy[i, 0] + t * seg[i, 0], xy[i, 1] + t * seg[i, 1]
+        out[k, 0] = s0[i] + t * seg_len[i]
+        out[k, 1] = math.cos(h) * (y - py) - math.sin(h) * (x - px)
+        out[k, 2] = h
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -165,6 +205,19 @@ class Trajectory:
             return float(self.speed[0])
         i, t = self._locate(s)
         return float((1 - t) * self.speed[i] + t * self.speed[i + 1])
+
+    def project_track(self, points, window: int = 40, jump: float = 2.0) -> np.ndarray:
+        """Project a drive ``points`` (n, 2) [m] in order, each searched near the last (compiled).
+
+        Returns (n, 3): arc length [m], signed cross-track error [m] and path heading [rad] of each
+        projection, as :meth:`project`. A point farther than ``jump`` [m] from the segments near the
+        last projection is searched on the whole path.
+        """
+        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+        if len(self) == 1:
+            return np.zeros((len(pts), 3))
+        return _project_track(self.xy, np.ascontiguousarray(self._seg), self._seg_len, self.s,
+                              self.heading[:-1].copy(), pts, window, jump)
 
     def project(self, x: float, y: float, hint: int | None = None, window: int | None = None) -> Projection:
         """Project the point ``(x, y)`` onto the nearest segment.

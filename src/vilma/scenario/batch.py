@@ -1,0 +1,130 @@
+"""Several runs in a row: scenario files times a ``--set`` sweep, a progress bar, one summary table."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import Progress
+from rich.table import Table
+from rich.text import Text
+
+from vilma.scenario.fields import SpecError
+from vilma.scenario.runner import RunResult, default_out_dir, run, write_outputs
+from vilma.scenario.spec import Scenario, load_scenario
+
+BUNDLED = Path(__file__).resolve().parent.parent / "scenarios"
+"""The scenarios that come with vilma (``scenarios/`` in a clone)."""
+
+SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("lateral_error_max_m", "lat max [m]"),
+           ("speed_rise_time_90_s", "t90 [s]"), ("speed_overshoot_pct", "overshoot [%]"),
+           ("speed_error_rms_mps", "speed RMS [m/s]"), ("pose_error_rms_m", "pose RMS [m]"),
+           ("realtime_factor", "x real time"))
+"""Scorecard keys shown in the summary table, with their headings."""
+
+
+@dataclass(frozen=True, slots=True)
+class Job:
+    """One run to make: a scenario and the ``--set`` values it was loaded with."""
+
+    scenario: Scenario
+    label: str
+
+
+def parse_sets(items: Sequence[str]) -> list[dict[str, str]]:
+    """``key=value`` strings to the override sets to run: ``key=a,b,c`` sweeps (every combination).
+
+    A value in brackets (``key=[1, 2]``) is one YAML list, not a sweep.
+    """
+    axes: list[list[tuple[str, str]]] = []
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise SpecError(f"--set {item}: expected key=value, e.g. --set task.speed=10")
+        value = value.strip()
+        values = [value] if value.startswith(("[", "{")) else [v.strip() for v in value.split(",")]
+        axes.append([(key.strip(), v) for v in values])
+    return [dict(combo) for combo in itertools.product(*axes)]
+
+
+def plan(files: Sequence[str], sets: Sequence[str]) -> list[Job]:
+    """Load and validate every run before the first starts (a bad file stops the batch before it runs).
+
+    A name that is not a file but a bundled scenario's (``paper_fig11_speed_10``) runs that one.
+    """
+    jobs = []
+    for f in files:
+        path = find_scenario(f)
+        for overrides in parse_sets(sets):
+            label = " ".join(f"{k}={v}" for k, v in overrides.items())
+            jobs.append(Job(load_scenario(path, overrides), label))
+    return jobs
+
+
+def find_scenario(name: str) -> Path:
+    """The file ``name``, else the bundled scenario of that name (with or without ``.yaml``)."""
+    path = Path(name)
+    if path.exists():
+        return path
+    bundled = BUNDLED / (path.name if path.suffix == ".yaml" else f"{path.name}.yaml")
+    if not path.parent.parts and bundled.is_file():
+        return bundled
+    known = ", ".join(sorted(p.stem for p in BUNDLED.glob("*.yaml")))
+    raise SpecError(f"{name}: no such scenario file, nor a bundled scenario (bundled: {known})")
+
+
+def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console) -> list[RunResult]:
+    """Run the jobs in order with a progress bar, writing each run's files; returns the results."""
+    results = []
+    with Progress(console=console, transient=True, disable=len(jobs) < 2) as bar:
+        task = bar.add_task("running", total=len(jobs))
+        for job in jobs:
+            bar.update(task, description=job.scenario.name + (f" {job.label}" if job.label else ""))
+            result = run(job.scenario, realtime)
+            write_outputs(result, _out_dir(job, out, len(jobs)))
+            results.append(result)
+            bar.advance(task)
+    return results
+
+
+def _out_dir(job: Job, out: Path | None, n: int) -> Path:
+    if out is None:
+        return default_out_dir(job.scenario)
+    if n == 1:
+        return out
+    suffix = "-".join(job.label.replace("=", "_").split()) if job.label else ""
+    return out / (job.scenario.name + (f"-{suffix}" if suffix else ""))
+
+
+def scorecard_table(result: RunResult) -> Table:
+    """Every scorecard key of one run, with its value."""
+    table = Table(title=f"{result.scenario.name}: scorecard", show_header=True)
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for k, v in result.metrics.items():
+        table.add_row(k, _fmt(v))
+    return table
+
+
+def summary_table(jobs: list[Job], results: list[RunResult]) -> Table:
+    """One row per run: the :data:`SUMMARY` keys and pass or fail."""
+    table = Table(title="vilma run: summary")
+    table.add_column("run")
+    for _, heading in SUMMARY:
+        table.add_column(Text(heading), justify="right")
+    table.add_column("pass", justify="right")
+    for job, r in zip(jobs, results, strict=True):
+        name = r.scenario.name + (f" [{job.label}]" if job.label else "")
+        table.add_row(name, *(_fmt(r.metrics[k]) for k, _ in SUMMARY), "yes" if r.passed else "NO")
+    return table
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    return f"{v:.4g}"

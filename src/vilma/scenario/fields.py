@@ -1,0 +1,217 @@
+"""YAML with line numbers, mapped onto frozen parameter dataclasses with precise errors.
+
+Every parameter in vilma is a frozen dataclass with typed fields and checks in
+``__post_init__``; a scenario file is those same fields written as YAML. This
+module reads the YAML keeping each value's line, then builds the dataclasses
+field by field: unknown keys, wrong types and values the dataclass refuses
+become one :class:`SpecError` line, ``file:line: field.path: what (how to fix)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import types
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+Key = tuple[str | int, ...]
+"""Where a value sits in the document: the keys and list indices leading to it."""
+
+
+class SpecError(ValueError):
+    """A bad scenario or parameter file: one line saying what, where and how to fix it."""
+
+
+@dataclass(frozen=True, slots=True)
+class Source:
+    """Where a document came from and the line of each value in it (1-based)."""
+
+    name: str
+    lines: Mapping[Key, int | str]
+    """Line numbers; a value set elsewhere (on the command line) has the text that set it instead."""
+
+    def where(self, key: Key) -> str:
+        """``file:line`` of ``key``, or of its nearest enclosing value that has a line."""
+        for n in range(len(key), -1, -1):
+            line = self.lines.get(key[:n])
+            if isinstance(line, str):
+                return line
+            if line is not None:
+                return f"{self.name}:{line}"
+        return self.name
+
+    def error(self, key: Key, message: str) -> SpecError:
+        """A :class:`SpecError` located at ``key``."""
+        field = dotted(key)
+        return SpecError(f"{self.where(key)}: {field + ': ' if field else ''}{message}")
+
+
+def dotted(key: Key) -> str:
+    """``task.points[2]`` for ``("task", "points", 2)``."""
+    out = ""
+    for k in key:
+        out += f"[{k}]" if isinstance(k, int) else (f".{k}" if out else str(k))
+    return out
+
+
+def load_yaml(text: str, name: str) -> tuple[Any, Source]:
+    """Parse YAML ``text`` (from file ``name``) into plain values and the line of each; duplicate keys are errors."""
+    try:
+        loader = yaml.SafeLoader(text)
+        try:
+            node = loader.get_single_node()
+            data = loader.construct_document(node) if node is not None else None
+        finally:
+            loader.dispose()
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        line = f":{mark.line + 1}" if mark else ""
+        raise SpecError(f"{name}{line}: not valid YAML: {e.problem or e.context}") from None
+    except yaml.YAMLError as e:
+        raise SpecError(f"{name}: not valid YAML: {e}") from None
+    lines: dict[Key, int] = {}
+    if node is not None:
+        _collect_lines(node, (), lines, name)
+    return data, Source(name, lines)
+
+
+def _collect_lines(node: yaml.Node, key: Key, lines: dict[Key, int], name: str) -> None:
+    lines[key] = node.start_mark.line + 1
+    if isinstance(node, yaml.MappingNode):
+        seen: set[str] = set()
+        for k, v in node.value:
+            if not isinstance(k, yaml.ScalarNode):
+                raise SpecError(f"{name}:{k.start_mark.line + 1}: a key must be a plain word")
+            if k.value in seen:
+                raise SpecError(f"{name}:{k.start_mark.line + 1}: {dotted((*key, k.value))}: given twice; keep one")
+            seen.add(k.value)
+            _collect_lines(v, (*key, k.value), lines, name)
+            lines[(*key, k.value)] = k.start_mark.line + 1
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            _collect_lines(v, (*key, i), lines, name)
+
+
+def read_yaml(path: Path) -> tuple[Any, Source]:
+    """:func:`load_yaml` of a file; a missing or unreadable file is a :class:`SpecError`."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(f"{path}: no such file") from None
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not a text file (expected UTF-8 YAML)") from None
+    except OSError as e:
+        raise SpecError(f"{path}: cannot read: {e.strerror}") from None
+    return load_yaml(text, str(path))
+
+
+def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None) -> Any:
+    """An instance of the frozen dataclass ``cls`` from the mapping ``data`` at ``key``.
+
+    Fields not given keep their value in ``base`` (an instance of ``cls``), or ``cls``'s defaults.
+    A nested dataclass field takes a mapping (merged onto its current value); a field typed
+    ``X | None`` with a dataclass ``X`` also takes ``true`` (``X``'s defaults) and ``false`` (None).
+    """
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise src.error(key, f"expected a mapping of {cls.__name__} fields, got {_shown(data)}")
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    hints = typing.get_type_hints(cls)
+    values = {}
+    for name, value in data.items():
+        if not isinstance(name, str):
+            raise src.error(key, f"key {name!r} is not a name (YAML reads on/off/yes/no as true/false: quote it)")
+        k = (*key, name)
+        if name not in fields:
+            raise src.error(k, f"unknown key{_suggest(str(name), fields)}")
+        current = getattr(base, name) if base is not None else _default(fields[name])
+        values[name] = convert(hints[name], value, src, k, current)
+    try:
+        return dataclasses.replace(base, **values) if base is not None else cls(**values)
+    except TypeError as e:  # a required field is missing
+        missing = [n for n, f in fields.items() if n not in values and _default(f) is dataclasses.MISSING]
+        if missing:
+            raise src.error(key, f"missing {', '.join(missing)}") from None
+        raise src.error(key, str(e)) from None
+    except ValueError as e:
+        raise src.error(key, str(e)) from None
+
+
+def _default(f: dataclasses.Field) -> Any:
+    if f.default is not dataclasses.MISSING:
+        return f.default
+    if f.default_factory is not dataclasses.MISSING:
+        return f.default_factory()
+    return dataclasses.MISSING
+
+
+def convert(hint: Any, value: Any, src: Source, key: Key, current: Any = None) -> Any:
+    """``value`` checked against the type ``hint``; ``current`` is the value it replaces (for merging)."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        options = [a for a in args if a is not type(None)]
+        if value is None and len(options) < len(args):
+            return None
+        if len(options) == 1 and dataclasses.is_dataclass(options[0]) and isinstance(value, bool):
+            return options[0]() if value else None
+        errors = []
+        for option in options:
+            try:
+                return convert(option, value, src, key, current)
+            except SpecError as e:
+                errors.append(e)
+        raise errors[-1]
+    if dataclasses.is_dataclass(hint):
+        base = current if isinstance(current, hint) else None
+        return build(hint, value, src, key, base)
+    if origin is tuple:
+        if not isinstance(value, list | tuple):
+            raise src.error(key, f"expected a list, got {_shown(value)}")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(convert(args[0], v, src, (*key, i)) for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise src.error(key, f"expected a list of {len(args)} values, got {len(value)}")
+        return tuple(convert(a, v, src, (*key, i)) for i, (a, v) in enumerate(zip(args, value, strict=True)))
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise src.error(key, f"expected a number, got {_shown(value)}")
+        if not math.isfinite(value):
+            raise src.error(key, f"expected a finite number, got {value}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise src.error(key, f"expected a whole number, got {_shown(value)}")
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise src.error(key, f"expected true or false, got {_shown(value)}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise src.error(key, f"expected text, got {_shown(value)}")
+        return value
+    if hint is Any:
+        return value
+    raise TypeError(f"{dotted(key)}: fields of type {hint!r} cannot be read from YAML")  # a bug in vilma
+
+
+def _shown(value: Any) -> str:
+    if isinstance(value, Mapping):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    return f"{value!r}" if value is not None else "nothing (null)"
+
+
+def _suggest(name: str, known: Mapping[str, Any]) -> str:
+    close = difflib.get_close_matches(name, list(known), n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    return f"{hint} (known: {', '.join(known)})"

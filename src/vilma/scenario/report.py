@@ -1,0 +1,73 @@
+"""PNG plots of a run, as the paper's figures: the path (Figure 12), speed (Figure 11), errors and effort."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+if TYPE_CHECKING:
+    from vilma.scenario.runner import RunResult
+
+PLOTS = ("path.png", "speed.png", "cross_track.png", "effort.png")
+"""The files :func:`plot_run` writes."""
+
+
+def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    """Write :data:`PLOTS` into ``out_dir``; ``speed_log`` (times [s], speeds [m/s]) is overlaid on the speed."""
+    log, name = result.log, result.scenario.name
+    t = log.column("t") - result.t_start
+    x, y = log.column("x"), log.column("y")
+
+    fig, ax = plt.subplots(figsize=(7, 6))
+    if result.path is not None:
+        ax.plot(result.path.xy[:, 0], result.path.xy[:, 1], "r-", lw=1.5, label="trajectory")
+    ax.plot(x, y, "b-", lw=1.0, label="car position")
+    ax.set(xlabel="x [m] (east)", ylabel="y [m] (north)", title=f"{name}: path", aspect="equal")
+    ax.legend()
+    _save(fig, out_dir / "path.png")
+
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ax.plot(t, np.hypot(log.column("vx"), log.column("vy")), "b-", label="vilma speed")
+    ax.plot(t, log.column("target_speed"), "k--", lw=1.0, label="target")
+    if speed_log is not None:
+        ax.plot(speed_log[0], speed_log[1], "r.-", ms=3, lw=0.8, label="original (log)")
+    ax.set(xlabel="time since start [s]", ylabel="speed [m/s]", title=f"{name}: speed")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    _save(fig, out_dir / "speed.png")
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    if result.path is not None:
+        proj = result.path.project_track(np.column_stack([x, y]))
+        ax.plot(proj[:, 0], proj[:, 1], "b-")
+        ax.set(xlabel="distance along the path [m]")
+    else:
+        ax.text(0.5, 0.5, "no path in this task", ha="center", transform=ax.transAxes)
+    ax.set(ylabel="cross-track error [m] (left +)", title=f"{name}: cross-track error")
+    ax.grid(alpha=0.3)
+    _save(fig, out_dir / "cross_track.png")
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    a1.plot(t, np.degrees(log.column("steer")), "b-", label="applied")
+    a1.plot(t, np.degrees(log.column("cmd_steer")), "k--", lw=0.8, label="commanded")
+    a1.set(ylabel="steering [deg]", title=f"{name}: steering and drive")
+    a1.legend()
+    a2.plot(t, log.column("drive_force"), "g-", label="drive force")
+    a2.plot(t, -log.column("brake_force"), "r-", label="brake force")
+    a2.set(xlabel="time since start [s]", ylabel="force [N]")
+    a2.legend()
+    for a in (a1, a2):
+        a.grid(alpha=0.3)
+    _save(fig, out_dir / "effort.png")
+
+
+def _save(fig, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

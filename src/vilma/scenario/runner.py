@@ -1,0 +1,195 @@
+"""Run a scenario headless: the simulator and the self-driver in lockstep, then the scorecard and the files.
+
+The driver runs at its own period (the gcd of its controllers' periods); each
+period the simulator advances that many physics steps, the driver takes the
+readings and its command applies from the next step. Lockstep runs as fast as
+the machine allows; ``realtime`` paces it with :class:`~vilma.sim.Pacer`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+
+from vilma.control.driver import Driver
+from vilma.scenario.drive_log import COLUMNS, DriveLog
+from vilma.scenario.fields import SpecError
+from vilma.scenario.metrics import check_expectations, scorecard
+from vilma.scenario.spec import Scenario, beside, to_yaml
+from vilma.sensors import Readings
+from vilma.sim import Pacer, Simulator
+from vilma.trajectory import Trajectory, load_speed_log
+from vilma.vehicle.state import VehicleState
+
+
+@dataclass
+class RunResult:
+    """A finished run: the scenario, the scorecard and what it failed, the log, where the files are."""
+
+    scenario: Scenario
+    metrics: dict
+    failures: list[str]
+    log: DriveLog
+    path: Trajectory | None
+    """The reference path (for a go-to task: the straight line the driver took)."""
+    t_start: float
+    """Sim time the task began [s]."""
+    out_dir: Path | None = None
+
+    @property
+    def passed(self) -> bool:
+        """Whether the run met its ``expect`` block (and finished its task)."""
+        return not self.failures
+
+
+def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
+    """The start: the ``initial`` block, else the path's first point facing along it, else the origin."""
+    i = scenario.initial
+    x0, y0, yaw0 = 0.0, 0.0, 0.0
+    if path is not None:
+        x0, y0 = (float(v) for v in path.xy[0])
+        yaw0 = path.heading_at(0.0)
+    return VehicleState(x=x0 if i.x is None else i.x, y=y0 if i.y is None else i.y,
+                        yaw=yaw0 if i.yaw is None else i.yaw, vx=i.speed)
+
+
+def run(scenario: Scenario, realtime: float | None = None) -> RunResult:
+    """Drive ``scenario`` to its end; ``realtime`` paces it to that many times real time.
+
+    Raises:
+        SpecError: the scenario's files cannot be used (a bad trajectory file, an impossible order).
+    """
+    path = scenario.reference_path()
+    sim = Simulator(scenario.sim)
+    sim.reset(initial_state(scenario, path))
+    driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
+    log = DriveLog()
+    period = driver.period_ticks
+
+    def step(readings: dict[str, Readings]) -> None:
+        t0 = time.perf_counter()
+        cmd = driver.update(readings)
+        spent = (time.perf_counter() - t0) * 1e6
+        if cmd is not None:
+            sim.command(cmd)
+        log.add_readings(readings)
+        z, st, est = sim.plant, driver.status, driver.estimator.estimate
+        log.add((sim.time_ns * 1e-9, *z, st.target_speed, st.speed,
+                 *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
+                 *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
+
+    wall0 = time.perf_counter()
+    step(sim.advance(period))  # the first readings: the estimator starts
+    task = _start(driver, scenario, path)
+    t_start = sim.time_ns * 1e-9
+    if task is not None:
+        path = task
+    follows = scenario.task.kind != "speed"
+
+    def finished() -> bool:
+        return follows and driver.status.arrived and abs(sim.plant[3]) < scenario.driver.rest_speed
+
+    remaining = scenario.duration - t_start
+    if realtime is None:
+        for _ in range(round(remaining / (period * sim.clock.step_s))):
+            if finished():
+                break
+            step(sim.advance(period))
+    else:
+        Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(remaining, on_period=step,
+                                                                         should_stop=finished)
+    wall = time.perf_counter() - wall0
+    rows = log.rows
+    healthy = bool(np.isfinite(rows[:, 1:10]).all()) and not sim.watchdog_tripped
+    completed = healthy and (finished() if follows else True)
+    metrics = scorecard(log, scenario, path, t_start, completed, wall)
+    failures = check_expectations(metrics, {"completed": True, **scenario.expect})
+    if not completed and scenario.expect.get("completed") is not False:
+        failures[0] = (f"completed: the task did not finish within {scenario.duration:g} s" if healthy
+                       else "completed: the run broke down (NaN or watchdog stop)")
+    return RunResult(scenario, metrics, failures, log, path, t_start)
+
+
+def _start(driver: Driver, scenario: Scenario, path: Trajectory | None) -> Trajectory | None:
+    """Give the driver its task; returns the path it drives when it makes one (go to a point)."""
+    t = scenario.task
+    try:
+        if t.kind == "speed":
+            driver.set_speed(t.speed)
+        elif t.kind == "go_to":
+            driver.go_to(*t.go_to, t.speed)
+            return driver.task.path
+        else:
+            driver.follow(path, t.speed)
+    except ValueError as e:
+        raise SpecError(f"{scenario.file or scenario.name}: task: {e}") from None
+    return None
+
+
+# -- files -----------------------------------------------------------------------------------------------
+
+
+def default_out_dir(scenario: Scenario, root: Path = Path("runs")) -> Path:
+    """``runs/<name>-<timestamp>/``."""
+    return root / f"{scenario.name}-{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}"
+
+
+def write_outputs(result: RunResult, out_dir: Path) -> Path:
+    """Write ``metrics.json``, ``timeseries.csv``, ``scenario.yaml`` and the PNG plots into ``out_dir``."""
+    from vilma.scenario.report import plot_run  # matplotlib only when files are written
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n", encoding="utf-8")
+    (out_dir / "scenario.yaml").write_text(to_yaml(result.scenario), encoding="utf-8")
+    write_timeseries(result.log, out_dir / "timeseries.csv")
+    plot_run(result, out_dir, speed_log(result.scenario))
+    result.out_dir = out_dir
+    return out_dir
+
+
+def speed_log(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
+    """The recorded speed log the scenario compares with (``speed_log`` beside the scenario), or None."""
+    if scenario.speed_log is None:
+        return None
+    p = beside(scenario.file, scenario.speed_log)
+    try:
+        return load_speed_log(p)
+    except (OSError, ValueError) as e:
+        raise SpecError(f"{scenario.file or scenario.name}: speed_log: cannot read {p}: {e}") from None
+
+
+def write_timeseries(log: DriveLog, path: Path) -> None:
+    """One CSV: a row per stamp, the driver's columns at its period and each sensor's fields at its rate.
+
+    Cells without a sample at that stamp are empty. Column names are ``car.<column>`` (the true plant),
+    ``driver.<column>`` (see :data:`~vilma.scenario.drive_log.COLUMNS`) and ``<sensor>.<field>``;
+    ``t_s`` is sim time [s].
+    """
+    rows = log.rows
+    stamps = np.round(rows[:, 0] * 1e9).astype(np.int64)
+    plant = COLUMNS.index("target_speed")
+    groups = [("car", stamps, rows[:, 1:plant], COLUMNS[1:plant]), ("driver", stamps, rows[:, plant:], COLUMNS[plant:])]
+    for name, r in sorted(log.readings().items()):
+        groups.append((name, r.stamp_ns, r.values, r.message.__struct_fields__[1:]))
+    stamps = np.unique(np.concatenate([g[1] for g in groups])) if groups else np.empty(0, np.int64)
+    header = ["t_s"] + [f"{name}.{f}" for name, _, _, fields in groups for f in fields]
+    table = np.full((len(stamps), len(header)), np.nan)
+    table[:, 0] = stamps * 1e-9
+    col = 1
+    for _, st, values, fields in groups:
+        table[np.searchsorted(stamps, st), col:col + len(fields)] = values
+        col += len(fields)
+    tmp = path.with_suffix(".csv.tmp")
+    with tmp.open("w", encoding="utf-8") as f:
+        f.write(",".join(header) + "\n")
+        for start in range(0, len(table), 10_000):
+            block = table[start:start + 10_000]
+            lines = [",".join("" if v != v else repr(v) for v in row) for row in block.tolist()]
+            f.write("\n".join(lines) + "\n")
+    tmp.replace(path)

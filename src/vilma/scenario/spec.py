@@ -1,0 +1,452 @@
+"""Scenario files: YAML validated into the typed objects the simulator and the driver take.
+
+A five-line file is enough::
+
+    task:
+      course: [[0, 0], [100, 0], [100, -30], [50, -20], [60, 0]]
+      speed: 8.33
+    speed_controller: pi_ff
+    path_controller: stanley
+
+Top-level keys (all optional but ``task``):
+
+- ``name``, ``description``: text (name defaults to the file's stem).
+- ``vehicle``: a preset name (``vilma``, ``bmw_320i``), a parameter file (``*.yaml``, relative to the
+  scenario), or a mapping of :class:`~vilma.vehicle.params.VehicleParams` fields with an optional
+  ``preset`` to start from. ``actuators``: :class:`~vilma.vehicle.params.ActuatorParams` fields.
+- ``plant`` (``kinematic`` | ``single_track``), ``integrator`` (``rk4`` | ``euler``), ``step`` [s],
+  ``seed``, ``watchdog_timeout`` [s].
+- ``sensors``: per sensor its parameter fields (``gps: {horizontal_noise: 0.5, rate_hz: 10}``), or
+  ``false`` to remove it; ``origin``: the geodetic origin of the local frame.
+- ``pose``: ``truth`` or ``ekf``. ``speed_controller`` / ``path_controller``: a name, or a mapping with
+  ``type`` and that controller's parameter fields. ``driver``: other
+  :class:`~vilma.control.driver.DriverParams` fields, and ``original: true`` for the shipped program.
+- ``speed_log``: a speed log of the original program to overlay and compare (``data/SpeedLog10.txt``).
+- ``task``: see :class:`TaskSpec`. ``initial``: see :class:`InitialSpec`. ``duration``: the longest
+  drive [s]. ``metrics``: see :class:`MetricsSpec`. ``expect``: pass criteria, ``{key: {min, max}}`` on
+  scorecard keys (``completed: true`` for a boolean).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, DriverParams
+from vilma.core.clock import Clock, RateError, seconds_to_ns
+from vilma.localization import SOURCES
+from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_yaml, read_yaml
+from vilma.sensors import SensorSuite
+from vilma.sensors.gps import GeodeticOrigin
+from vilma.sim import SimConfig
+from vilma.trajectory import Trajectory, TrajectoryFileError, increase_point_count, load_trajectory, resample
+from vilma.trajectory.course import spline_course
+from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE, smooth_banded, smooth_iterative
+from vilma.vehicle import models
+from vilma.vehicle.params import PRESETS, ActuatorParams, VehicleParams, preset
+
+SCORECARD_KEYS = (
+    "completed", "sim_time_s", "wall_time_s", "realtime_factor", "distance_m",
+    "lateral_error_rms_m", "lateral_error_max_m", "lateral_error_p95_m", "heading_error_rms_rad",
+    "speed_rise_time_90_s", "speed_overshoot_pct", "speed_settling_time_2pct_s", "speed_steady_state_error_mps",
+    "speed_error_rms_mps", "steering_rate_rms_radps", "lateral_accel_max_mps2", "longitudinal_jerk_rms_mps3",
+    "pose_error_rms_m", "controller_time_per_step_us",
+)
+"""The scorecard's keys, in order (``metrics.json``)."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SmoothSpec:
+    """The paper's Smooth Trajectory (Algorithm 1)."""
+
+    alpha: float = ALPHA
+    """weight_data [-]"""
+    beta: float = BETA
+    """weight_smooth [-]"""
+    tolerance: float = TOLERANCE
+    """Stop when a sweep changes the points by less than this in total [m]."""
+    solver: str = "iterative"
+    """``iterative`` (the paper's sweeps) or ``banded`` (the same fixed point solved directly)."""
+
+    def __post_init__(self) -> None:
+        if self.solver not in ("iterative", "banded"):
+            raise ValueError(f"solver must be 'iterative' or 'banded', got {self.solver!r}")
+        if not (self.alpha > 0 and self.beta >= 0 and self.tolerance > 0):
+            raise ValueError("alpha must be > 0, beta >= 0 and tolerance > 0")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TaskSpec:
+    """What the driver does. With none of ``go_to``, ``follow``, ``course``: hold ``speed`` straight ahead."""
+
+    speed: float | None = None
+    """Target speed [m/s]; with ``follow`` it may be left out to use the file's own speeds."""
+    go_to: tuple[float, float] | None = None
+    """Drive to this point [m] and stop on it."""
+    follow: str | None = None
+    """Follow this trajectory file (original ``x y`` format, CSV or GPX), relative to the scenario file."""
+    course: tuple[tuple[float, float], ...] | None = None
+    """Follow a smooth spline through these points [m]."""
+    densify: int = 0
+    """Apply Increase Point Count this many times (n -> 2n - 1 each)."""
+    smooth: SmoothSpec | None = None
+    """Smooth the path as the paper (``true`` for the original's parameters)."""
+    resample: float | None = None
+    """Resample the path at this spacing [m] (after densify and smooth)."""
+
+    def __post_init__(self) -> None:
+        given = [k for k in ("go_to", "follow", "course") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise ValueError(f"give one of go_to, follow, course, not {' and '.join(given)}")
+        if self.speed is None and not self.follow:
+            raise ValueError("speed is missing: give the target speed in m/s")
+        if self.speed is not None and not self.speed > 0:
+            raise ValueError(f"speed must be > 0 m/s, got {self.speed}")
+        if self.course is not None and len(self.course) < 2:
+            raise ValueError("course needs at least 2 points")
+        if self.densify < 0:
+            raise ValueError(f"densify must be >= 0, got {self.densify}")
+        if self.resample is not None and not self.resample > 0:
+            raise ValueError(f"resample spacing must be > 0 m, got {self.resample}")
+
+    @property
+    def kind(self) -> str:
+        """``speed``, ``go_to``, ``follow`` or ``course``."""
+        return next((k for k in ("go_to", "follow", "course") if getattr(self, k) is not None), "speed")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class InitialSpec:
+    """Where the car starts; unset position and heading: the path's first point, facing along it (else 0)."""
+
+    x: float | None = None
+    """[m]"""
+    y: float | None = None
+    """[m]"""
+    yaw: float | None = None
+    """[rad], counter-clockwise from east."""
+    speed: float = 0.0
+    """Forward speed [m/s]."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MetricsSpec:
+    """How the scorecard is measured."""
+
+    skip: float = 2.0
+    """Path errors are counted after this much sim time [s]."""
+    settle_band: float = 0.02
+    """Settling band of the speed step, a fraction of the target [-]."""
+    steady_window: float = 5.0
+    """The steady-state speed error is the mean over this last part of the run [s]."""
+
+    def __post_init__(self) -> None:
+        if not (self.skip >= 0 and self.settle_band > 0 and self.steady_window > 0):
+            raise ValueError("skip must be >= 0 s, settle_band > 0 and steady_window > 0 s")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Bound:
+    """A pass criterion on a scorecard value."""
+
+    min: float | None = None
+    max: float | None = None
+
+    def check(self, value: Any) -> bool:
+        """Whether ``value`` is within the bound (None or NaN never is)."""
+        if value is None or isinstance(value, bool) or not math.isfinite(value):
+            return False
+        return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Scenario:
+    """A validated scenario: everything a run needs."""
+
+    name: str
+    description: str = ""
+    file: Path | None = None
+    """The file it came from (relative paths in it are relative to its folder)."""
+    sim: SimConfig = field(default_factory=SimConfig)
+    driver: DriverParams = DriverParams()
+    task: TaskSpec
+    initial: InitialSpec = InitialSpec()
+    duration: float = 120.0
+    """Longest drive [s]."""
+    metrics: MetricsSpec = MetricsSpec()
+    expect: dict[str, Bound | bool] = field(default_factory=dict)
+    speed_log: str | None = None
+    """A speed log of the original program (time, speed) to compare with, relative to the scenario file."""
+
+    def reference_path(self) -> Trajectory | None:
+        """The path the task follows (loaded, densified, smoothed, resampled), or None for a speed task."""
+        t = self.task
+        if t.kind == "speed":
+            return None
+        if t.kind == "go_to":
+            return None  # the driver plans it from where the car is
+        if t.kind == "course":
+            path = spline_course(t.course)
+        else:
+            try:
+                path = load_trajectory(self.trajectory_file())
+            except TrajectoryFileError as e:
+                raise SpecError(str(e)) from None
+        for _ in range(t.densify):
+            path = increase_point_count(path)
+        if t.smooth is not None:
+            s = t.smooth
+            xy = (smooth_iterative(path.xy, s.alpha, s.beta, s.tolerance) if s.solver == "iterative"
+                  else smooth_banded(path.xy, s.alpha, s.beta))
+            path = Trajectory(xy, path.speed)
+        if t.resample is not None:
+            path = resample(path, t.resample)
+        return path
+
+    def trajectory_file(self) -> Path:
+        """The ``follow`` file, resolved against the scenario's folder."""
+        return beside(self.file, self.task.follow)
+
+
+def beside(file: Path | None, name: str) -> Path:
+    """``name`` resolved against the folder of ``file`` (unless absolute)."""
+    p = Path(name).expanduser()
+    return p if p.is_absolute() or file is None else file.parent / p
+
+
+TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "integrator", "step", "seed",
+            "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
+            "task", "initial", "duration", "metrics", "expect", "speed_log")
+
+
+def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> Scenario:
+    """Read and validate the scenario file ``path``; ``overrides`` maps dotted keys to YAML values (``--set``)."""
+    path = Path(path)
+    data, src = read_yaml(path)
+    return parse_scenario(data, src, name=path.stem, file=path, overrides=overrides)
+
+
+def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | None = None,
+                   overrides: dict[str, str] | None = None) -> Scenario:
+    """A :class:`Scenario` from parsed YAML ``data`` (see the module docstring for the keys)."""
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise src.error((), "a scenario must be a mapping of keys such as task, vehicle, speed_controller")
+    data, src = apply_overrides(data, src, overrides or {})
+    for k in data:
+        if k not in TOP_KEYS:
+            raise src.error((k,), f"unknown key; known: {', '.join(TOP_KEYS)}")
+    if "task" not in data:
+        raise src.error((), "no task: add e.g. 'task: {speed: 10}' or 'task: {follow: path.txt, speed: 5}'")
+
+    def get(key: str, hint: Any, default: Any) -> Any:
+        return convert(hint, data[key], src, (key,), default) if key in data else default
+
+    base = Path(file).parent if file is not None else Path.cwd()
+    vehicle = _vehicle(data.get("vehicle", "vilma"), src, base)
+    if "actuators" in data:
+        vehicle = dataclasses.replace(vehicle, actuators=build(ActuatorParams, data["actuators"], src, ("actuators",),
+                                                                vehicle.actuators))
+    sensors = build(SensorSuite, data.get("sensors"), src, ("sensors",), SensorSuite())
+    if "origin" in data:
+        origin = build(GeodeticOrigin, data["origin"], src, ("origin",))
+        if sensors.gps is None:
+            raise src.error(("origin",), "an origin needs the gps sensor; remove 'origin' or 'sensors.gps: false'")
+        sensors = dataclasses.replace(sensors, gps=dataclasses.replace(sensors.gps, origin=origin))
+    model = get("plant", str, "single_track")
+    if model not in models.MODELS:
+        raise src.error(("plant",), f"unknown plant {model!r}; use one of {', '.join(models.MODELS)}")
+    try:
+        sim = SimConfig(vehicle=vehicle, model=model, integrator=get("integrator", str, "rk4"),
+                        step=get("step", float, 0.01), sensors=sensors, seed=get("seed", int, 0),
+                        watchdog_timeout=get("watchdog_timeout", float, 0.5))
+    except ValueError as e:
+        culprit = next((k for k, word in (("step", "step"), ("integrator", "integrator"),
+                                          ("watchdog_timeout", "watchdog")) if word in str(e)), None)
+        raise src.error((culprit,) if culprit else (), str(e)) from None
+    driver = _driver(data, src)
+    _check_periods(sim, driver, src)
+    task = build(TaskSpec, data["task"], src, ("task",))
+    duration = get("duration", float, 120.0)
+    if not duration > 0:
+        raise src.error(("duration",), f"must be > 0 s, got {duration}")
+    scenario = Scenario(
+        name=get("name", str, name), description=get("description", str, ""), file=file, sim=sim, driver=driver,
+        task=task, initial=build(InitialSpec, data.get("initial"), src, ("initial",)), duration=duration,
+        metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
+        speed_log=get("speed_log", str, None))
+    if task.kind == "follow" and not scenario.trajectory_file().is_file():
+        raise src.error(("task", "follow"), f"no such trajectory file {scenario.trajectory_file()}")
+    return scenario
+
+
+def _check_periods(sim: SimConfig, driver: DriverParams, src: Source) -> None:
+    """Every sensor rate and controller period must be a whole number of physics steps."""
+    clock = Clock(seconds_to_ns(sim.step))
+    for f in dataclasses.fields(SensorSuite):
+        sensor = getattr(sim.sensors, f.name)
+        if sensor is not None:
+            try:
+                clock.period_ticks(sensor.rate_hz, f"sensor {f.name}")
+            except RateError as e:
+                raise src.error(("sensors", f.name, "rate_hz"), str(e)) from None
+    for key in ("speed_controller", "path_controller"):
+        name = getattr(driver, key)
+        try:
+            clock.period_ticks(1.0 / getattr(driver, name).period, f"{name} period")
+        except RateError as e:
+            raise src.error((key, "period"), str(e)) from None
+
+
+def _vehicle(value: Any, src: Source, base: Path) -> VehicleParams:
+    key: Key = ("vehicle",)
+    if isinstance(value, str) and value.endswith((".yaml", ".yml")):
+        data, src = read_yaml(base / value)
+        key = ()
+    else:
+        data = value
+    if isinstance(data, str):
+        if data not in PRESETS:
+            raise src.error(key, f"unknown vehicle preset {data!r}; use one of {', '.join(PRESETS)} or a .yaml file")
+        return preset(data)
+    if not isinstance(data, dict):
+        raise src.error(key, "expected a preset name, a .yaml parameter file or a mapping of vehicle parameters")
+    data = dict(data)
+    start = data.pop("preset", None)
+    if start is not None and start not in PRESETS:
+        raise src.error((*key, "preset"), f"unknown vehicle preset {start!r}; use one of {', '.join(PRESETS)}")
+    return build(VehicleParams, data, src, key, preset(start) if start else None)
+
+
+def _driver(data: dict, src: Source) -> DriverParams:
+    raw = data.get("driver") or {}
+    if not isinstance(raw, dict):
+        raise src.error(("driver",), "expected a mapping of driver parameters")
+    raw = dict(raw)
+    original = convert(bool, raw.pop("original", False), src, ("driver", "original"))
+    params = build(DriverParams, raw, src, ("driver",), DriverParams.original() if original else DriverParams())
+    for key, known in (("speed_controller", SPEED_CONTROLLERS), ("path_controller", PATH_CONTROLLERS)):
+        if key not in data:
+            continue
+        value = data[key]
+        gains: dict = {}
+        if isinstance(value, dict):
+            gains = dict(value)
+            value = gains.pop("type", None)
+            if value is None:
+                raise src.error((key,), f"missing type: one of {', '.join(known)}")
+        if value not in known:
+            raise src.error((key,), f"unknown {key} {value!r}; use one of {', '.join(known)}")
+        gains_key = (key,)  # gains sit beside 'type' in the file
+        current = getattr(params, value)
+        params = dataclasses.replace(params, **{key: value,
+                                                value: build(type(current), gains, src, gains_key, current)})
+    if "pose" in data:
+        pose = convert(str, data["pose"], src, ("pose",))
+        if pose not in SOURCES:
+            raise src.error(("pose",), f"unknown pose source {pose!r}; use one of {', '.join(SOURCES)}")
+        params = dataclasses.replace(params, pose_source=pose)
+    return params
+
+
+def _expect(raw: Any, src: Source) -> dict[str, Bound | bool]:
+    if raw is None:
+        return {}
+    if not isinstance(raw, dict):
+        raise src.error(("expect",), "expected a mapping such as {lateral_error_rms_m: {max: 0.1}}")
+    out: dict[str, Bound | bool] = {}
+    for k, v in raw.items():
+        if k not in SCORECARD_KEYS:
+            raise src.error(("expect", k), f"not a scorecard key; use one of {', '.join(SCORECARD_KEYS)}")
+        if k == "completed":
+            out[k] = convert(bool, v, src, ("expect", k))
+        else:
+            bound = build(Bound, v, src, ("expect", k))
+            if bound.min is None and bound.max is None:
+                raise src.error(("expect", k), "give min, max or both")
+            out[k] = bound
+    return out
+
+
+def apply_overrides(data: dict, src: Source, overrides: dict[str, str]) -> tuple[dict, Source]:
+    """``data`` with each dotted key set to its YAML value; errors name the ``--set`` they came from."""
+    if not overrides:
+        return data, src
+    data = _deep_copy(data)
+    lines = dict(src.lines)
+    for dotted_key, text in overrides.items():
+        label = f"--set {dotted_key}={text}"
+        parts = dotted_key.split(".")
+        if not all(parts):
+            raise SpecError(f"{label}: the key must be dotted names such as task.speed")
+        try:
+            value, _ = load_yaml(text, label)
+        except SpecError:
+            value = text  # not YAML: take it as text
+        node = data
+        for i, part in enumerate(parts[:-1]):
+            nxt = node.get(part)
+            if isinstance(nxt, str) and part in ("speed_controller", "path_controller"):
+                nxt = {"type": nxt}  # --set speed_controller.kp=... on a file that names only the type
+            if nxt is None:
+                nxt = {}
+            if not isinstance(nxt, dict):
+                raise SpecError(f"{label}: {'.'.join(parts[:i + 1])} is not a mapping in the scenario")
+            node[part] = nxt
+            node = nxt
+        node[parts[-1]] = value
+        lines[tuple(parts)] = label
+    return data, Source(src.name, lines)
+
+
+def _deep_copy(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _deep_copy(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_deep_copy(v) for v in value]
+    return value
+
+
+def to_yaml(scenario: Scenario) -> str:
+    """The resolved scenario as YAML that :func:`load_scenario` reads back to an equal scenario."""
+
+    def plain(v: Any) -> Any:
+        if dataclasses.is_dataclass(v):
+            return {f.name: plain(getattr(v, f.name)) for f in dataclasses.fields(v)}
+        if isinstance(v, tuple | list):
+            return [plain(x) for x in v]
+        if isinstance(v, dict):
+            return {k: plain(x) for k, x in v.items()}
+        return v
+
+    s = scenario
+    d = s.driver
+    task = plain(s.task)
+    if s.task.follow is not None:
+        task["follow"] = str(s.trajectory_file().resolve())
+    out = {
+        "name": s.name, "description": s.description, "vehicle": plain(s.sim.vehicle), "plant": s.sim.model,
+        "integrator": s.sim.integrator, "step": s.sim.step, "seed": s.sim.seed,
+        "watchdog_timeout": s.sim.watchdog_timeout,
+        "sensors": {k: (plain(v) if v is not None else False) for k, v in
+                    ((f.name, getattr(s.sim.sensors, f.name)) for f in dataclasses.fields(SensorSuite))},
+        "pose": d.pose_source,
+        "speed_controller": {"type": d.speed_controller, **plain(getattr(d, d.speed_controller))},
+        "path_controller": {"type": d.path_controller, **plain(getattr(d, d.path_controller))},
+        "driver": {f.name: plain(getattr(d, f.name)) for f in dataclasses.fields(d)
+                   if f.name not in ("speed_controller", "path_controller", "pose_source", *SPEED_CONTROLLERS,
+                                     *PATH_CONTROLLERS)},
+        "task": {k: v for k, v in task.items() if v is not None},
+        "initial": {k: v for k, v in plain(s.initial).items() if v is not None},
+        "duration": s.duration, "metrics": plain(s.metrics),
+        **({"speed_log": str(beside(s.file, s.speed_log).resolve())} if s.speed_log else {}),
+        "expect": {k: (v if isinstance(v, bool) else {b: x for b, x in plain(v).items() if x is not None})
+                   for k, v in s.expect.items()},
+    }
+    return yaml.safe_dump(out, sort_keys=False)

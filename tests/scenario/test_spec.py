@@ -1,0 +1,161 @@
+"""Scenario files: defaults, every bundled file, round trips, overrides and located errors."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vilma.control.speed import PiFfParams
+from vilma.scenario import SpecError, load_scenario, parse_scenario, to_yaml
+from vilma.scenario.batch import BUNDLED
+from vilma.scenario.fields import load_yaml
+from vilma.scenario.spec import Bound
+from vilma.sensors import SensorSuite
+from vilma.vehicle.params import vilma
+
+FIVE_LINES = """\
+task:
+  course: [[0, 0], [100, 0], [100, -30], [50, -20], [60, 0]]
+  speed: 8.33
+speed_controller: pi_ff
+path_controller: stanley
+"""
+
+
+def _write(tmp_path: Path, text: str, name: str = "s.yaml") -> Path:
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def test_a_five_line_file_gets_sensible_defaults(tmp_path):
+    s = load_scenario(_write(tmp_path, FIVE_LINES))
+    assert s.name == "s" and s.task.kind == "course" and s.task.speed == 8.33
+    assert s.sim.vehicle == vilma() and s.sim.model == "single_track" and s.sim.step == 0.01
+    assert s.sim.sensors == SensorSuite() and s.driver.pose_source == "truth"
+    assert (s.driver.speed_controller, s.driver.path_controller) == ("pi_ff", "stanley")
+    assert s.metrics.skip == 2.0 and s.expect == {}
+
+
+def test_everything_can_be_set(tmp_path):
+    (tmp_path / "car.yaml").write_text("preset: bmw_320i\nmass: 1500\n", encoding="utf-8")
+    (tmp_path / "p.txt").write_text("0 0\n10 0\n20 5\n", encoding="utf-8")
+    s = load_scenario(_write(tmp_path, """\
+name: full
+vehicle: car.yaml
+actuators: {dead_time: 0.1}
+plant: kinematic
+step: 0.005
+seed: 7
+sensors: {odometry: false, gps: {rate_hz: 5, horizontal_noise: 0.3}}
+origin: {latitude: 48.1, longitude: 11.6, altitude: 500}
+pose: ekf
+speed_controller: {type: pi_ff, kp: 1.5}
+path_controller: {type: pure_pursuit, lookahead_min: 4}
+driver: {max_lateral_accel: 3.0}
+task: {follow: p.txt, speed: 4, densify: 2, smooth: {beta: 0.2}, resample: 0.5}
+initial: {yaw: 0.1}
+duration: 30
+metrics: {skip: 1}
+expect: {completed: true, lateral_error_rms_m: {max: 0.2}}
+"""))
+    v = s.sim.vehicle
+    assert v.name.lower().startswith("bmw") and v.mass == 1500 and v.actuators.dead_time == 0.1
+    assert s.sim.model == "kinematic" and s.sim.step == 0.005 and s.sim.seed == 7
+    assert s.sim.sensors.odometry is None and s.sim.sensors.gps.rate_hz == 5
+    assert s.sim.sensors.gps.origin.latitude == 48.1
+    assert s.driver.pose_source == "ekf" and s.driver.pi_ff == PiFfParams(kp=1.5)
+    assert s.driver.path_controller == "pure_pursuit" and s.driver.pure_pursuit.lookahead_min == 4
+    assert s.driver.max_lateral_accel == 3.0 and s.initial.yaw == 0.1 and s.duration == 30
+    assert s.expect == {"completed": True, "lateral_error_rms_m": Bound(max=0.2)}
+    path = s.reference_path()
+    # 3 points, Generate Points twice: 3 -> 5 -> 9 points; then resampled every 0.5 m
+    assert path.length == pytest.approx(10 + 5 * 5**0.5, rel=0.05)
+    gaps = np.diff(path.s)
+    assert np.allclose(gaps[:-1], 0.5, atol=1e-3) and gaps[-1] <= 0.5 + 1e-9  # chords of 0.5 m arcs
+
+
+@pytest.mark.parametrize("path", sorted(BUNDLED.glob("*.yaml")), ids=lambda p: p.stem)
+def test_bundled_scenarios_load_and_round_trip(path, tmp_path):
+    s = load_scenario(path)
+    assert s.name == path.stem and s.description
+    again = load_scenario(_write(tmp_path, to_yaml(s), "resolved.yaml"))
+    if s.task.follow:  # the resolved file names the trajectory by its absolute path
+        assert again.trajectory_file() == s.trajectory_file().resolve()
+        again = dataclasses.replace(again, task=s.task)
+    if s.speed_log:
+        assert Path(again.speed_log) == (path.parent / s.speed_log).resolve()
+        again = dataclasses.replace(again, speed_log=s.speed_log)
+    assert dataclasses.replace(again, file=None) == dataclasses.replace(s, file=None)
+    if s.task.kind in ("follow", "course"):
+        assert len(s.reference_path()) > 10
+
+
+def test_overrides_set_nested_values_and_controller_gains(tmp_path):
+    p = _write(tmp_path, FIVE_LINES)
+    s = load_scenario(p, {"task.speed": "5", "speed_controller.kp": "2.5", "sensors.gps": "false", "pose": "truth"})
+    assert s.task.speed == 5.0 and s.driver.pi_ff.kp == 2.5 and s.sim.sensors.gps is None
+    with pytest.raises(SpecError, match=r"^--set task\.speed=fast: task\.speed: expected a number, got 'fast'$"):
+        load_scenario(p, {"task.speed": "fast"})
+    with pytest.raises(SpecError, match=r"^--set task\.speed\.x=1: task\.speed is not a mapping"):
+        load_scenario(p, {"task.speed.x": "1"})
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("speed_controller: pi_ff\n", "s.yaml:1: no task"),
+    ("task: {speed: 5}\nvehicle: tesla\n", "s.yaml:2: vehicle: unknown vehicle preset 'tesla'"),
+    ("task: {speed: 5}\nvehicle: {preset: vilma, mas: 1}\n", "s.yaml:2: vehicle.mas: unknown key; did you mean 'mass'"),
+    ("task: {speed: 5}\nplant: mujoco\n", "s.yaml:2: plant: unknown plant 'mujoco'"),
+    ("task: {speed: 5}\nstep: 0.02\n", "s.yaml:2: step: physics step must be in (0, 0.01] s"),
+    ("task: {speed: 5}\nsensors: {imu: {rate_hz: 30}}\n",
+     "s.yaml:2: sensors.imu.rate_hz: sensor imu: 30 Hz is a period of 33.3333 ms, not a whole multiple"),
+    ("task: {speed: 5}\npose: gps\n", "s.yaml:2: pose: unknown pose source 'gps'"),
+    ("task: {speed: 5}\nspeed_controller: {kp: 1}\n", "s.yaml:2: speed_controller: missing type"),
+    ("task: {speed: 5}\npath_controller: lqr\n", "s.yaml:2: path_controller: unknown path_controller 'lqr'"),
+    ("task: {speed: 5, go_to: [1, 2], course: [[0, 0], [1, 1]]}\n",
+     "s.yaml:1: task: give one of go_to, follow, course, not go_to and course"),
+    ("task: {course: [[0, 0], [1, 1]]}\n", "s.yaml:1: task: speed is missing"),
+    ("task: {follow: missing.txt, speed: 2}\n", "s.yaml:1: task.follow: no such trajectory file"),
+    ("task: {speed: 5}\nduration: 0\n", "s.yaml:2: duration: must be > 0 s"),
+    ("task: {speed: 5}\nexpect: {lateral_error: {max: 1}}\n", "s.yaml:2: expect.lateral_error: not a scorecard key"),
+    ("task: {speed: 5}\nexpect: {distance_m: {}}\n", "s.yaml:2: expect.distance_m: give min, max or both"),
+    ("task: {speed: 5}\nsensors: {gps: false}\norigin: {latitude: 1, longitude: 2}\n",
+     "s.yaml:3: origin: an origin needs the gps sensor"),
+    ("task: {speed: 5}\nspeeed: 3\n", "s.yaml:2: speeed: unknown key; known: name"),
+])
+def test_bad_files_give_one_located_line(tmp_path, text, message):
+    with pytest.raises(SpecError) as e:
+        load_scenario(_write(tmp_path, text))
+    assert str(e.value).startswith(str(tmp_path / message)), str(e.value)
+    assert "\n" not in str(e.value)
+
+
+def test_missing_and_binary_files(tmp_path):
+    with pytest.raises(SpecError, match="no such file"):
+        load_scenario(tmp_path / "nope.yaml")
+    p = tmp_path / "bin.yaml"
+    p.write_bytes(b"\xff\xfe\x00task")
+    with pytest.raises(SpecError, match="not a text file"):
+        load_scenario(p)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.dictionaries(st.sampled_from(["task", "vehicle", "pose", "step", "seed", "sensors", "duration", "expect",
+                                        "speed_controller", "initial"]),
+                       st.recursive(st.none() | st.booleans() | st.floats() | st.integers(-5, 50)
+                                    | st.sampled_from(["vilma", "pi_ff", "ekf", "stanley", "x"]),
+                                    lambda c: st.lists(c, max_size=3) | st.dictionaries(
+                                        st.sampled_from(["speed", "go_to", "type", "kp", "gps", "rate_hz", "max"]),
+                                        c, max_size=3), max_leaves=8)))
+def test_random_scenarios_load_or_fail_cleanly(data):
+    try:
+        s = parse_scenario(data, load_yaml("", "r.yaml")[1])
+    except SpecError as e:
+        assert str(e).startswith("r.yaml")
+        return
+    assert s.task.kind in ("speed", "go_to", "follow", "course")
