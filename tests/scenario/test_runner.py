@@ -15,19 +15,18 @@ from vilma.cli import main
 from vilma.scenario import SCORECARD_KEYS, load_scenario
 from vilma.scenario.batch import BUNDLED, find_scenario, parse_sets
 from vilma.scenario.drive_log import COLUMNS
-from vilma.scenario.runner import run, write_outputs
+from vilma.scenario.runner import run
 from vilma.trajectory import load_speed_log
 
 
 def test_paper_fig11_at_10_ms_matches_the_original_log(tmp_path):
     s = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml")
-    r = run(s)
+    r = run(s, out_dir=tmp_path)
     t_log, v_log = load_speed_log(BUNDLED / "data" / "SpeedLog10.txt")
     assert r.passed and r.metrics["completed"]
     assert r.metrics["speed_rise_time_90_s"] == pytest.approx(time_to(t_log, v_log, 9.0), rel=0.25)
     assert r.metrics["speed_overshoot_pct"] < 6.0
     assert r.metrics["sim_time_s"] == pytest.approx(40.0)
-    write_outputs(r, tmp_path)
     names = {p.name for p in tmp_path.iterdir()}
     assert {"metrics.json", "timeseries.csv", "scenario.yaml", "path.png", "speed.png", "cross_track.png",
             "effort.png"} <= names
@@ -40,12 +39,14 @@ def test_paper_fig11_at_10_ms_matches_the_original_log(tmp_path):
     gps = [r for r in rows if r.split(",")[cols.index("gps.x")]]
     assert len(gps) == 40 * 10  # a fix every 100 ms of the 40 s, at its own rate
     assert gps[0].startswith("0.1,")
+    imu = [r for r in rows if r.split(",")[cols.index("imu.wz")]]
+    driver = [r for r in rows if r.split(",")[cols.index("driver.target_speed")]]
+    assert len(imu) == 40 * 100 and len(driver) == len(r.log)  # IMU at 100 Hz, the driver every period
 
 
 def test_a_resolved_scenario_repeats_bit_for_bit(tmp_path):
     s = load_scenario(BUNDLED / "course_30kmh_ekf.yaml", {"duration": "12"})
-    first = run(s)
-    write_outputs(first, tmp_path)
+    first = run(s, out_dir=tmp_path)
     again = run(load_scenario(tmp_path / "scenario.yaml"))
     keep = [i for i, c in enumerate(COLUMNS) if c != "controller_us"]
     assert np.array_equal(first.log.rows[:, keep], again.log.rows[:, keep], equal_nan=True)

@@ -13,7 +13,7 @@ from rich.table import Table
 from rich.text import Text
 
 from vilma.scenario.fields import SpecError
-from vilma.scenario.runner import RunResult, default_out_dir, run, write_outputs
+from vilma.scenario.runner import RunResult, default_out_dir, run
 from vilma.scenario.spec import Scenario, load_scenario
 
 BUNDLED = Path(__file__).resolve().parent.parent / "scenarios"
@@ -83,8 +83,7 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
         task = bar.add_task("running", total=len(jobs))
         for job in jobs:
             bar.update(task, description=job.scenario.name + (f" {job.label}" if job.label else ""))
-            result = run(job.scenario, realtime)
-            write_outputs(result, _out_dir(job, out, len(jobs)))
+            result = run(job.scenario, realtime, _out_dir(job, out, len(jobs)))
             results.append(result)
             bar.advance(task)
     return results

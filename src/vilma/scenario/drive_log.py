@@ -1,15 +1,19 @@
-"""What a run keeps: the car and the driver at every control period, and every sensor reading at its rate.
+"""What a run keeps: the car and the driver at every control period; the sensors streamed to a CSV.
 
-Held in growing numpy buffers (one float64 row a period, readings as the
-simulator's arrays), never as one Python object a sample: an hour at default
-rates is a few tens of MB.
+The rows live in a growing numpy buffer (one float64 row a period: an hour is
+about 30 MB), never one Python object a sample. Sensor readings are not kept:
+:class:`TimeseriesWriter` merges them with the rows and appends them to
+``timeseries.csv`` every few hundred periods, so memory stays flat however
+long the drive.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
-from vilma.sensors import Readings
+from vilma.sensors import Readings, Sensor
 
 COLUMNS = (
     "t",  # sim time [s]
@@ -21,20 +25,16 @@ COLUMNS = (
     "controller_us",  # wall time of the driver's update [us]
 )
 """Columns of :attr:`DriveLog.rows`, with units."""
-
-
-_CHUNK = 256
-"""Simulator calls whose readings are joined into one array."""
+PLANT_COLUMNS = COLUMNS[1:COLUMNS.index("target_speed")]
+"""The columns of the true plant (``car.*`` in the CSV); the rest are the driver's (``driver.*``)."""
 
 
 class DriveLog:
-    """Rows of :data:`COLUMNS` a control period, and readings by sensor name."""
+    """Rows of :data:`COLUMNS`, one a control period."""
 
     def __init__(self, capacity: int = 4096) -> None:
         self._rows = np.empty((capacity, len(COLUMNS)))
         self._n = 0
-        self._readings: dict[str, list[Readings]] = {}  # joined chunks, then the latest calls' readings
-        self._chunks: dict[str, int] = {}
 
     def __len__(self) -> int:
         return self._n
@@ -46,17 +46,6 @@ class DriveLog:
         self._rows[self._n] = row
         self._n += 1
 
-    def add_readings(self, readings: dict[str, Readings]) -> None:
-        """Keep one simulator call's readings."""
-        for name, r in readings.items():
-            if len(r):
-                parts = self._readings.setdefault(name, [])
-                parts.append(r)
-                done = self._chunks.get(name, 0)
-                if len(parts) - done >= _CHUNK:  # join the latest calls: arrays, not objects, pile up
-                    parts[done:] = [Readings.concat(parts[done:])]
-                    self._chunks[name] = done + 1
-
     @property
     def rows(self) -> np.ndarray:
         """The rows so far, (n, len(COLUMNS)) (a view)."""
@@ -66,6 +55,68 @@ class DriveLog:
         """One column of :attr:`rows`, (n,)."""
         return self.rows[:, COLUMNS.index(name)]
 
-    def readings(self) -> dict[str, Readings]:
-        """Every reading of each sensor, joined in time order."""
-        return {name: Readings.concat(parts) for name, parts in self._readings.items()}
+
+class TimeseriesWriter:
+    """Streams one CSV: a row per stamp, the log's columns at the control period, each sensor at its rate.
+
+    Column names are ``t_s`` (sim time [s]), ``car.<column>`` (the true plant), ``driver.<column>`` and
+    ``<sensor>.<field>``; a cell is empty where that signal has no sample at that stamp. The file is
+    written as ``<path>.part`` and renamed by :meth:`close`.
+    """
+
+    BLOCK = 256
+    """Control periods merged and written at a time."""
+
+    def __init__(self, path: Path, sensors: list[Sensor], log: DriveLog) -> None:
+        self.path, self.log = path, log
+        self._written = 0
+        self._names = sorted(s.name for s in sensors)
+        fields = {s.name: s.message.__struct_fields__[1:] for s in sensors}
+        self._widths = [len(fields[n]) for n in self._names]
+        driver = COLUMNS[1 + len(PLANT_COLUMNS):]
+        header = (["t_s"] + [f"car.{c}" for c in PLANT_COLUMNS] + [f"driver.{c}" for c in driver]
+                  + [f"{n}.{f}" for n in self._names for f in fields[n]])
+        self._width = len(header)
+        self._part = path.with_name(path.name + ".part")
+        self._file = self._part.open("w", encoding="utf-8")
+        self._file.write(",".join(header) + "\n")
+        self._readings: dict[str, list[Readings]] = {n: [] for n in self._names}
+
+    def add(self, readings: dict[str, Readings]) -> None:
+        """The readings of one control period, after its row went into the log."""
+        for name, r in readings.items():
+            if len(r):
+                self._readings[name].append(r)
+        if len(self.log) - self._written >= self.BLOCK:
+            self._flush()
+
+    def _flush(self) -> None:
+        rows = self.log.rows[self._written:]
+        self._written += len(rows)
+        groups = [(np.round(rows[:, 0] * 1e9).astype(np.int64), rows[:, 1:])]
+        for name, width in zip(self._names, self._widths, strict=True):
+            parts = self._readings[name]
+            r = Readings.concat(parts) if parts else None
+            groups.append((r.stamp_ns, r.values) if r is not None else (np.empty(0, np.int64), np.empty((0, width))))
+        stamps = np.unique(np.concatenate([g[0] for g in groups]))
+        table = np.full((len(stamps), self._width), np.nan)
+        table[:, 0] = stamps * 1e-9
+        col = 1
+        for st, values in groups:
+            table[np.searchsorted(stamps, st), col:col + values.shape[1]] = values
+            col += values.shape[1]
+        self._file.write("".join(",".join("" if v != v else repr(v) for v in line) + "\n" for line in table.tolist()))
+        for parts in self._readings.values():
+            parts.clear()
+
+    def close(self) -> Path:
+        """Write what is left and put the file in place; returns its path."""
+        self._flush()
+        self._file.close()
+        self._part.replace(self.path)
+        return self.path
+
+    def abort(self) -> None:
+        """Drop the partial file (the run failed)."""
+        self._file.close()
+        self._part.unlink(missing_ok=True)

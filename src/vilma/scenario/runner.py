@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from vilma.control.driver import Driver
-from vilma.scenario.drive_log import COLUMNS, DriveLog
+from vilma.scenario.drive_log import DriveLog, TimeseriesWriter
 from vilma.scenario.fields import SpecError
 from vilma.scenario.metrics import check_expectations, scorecard
 from vilma.scenario.spec import Scenario, beside, to_yaml
@@ -59,8 +59,10 @@ def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
                         yaw=yaw0 if i.yaw is None else i.yaw, vx=i.speed)
 
 
-def run(scenario: Scenario, realtime: float | None = None) -> RunResult:
+def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None = None) -> RunResult:
     """Drive ``scenario`` to its end; ``realtime`` paces it to that many times real time.
+
+    With ``out_dir``, the run's files go there (:func:`write_outputs`), the timeseries streamed as it runs.
 
     Raises:
         SpecError: the scenario's files cannot be used (a bad trajectory file, an impossible order).
@@ -70,7 +72,10 @@ def run(scenario: Scenario, realtime: float | None = None) -> RunResult:
     sim.reset(initial_state(scenario, path))
     driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
     log = DriveLog()
-    period = driver.period_ticks
+    series = None
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        series = TimeseriesWriter(out_dir / "timeseries.csv", sim.sensors, log)
 
     def step(readings: dict[str, Readings]) -> None:
         t0 = time.perf_counter()
@@ -78,12 +83,29 @@ def run(scenario: Scenario, realtime: float | None = None) -> RunResult:
         spent = (time.perf_counter() - t0) * 1e6
         if cmd is not None:
             sim.command(cmd)
-        log.add_readings(readings)
         z, st, est = sim.plant, driver.status, driver.estimator.estimate
         log.add((sim.time_ns * 1e-9, *z, st.target_speed, st.speed,
                  *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
                  *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
+        if series is not None:
+            series.add(readings)
 
+    try:
+        result = _drive(scenario, sim, driver, log, path, step, realtime)
+    except BaseException:
+        if series is not None:
+            series.abort()
+        raise
+    if series is not None:
+        series.close()
+        write_outputs(result, out_dir)
+    return result
+
+
+def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, path: Trajectory | None, step,
+           realtime: float | None) -> RunResult:
+    """The loop of :func:`run`: start the task, step until it is done or time is up, score."""
+    period = driver.period_ticks
     wall0 = time.perf_counter()
     step(sim.advance(period))  # the first readings: the estimator starts
     task = _start(driver, scenario, path)
@@ -141,13 +163,12 @@ def default_out_dir(scenario: Scenario, root: Path = Path("runs")) -> Path:
 
 
 def write_outputs(result: RunResult, out_dir: Path) -> Path:
-    """Write ``metrics.json``, ``timeseries.csv``, ``scenario.yaml`` and the PNG plots into ``out_dir``."""
+    """Write ``metrics.json``, ``scenario.yaml`` and the PNG plots into ``out_dir`` (the timeseries streams)."""
     from vilma.scenario.report import plot_run  # matplotlib only when files are written
 
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n", encoding="utf-8")
     (out_dir / "scenario.yaml").write_text(to_yaml(result.scenario), encoding="utf-8")
-    write_timeseries(result.log, out_dir / "timeseries.csv")
     plot_run(result, out_dir, speed_log(result.scenario))
     result.out_dir = out_dir
     return out_dir
@@ -162,34 +183,3 @@ def speed_log(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
         return load_speed_log(p)
     except (OSError, ValueError) as e:
         raise SpecError(f"{scenario.file or scenario.name}: speed_log: cannot read {p}: {e}") from None
-
-
-def write_timeseries(log: DriveLog, path: Path) -> None:
-    """One CSV: a row per stamp, the driver's columns at its period and each sensor's fields at its rate.
-
-    Cells without a sample at that stamp are empty. Column names are ``car.<column>`` (the true plant),
-    ``driver.<column>`` (see :data:`~vilma.scenario.drive_log.COLUMNS`) and ``<sensor>.<field>``;
-    ``t_s`` is sim time [s].
-    """
-    rows = log.rows
-    stamps = np.round(rows[:, 0] * 1e9).astype(np.int64)
-    plant = COLUMNS.index("target_speed")
-    groups = [("car", stamps, rows[:, 1:plant], COLUMNS[1:plant]), ("driver", stamps, rows[:, plant:], COLUMNS[plant:])]
-    for name, r in sorted(log.readings().items()):
-        groups.append((name, r.stamp_ns, r.values, r.message.__struct_fields__[1:]))
-    stamps = np.unique(np.concatenate([g[1] for g in groups])) if groups else np.empty(0, np.int64)
-    header = ["t_s"] + [f"{name}.{f}" for name, _, _, fields in groups for f in fields]
-    table = np.full((len(stamps), len(header)), np.nan)
-    table[:, 0] = stamps * 1e-9
-    col = 1
-    for _, st, values, fields in groups:
-        table[np.searchsorted(stamps, st), col:col + len(fields)] = values
-        col += len(fields)
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", encoding="utf-8") as f:
-        f.write(",".join(header) + "\n")
-        for start in range(0, len(table), 10_000):
-            block = table[start:start + 10_000]
-            lines = [",".join("" if v != v else repr(v) for v in row) for row in block.tolist()]
-            f.write("\n".join(lines) + "\n")
-    tmp.replace(path)

@@ -1,0 +1,82 @@
+"""Closed-loop speed and memory of the scenario runner: prints JSON.
+
+- ``closed_loop``: the bundled ``course_30kmh_stanley`` scenario (dynamic plant, all sensors at default
+  rates, pi_ff + stanley, scorecard) run by :func:`vilma.scenario.runner.run`, lockstep, one process:
+  simulated seconds per wall second, median of 5 runs (files not written). Target (issue 4): >= 1000x.
+- ``simulator_only``: the simulator alone advanced in the same 20 ms periods, for comparison.
+- ``one_hour_drive``: peak resident memory of a process that runs a one-hour drive (a speed task on a
+  long straight, everything logged) and computes its scorecard. Target (issue 4): < 300 MB.
+"""
+
+from __future__ import annotations
+
+import json
+import resource
+import statistics
+import subprocess
+import sys
+import time
+
+from vilma.scenario import load_scenario
+from vilma.scenario.batch import BUNDLED
+from vilma.scenario.runner import run
+from vilma.sim import Simulator
+
+REPEATS = 5
+
+
+def _closed_loop() -> dict:
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    run(scenario)  # compile / load the numba caches outside the timing
+    rates, us = [], []
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        r = run(scenario)
+        rates.append(r.metrics["sim_time_s"] / (time.perf_counter() - t0))
+        us.append(r.metrics["controller_time_per_step_us"])
+    return {"scenario": scenario.name, "sim_seconds": r.metrics["sim_time_s"],
+            "real_time_factor": round(statistics.median(rates), 1),
+            "controller_time_per_step_us": round(statistics.median(us), 1)}
+
+
+def _simulator_only() -> float:
+    rates = []
+    for _ in range(REPEATS):
+        sim = Simulator()
+        t0 = time.perf_counter()
+        for _ in range(1500):
+            sim.advance(2)
+        rates.append(30.0 / (time.perf_counter() - t0))
+    return round(statistics.median(rates), 1)
+
+
+def _one_hour() -> dict:
+    from pathlib import Path
+
+    from vilma.scenario.spec import load_scenario as load
+
+    tmp = Path(sys.argv[2])
+    tmp.write_text("task: {speed: 15}\nduration: 3600\n", encoding="utf-8")
+    t0 = time.perf_counter()
+    r = run(load(tmp))
+    return {"sim_seconds": r.metrics["sim_time_s"], "wall_seconds": round(time.perf_counter() - t0, 1),
+            "log_rows": len(r.log), "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)}
+
+
+def main() -> None:
+    if sys.argv[1:2] == ["--one-hour"]:
+        print(json.dumps(_one_hour()))
+        return
+    import tempfile
+
+    out = {"benchmark": "closed_loop", "closed_loop": _closed_loop(),
+           "simulator_only_20ms_periods": {"real_time_factor": _simulator_only()}}
+    with tempfile.TemporaryDirectory() as d:
+        hour = subprocess.run([sys.executable, __file__, "--one-hour", f"{d}/hour.yaml"], capture_output=True,
+                              text=True, check=True)
+    out["one_hour_drive"] = json.loads(hour.stdout)
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()
