@@ -5,19 +5,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 CURVATURE_SPAN = 2.0
 """Arc length [m] over which curvature is measured (steady on recorded paths with jitter)."""
-
-
-def _circle_curvature(ax, ay, bx, by, cx, cy):
-    """Signed curvature of the circle through a, b, c (scalars or arrays); 0 when degenerate."""
-    cross = (bx - ax) * (cy - by) - (by - ay) * (cx - bx)
-    d = np.hypot(bx - ax, by - ay) * np.hypot(cx - bx, cy - by) * np.hypot(cx - ax, cy - ay)
-    return np.divide(2.0 * cross, d, out=np.zeros_like(np.asarray(d, dtype=float)), where=d > 1e-12)
 
 
 @njit(cache=True)
@@ -57,6 +51,102 @@ def _project_track(xy, seg, seg_len, s0, heading, pts, window, jump):
         out[k, 1] = math.cos(h) * (y - py) - math.sin(h) * (x - px)
         out[k, 2] = h
     return out
+
+
+class PathArrays(NamedTuple):
+    """A trajectory as compiled code reads it (see :attr:`Trajectory.arrays`); ``speed`` is empty without speeds."""
+
+    xy: np.ndarray
+    seg: np.ndarray
+    seg_len: np.ndarray
+    s: np.ndarray
+    heading: np.ndarray
+    speed: np.ndarray
+
+
+@njit(cache=True)
+def path_locate(pa, s):
+    """Segment index and fraction (0..1) at arc length ``s`` [m], clamped to the ends."""
+    n = pa.xy.shape[0]
+    if n < 2:
+        return 0, 0.0
+    s = min(max(s, 0.0), pa.s[n - 1])
+    i = np.searchsorted(pa.s, s, side="right") - 1
+    i = min(max(i, 0), n - 2)
+    seg = pa.seg_len[i]
+    return i, (s - pa.s[i]) / seg if seg > 1e-12 else 0.0
+
+
+@njit(cache=True)
+def path_point_at(pa, s):
+    """The point at arc length ``s`` [m]."""
+    if pa.xy.shape[0] < 2:
+        return pa.xy[0, 0], pa.xy[0, 1]
+    i, t = path_locate(pa, s)
+    return pa.xy[i, 0] + t * pa.seg[i, 0], pa.xy[i, 1] + t * pa.seg[i, 1]
+
+
+@njit(cache=True)
+def path_heading_at(pa, s, span):
+    """Heading [rad] of the chord over ``span`` [m] around arc length ``s``."""
+    length = pa.s[-1]
+    if length == 0.0:
+        return 0.0
+    half = min(0.5 * span, 0.5 * length)
+    a = min(max(s - half, 0.0), length - 2.0 * half)
+    x0, y0 = path_point_at(pa, a)
+    x1, y1 = path_point_at(pa, a + 2.0 * half)
+    return math.atan2(y1 - y0, x1 - x0)
+
+
+@njit(cache=True)
+def circle_curvature(ax, ay, bx, by, cx, cy):
+    """Signed curvature [1/m] of the circle through a, b, c; 0 when degenerate."""
+    cross = (bx - ax) * (cy - by) - (by - ay) * (cx - bx)
+    d = math.hypot(bx - ax, by - ay) * math.hypot(cx - bx, cy - by) * math.hypot(cx - ax, cy - ay)
+    return 2.0 * cross / d if d > 1e-12 else 0.0
+
+
+@njit(cache=True)
+def path_curvature_at(pa, s, span):
+    """Curvature [1/m] at arc length ``s``: the circle through the points ``span``/2 either side; 0 near the ends."""
+    half = 0.5 * span
+    if s - half < 0.0 or s + half > pa.s[-1]:
+        return 0.0
+    ax, ay = path_point_at(pa, s - half)
+    bx, by = path_point_at(pa, s)
+    cx, cy = path_point_at(pa, s + half)
+    return circle_curvature(ax, ay, bx, by, cx, cy)
+
+
+@njit(cache=True)
+def path_speed_at(pa, s):
+    """Speed [m/s] at arc length ``s``, interpolated between points (the path must have speeds)."""
+    if pa.xy.shape[0] < 2:
+        return pa.speed[0]
+    i, t = path_locate(pa, s)
+    return (1.0 - t) * pa.speed[i] + t * pa.speed[i + 1]
+
+
+@njit(cache=True)
+def path_project(pa, x, y, hint, window):
+    """Project ``(x, y)``: (index, t, s, cross-track, heading, px, py, distance to end).
+
+    With ``hint >= 0``, only segments ``hint - window .. hint + window`` are searched.
+    """
+    n = pa.xy.shape[0]
+    length = pa.s[n - 1]
+    if n < 2:
+        return 0, 0.0, 0.0, 0.0, 0.0, pa.xy[0, 0], pa.xy[0, 1], 0.0
+    lo, hi = 0, n - 1
+    if hint >= 0:
+        hi = min(n - 1, hint + window + 1)
+        lo = min(max(0, hint - window), hi - 1)
+    i, t, _ = _nearest(pa.xy, pa.seg, pa.seg_len * pa.seg_len, x, y, lo, hi)
+    h = pa.heading[i]
+    px, py = pa.xy[i, 0] + t * pa.seg[i, 0], pa.xy[i, 1] + t * pa.seg[i, 1]
+    s = pa.s[i] + t * pa.seg_len[i]
+    return i, t, s, math.cos(h) * (y - py) - math.sin(h) * (x - px), h, px, py, length - s
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,22 +246,21 @@ class Trajectory:
         s, x, y = self.s, self.xy[:, 0], self.xy[:, 1]
         ax, ay = np.interp(s - half, s, x), np.interp(s - half, s, y)
         cx, cy = np.interp(s + half, s, x), np.interp(s + half, s, y)
-        return _circle_curvature(ax, ay, x, y, cx, cy) * ((s - half >= 0) & (s + half <= self.length))
+        cross = (x - ax) * (cy - y) - (y - ay) * (cx - x)
+        d = np.hypot(x - ax, y - ay) * np.hypot(cx - x, cy - y) * np.hypot(cx - ax, cy - ay)
+        k = np.divide(2.0 * cross, d, out=np.zeros_like(d), where=d > 1e-12)
+        return k * ((s - half >= 0) & (s + half <= self.length))
 
-    def _locate(self, s: float) -> tuple[int, float]:
-        s = min(max(float(s), 0.0), self.length)
-        i = int(np.searchsorted(self.s, s, side="right")) - 1
-        i = min(max(i, 0), max(len(self) - 2, 0))
-        seg = self._seg_len[i] if len(self) > 1 else 0.0
-        return i, (s - self.s[i]) / seg if seg > 1e-12 else 0.0
+    @cached_property
+    def arrays(self) -> PathArrays:
+        """The arrays compiled code reads (:class:`PathArrays`)."""
+        speed = self.speed if self.speed is not None else np.empty(0)
+        return PathArrays(self.xy, np.ascontiguousarray(self._seg), self._seg_len, self.s, self.heading, speed)
 
     def point_at(self, s: float) -> tuple[float, float]:
         """The point at arc length ``s`` [m] (clamped to the ends)."""
-        if len(self) == 1:
-            return float(self.xy[0, 0]), float(self.xy[0, 1])
-        i, t = self._locate(s)
-        p = self.xy[i] + t * self._seg[i]
-        return float(p[0]), float(p[1])
+        x, y = path_point_at(self.arrays, float(s))
+        return float(x), float(y)
 
     def heading_at(self, s: float, span: float = 1.0) -> float:
         """Path heading at arc length ``s`` [rad]: of the chord over ``span`` [m] around it.
@@ -179,32 +268,18 @@ class Trajectory:
         A chord rather than the local segment, so that recorded paths with
         millimetre jitter (a car at rest while recording) have a steady heading.
         """
-        if self.length == 0.0:
-            return 0.0
-        half = min(0.5 * span, 0.5 * self.length)
-        a = min(max(s - half, 0.0), self.length - 2 * half)
-        (x0, y0), (x1, y1) = self.point_at(a), self.point_at(a + 2 * half)
-        return math.atan2(y1 - y0, x1 - x0)
+        return float(path_heading_at(self.arrays, float(s), float(span)))
 
     def curvature_at(self, s: float, span: float = CURVATURE_SPAN) -> float:
         """Curvature at arc length ``s`` [1/m], left positive: the circle through the points ``span``/2 either side.
 
         Zero at the ends and on paths shorter than ``span``.
         """
-        half = 0.5 * span
-        if s - half < 0.0 or s + half > self.length:
-            return 0.0
-        (ax, ay), (bx, by), (cx, cy) = self.point_at(s - half), self.point_at(s), self.point_at(s + half)
-        return float(_circle_curvature(ax, ay, bx, by, cx, cy))
+        return float(path_curvature_at(self.arrays, float(s), float(span)))
 
     def speed_at(self, s: float) -> float | None:
         """Speed at arc length ``s`` [m/s] interpolated between points, or None without speeds."""
-        if self.speed is None:
-            return None
-        if len(self) == 1:
-            return float(self.speed[0])
-        i, t = self._locate(s)
-        return float((1 - t) * self.speed[i] + t * self.speed[i + 1])
+        return None if self.speed is None else float(path_speed_at(self.arrays, float(s)))
 
     def project_track(self, points, window: int = 40, jump: float = 2.0) -> np.ndarray:
         """Project a drive ``points`` (n, 2) [m] in order, each searched near the last (compiled).
@@ -226,23 +301,7 @@ class Trajectory:
         segments ``hint - window .. hint + window`` are searched: O(window).
         Before the start or past the end the projection clamps to the end points.
         """
-        n = len(self)
-        if n == 1:
-            px, py = float(self.xy[0, 0]), float(self.xy[0, 1])
-            return Projection(0, 0.0, 0.0, 0.0, 0.0, px, py, 0.0)
-        lo, hi = 0, n - 1  # segment indices lo .. hi-1
-        if hint is not None and window is not None:
-            hi = min(n - 1, max(hint, 0) + window + 1)
-            lo = min(max(0, hint - window), hi - 1)
-        a, d, L2 = self.xy[lo:hi], self._seg[lo:hi], self._seg_len[lo:hi] ** 2
-        rx, ry = x - a[:, 0], y - a[:, 1]
-        t = np.clip(np.divide(rx * d[:, 0] + ry * d[:, 1], L2, out=np.zeros_like(L2), where=L2 > 1e-18), 0.0, 1.0)
-        ex, ey = rx - t * d[:, 0], ry - t * d[:, 1]
-        k = int(np.argmin(ex * ex + ey * ey))
-        i, tk = lo + k, float(t[k])
-        seg = self._seg[i]
-        h = float(self.heading[i])
-        px, py = float(self.xy[i, 0] + tk * seg[0]), float(self.xy[i, 1] + tk * seg[1])
-        cross = math.cos(h) * (y - py) - math.sin(h) * (x - px)
-        s = float(self.s[i] + tk * self._seg_len[i])
-        return Projection(i, tk, s, cross, h, px, py, self.length - s)
+        use_hint = hint is not None and window is not None
+        i, t, s, cross, h, px, py, left = path_project(self.arrays, float(x), float(y),
+                                                       max(hint, 0) if use_hint else -1, window if use_hint else 0)
+        return Projection(int(i), float(t), float(s), float(cross), float(h), float(px), float(py), float(left))
