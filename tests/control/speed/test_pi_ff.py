@@ -19,7 +19,7 @@ def test_beats_the_original_pid():
 def test_feed_forward_holds_speed_without_integral():
     p = vilma()
     ctrl = PiFf(p, PiFfParams(kp=0.0, ki=0.0))
-    ctrl.v_ref, ctrl.a_ref = 20.0, 0.0
+    ctrl.state[:] = (20.0, 0.0, 0.0, 0.0)  # reference at 20 m/s, steady
     out = ctrl.step(20.0, 20.0, 0.0)
     assert out.mode is Longitudinal.FORCE
     assert out.drive == pytest.approx(p.resistance(20.0))
@@ -38,6 +38,6 @@ def test_brakes_when_slowing_and_respects_limits():
     a = []
     for _ in range(round(2 * params.max_accel / params.max_jerk / params.period)):
         ctrl.step(30.0, 0.0, 0.0)
-        a.append(ctrl.a_ref)
+        a.append(ctrl.state[1])  # the reference acceleration
     assert max(abs(x - y) for x, y in zip(a[1:], a, strict=False)) <= params.max_jerk * params.period + 1e-12
     assert math.isclose(max(a), params.max_accel)

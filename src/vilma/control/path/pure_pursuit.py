@@ -11,10 +11,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
 
 from vilma.control.path.base import PathOutput
 from vilma.core.messages import PoseEstimate
 from vilma.trajectory import Trajectory
+from vilma.trajectory.trajectory import path_point_at, path_project
 from vilma.vehicle.params import VehicleParams
 
 
@@ -34,34 +39,59 @@ class PurePursuitParams:
     """Segments searched on each side of the last projection."""
 
 
+class PurePursuitConsts(NamedTuple):
+    """:class:`PurePursuitParams` and the car's geometry as compiled code reads them."""
+
+    lookahead_min: float
+    lookahead_gain: float
+    lookahead_max: float
+    window: int
+    cg_to_rear: float
+    wheelbase: float
+    max_steer: float
+
+
+@njit(cache=True)
+def pure_pursuit_step(c, st, pa, x, y, yaw, speed):
+    """One period at pose ``(x, y, yaw)`` and ``speed`` [m/s]: (steer [rad], segment, arc length [m]).
+
+    ``st`` = ``[segment of the last projection (-1: none)]``.
+    """
+    co, si = math.cos(yaw), math.sin(yaw)
+    rx, ry = x - c.cg_to_rear * co, y - c.cg_to_rear * si
+    i, _, s, _, _, _, _, _ = path_project(pa, rx, ry, int(st[0]), c.window)
+    st[0] = i
+    look = min(max(c.lookahead_min + c.lookahead_gain * abs(speed), c.lookahead_min), c.lookahead_max)
+    target_s = s + look
+    length = pa.s[-1]
+    if target_s <= length:
+        tx, ty = path_point_at(pa, target_s)
+    else:  # past the end: aim along the last heading so the car still reaches the end point
+        h = pa.heading[-1]
+        tx = pa.xy[-1, 0] + (target_s - length) * math.cos(h)
+        ty = pa.xy[-1, 1] + (target_s - length) * math.sin(h)
+    dx, dy = tx - rx, ty - ry
+    alpha = math.atan2(-si * dx + co * dy, co * dx + si * dy)
+    dist = max(math.hypot(dx, dy), 1e-6)
+    steer = math.atan(2.0 * c.wheelbase * math.sin(alpha) / dist)
+    return min(max(steer, -c.max_steer), c.max_steer), i, s
+
+
 class PurePursuit:
     """Pure pursuit from the rear axle with a speed-scheduled look-ahead."""
 
     def __init__(self, vehicle: VehicleParams, params: PurePursuitParams | None = None) -> None:
-        self.vehicle, self.params = vehicle, params or PurePursuitParams()
-        self.period = self.params.period
-        self.reset()
+        self.vehicle = vehicle
+        self.params = p = params or PurePursuitParams()
+        self.period = p.period
+        self.consts = PurePursuitConsts(p.lookahead_min, p.lookahead_gain, p.lookahead_max, p.window,
+                                        vehicle.cg_to_rear, vehicle.wheelbase, vehicle.max_steer)
+        self.state = np.full(1, -1.0)
+        """``[segment of the last projection]`` (-1 before the first)."""
 
     def reset(self) -> None:
-        self.hint: int | None = None
+        self.state[0] = -1.0
 
     def step(self, pose: PoseEstimate, path: Trajectory) -> PathOutput:
-        p, v = self.params, self.vehicle
-        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-        rx, ry = pose.x - v.cg_to_rear * c, pose.y - v.cg_to_rear * s
-        proj = path.project(rx, ry, hint=self.hint, window=p.window if self.hint is not None else None)
-        self.hint = proj.index
-        look = min(max(p.lookahead_min + p.lookahead_gain * abs(pose.speed), p.lookahead_min), p.lookahead_max)
-        target_s = proj.s + look
-        if target_s <= path.length:
-            tx, ty = path.point_at(target_s)
-        else:  # past the end: aim along the last heading so the car still reaches the end point
-            ex, ey = path.xy[-1]
-            h = path.heading[-1]
-            tx, ty = ex + (target_s - path.length) * math.cos(h), ey + (target_s - path.length) * math.sin(h)
-        dx, dy = tx - rx, ty - ry
-        alpha = math.atan2(-s * dx + c * dy, c * dx + s * dy)
-        dist = max(math.hypot(dx, dy), 1e-6)
-        steer = math.atan(2.0 * v.wheelbase * math.sin(alpha) / dist)
-        steer = min(max(steer, -v.max_steer), v.max_steer)
-        return PathOutput(steer, proj.index, proj.s)
+        steer, i, s = pure_pursuit_step(self.consts, self.state, path.arrays, pose.x, pose.y, pose.yaw, pose.speed)
+        return PathOutput(float(steer), int(i), float(s))

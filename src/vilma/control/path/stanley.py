@@ -15,11 +15,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
 
 from vilma.control.path.base import PathOutput
-from vilma.core.geometry import wrap_angle
+from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
 from vilma.trajectory import Trajectory
+from vilma.trajectory.trajectory import CURVATURE_SPAN, path_curvature_at, path_heading_at, path_project
 from vilma.vehicle.params import VehicleParams
 
 
@@ -47,36 +52,66 @@ class StanleyParams:
             raise ValueError(f"stanley point must be 'cg' or 'front_axle', got {self.point!r}")
 
 
+class StanleyConsts(NamedTuple):
+    """:class:`StanleyParams` and the car's parameters as compiled code reads them."""
+
+    gain: float
+    softening: float
+    heading_gain: float
+    yaw_rate_damping: float
+    front_axle: bool
+    window: int
+    cg_to_front: float
+    cg_to_rear: float
+    wheelbase: float
+    max_steer: float
+    slip: float
+    """Understeer feed-forward per (m/s)^2 of speed and 1/m of curvature: m lr / (L C_f) [rad s^2/m]."""
+
+
+@njit(cache=True)
+def stanley_step(c, st, pa, x, y, yaw, speed, yaw_rate):
+    """One period at pose ``(x, y, yaw)``, ``speed`` [m/s], ``yaw_rate`` [rad/s]: (steer [rad], segment, s [m]).
+
+    ``st`` = ``[segment of the last projection (-1: none)]``.
+    """
+    ahead = c.cg_to_front if c.front_axle else 0.0
+    px, py = x + ahead * math.cos(yaw), y + ahead * math.sin(yaw)
+    i, _, s, cross, _, _, _, _ = path_project(pa, px, py, int(st[0]), c.window)
+    st[0] = i
+    kappa = path_curvature_at(pa, s, CURVATURE_SPAN)
+    path_heading = path_heading_at(pa, s, 1.0)
+    speed = abs(speed)
+    slip = c.slip * speed * speed * kappa
+    if c.front_axle:
+        feed = slip
+        heading_err = wrap(path_heading - yaw)
+    else:
+        feed = math.atan(c.wheelbase * kappa) + slip
+        heading_err = wrap(path_heading - math.atan(c.cg_to_rear * kappa) - yaw)
+    damping = c.yaw_rate_damping * (speed * kappa - yaw_rate)
+    steer = feed + c.heading_gain * heading_err + math.atan2(-c.gain * cross, c.softening + speed) + damping
+    return min(max(steer, -c.max_steer), c.max_steer), i, s
+
+
 class Stanley:
     """Stanley lateral control with curvature and tyre-slip feed-forward."""
 
     def __init__(self, vehicle: VehicleParams, params: StanleyParams | None = None) -> None:
-        self.vehicle, self.params = vehicle, params or StanleyParams()
-        self.period = self.params.period
-        self.reset()
+        self.vehicle = vehicle
+        self.params = p = params or StanleyParams()
+        self.period = p.period
+        v = vehicle
+        self.consts = StanleyConsts(p.gain, p.softening, p.heading_gain, p.yaw_rate_damping, p.point == "front_axle",
+                                    p.window, v.cg_to_front, v.cg_to_rear, v.wheelbase, v.max_steer,
+                                    v.mass * v.cg_to_rear / (v.wheelbase * v.cornering_stiffness_front))
+        self.state = np.full(1, -1.0)
+        """``[segment of the last projection]`` (-1 before the first)."""
 
     def reset(self) -> None:
-        self.hint: int | None = None
+        self.state[0] = -1.0
 
     def step(self, pose: PoseEstimate, path: Trajectory) -> PathOutput:
-        p, v = self.params, self.vehicle
-        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-        ahead = v.cg_to_front if p.point == "front_axle" else 0.0
-        px, py = pose.x + ahead * c, pose.y + ahead * s
-        proj = path.project(px, py, hint=self.hint, window=p.window if self.hint is not None else None)
-        self.hint = proj.index
-        kappa = path.curvature_at(proj.s)
-        path_heading = path.heading_at(proj.s)
-        speed = abs(pose.speed)
-        slip = v.mass * v.cg_to_rear * speed * speed * kappa / (v.wheelbase * v.cornering_stiffness_front)
-        if p.point == "cg":
-            feed = math.atan(v.wheelbase * kappa) + slip
-            heading_err = float(wrap_angle(path_heading - math.atan(v.cg_to_rear * kappa) - pose.yaw))
-        else:
-            feed = slip
-            heading_err = float(wrap_angle(path_heading - pose.yaw))
-        damping = p.yaw_rate_damping * (speed * kappa - pose.yaw_rate)
-        steer = feed + p.heading_gain * heading_err + math.atan2(-p.gain * proj.cross_track,
-                                                                 p.softening + speed) + damping
-        steer = min(max(steer, -v.max_steer), v.max_steer)
-        return PathOutput(steer, proj.index, proj.s)
+        steer, i, s = stanley_step(self.consts, self.state, path.arrays, pose.x, pose.y, pose.yaw, pose.speed,
+                                   pose.yaw_rate)
+        return PathOutput(float(steer), int(i), float(s))

@@ -16,9 +16,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
 
 from vilma.control.path.base import PathOutput
-from vilma.core.geometry import heading_from_north_ccw, wrap_angle
+from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
 from vilma.trajectory import Trajectory
 
@@ -39,6 +43,7 @@ class VilmaHeadingParams:
     """Compute as the shipped binary (see module docstring)."""
 
 
+@njit(cache=True)
 def original_heading_error(dx: float, dy: float, yaw: float) -> float:
     """The original's ``value_to_turn`` toward a point ``(dx, dy)`` away [m]: from +y, 3.14, no wrapping.
 
@@ -59,36 +64,66 @@ def original_heading_error(dx: float, dy: float, yaw: float) -> float:
         ang = 3.14 - ang
     elif dx > 0 > dy:
         ang = -3.14 - ang
-    return ang - float(heading_from_north_ccw(yaw))
+    return ang - wrap(yaw - math.pi / 2.0)  # the original's heading, from +y
+
+
+class VilmaHeadingConsts(NamedTuple):
+    """:class:`VilmaHeadingParams` as compiled code reads them."""
+
+    gain: float
+    max_steer: float
+    behind: float
+    original_quirks: bool
+
+
+@njit(cache=True)
+def vilma_heading_step(c, st, pa, x, y, yaw):
+    """One period at pose ``(x, y, yaw)``: (steer [rad], active waypoint, its arc length [m], done).
+
+    ``st`` = ``[active waypoint, last steer]``; ``pa`` the path's :class:`~vilma.trajectory.PathArrays`.
+    """
+    n = pa.xy.shape[0]
+    active = int(st[0])
+    if active >= n:
+        return 0.0, n - 1, pa.s[n - 1], True
+    dx, dy = pa.xy[active, 0] - x, pa.xy[active, 1] - y
+    if c.original_quirks:
+        err = original_heading_error(dx, dy, yaw)
+        behind = abs(math.trunc(err)) > c.behind
+    else:
+        err = wrap(math.atan2(dy, dx) - yaw)
+        behind = abs(err) > c.behind
+    if behind:
+        st[0] = active + 1
+    else:
+        st[1] = min(max(c.gain * err, -c.max_steer), c.max_steer)
+    index = min(int(st[0]), n - 1)
+    return st[1], index, pa.s[index], int(st[0]) >= n
 
 
 class VilmaHeading:
     """Turn-Wheels: steer at the active waypoint, advance when it falls behind."""
 
     def __init__(self, params: VilmaHeadingParams | None = None) -> None:
-        self.params = params or VilmaHeadingParams()
-        self.period = self.params.period
-        self.reset()
+        self.params = p = params or VilmaHeadingParams()
+        self.period = p.period
+        self.consts = VilmaHeadingConsts(p.gain, p.max_steer, p.behind, p.original_quirks)
+        self.state = np.zeros(2)
+        """``[active waypoint, last steer]``."""
 
     def reset(self) -> None:
-        self.active = 0
-        self.steer = 0.0
+        self.state[:] = 0.0
+
+    @property
+    def active(self) -> int:
+        """The waypoint steered at."""
+        return int(self.state[0])
+
+    @active.setter
+    def active(self, index: int) -> None:
+        self.state[0] = index
 
     def step(self, pose: PoseEstimate, path: Trajectory) -> PathOutput:
-        p = self.params
-        if self.active >= len(path):
-            return PathOutput(0.0, len(path) - 1, path.length, done=True)
-        tx, ty = path.xy[self.active]
-        dx, dy = float(tx) - pose.x, float(ty) - pose.y
-        if p.original_quirks:
-            err = original_heading_error(dx, dy, pose.yaw)
-            behind = abs(math.trunc(err)) > p.behind
-        else:
-            err = float(wrap_angle(math.atan2(dy, dx) - pose.yaw))
-            behind = abs(err) > p.behind
-        if behind:
-            self.active += 1
-        else:
-            self.steer = min(max(p.gain * err, -p.max_steer), p.max_steer)
-        index = min(self.active, len(path) - 1)
-        return PathOutput(self.steer, index, float(path.s[index]), done=self.active >= len(path))
+        steer, index, progress, done = vilma_heading_step(self.consts, self.state, path.arrays, pose.x, pose.y,
+                                                          pose.yaw)
+        return PathOutput(float(steer), int(index), float(progress), done=bool(done))

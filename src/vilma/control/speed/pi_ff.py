@@ -17,6 +17,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
 
 from vilma.control.speed.base import LongitudinalOutput
 from vilma.core.messages import Longitudinal
@@ -41,50 +45,94 @@ class PiFfParams:
     """Largest rate of change of the reference acceleration [m/s^3]."""
 
 
+class PiFfConsts(NamedTuple):
+    """:class:`PiFfParams` and the car's resistances as compiled code reads them."""
+
+    period: float
+    kp: float
+    ki: float
+    max_accel: float
+    max_decel: float
+    max_jerk: float
+    lead: float
+    """Drive lag plus half a period [s]."""
+    mass: float
+    drag: float
+    """1/2 rho CdA [kg/m]."""
+    rolling: float
+    """Rolling resistance force [N]."""
+
+
+def pi_ff_consts(vehicle: VehicleParams, p: PiFfParams) -> PiFfConsts:
+    """Flatten the parameters for :func:`pi_ff_step`."""
+    return PiFfConsts(p.period, p.kp, p.ki, p.max_accel, p.max_decel, p.max_jerk,
+                      vehicle.actuators.drive_time_constant + 0.5 * p.period, vehicle.mass,
+                      0.5 * vehicle.air_density * vehicle.drag_area,
+                      vehicle.rolling_resistance * vehicle.mass * GRAVITY)
+
+
+@njit(cache=True)
+def _shape(c, st, target):
+    """Move the reference toward ``target`` with acceleration and jerk limits, stopping exactly on it."""
+    dt = c.period
+    gap = target - st[0]
+    # the acceleration that still lets a jerk-limited ramp-down land on the target
+    a_land = math.copysign(math.sqrt(2.0 * c.max_jerk * abs(gap)), gap)
+    a_want = min(max(a_land, -c.max_decel), c.max_accel)
+    da = min(max(a_want - st[1], -c.max_jerk * dt), c.max_jerk * dt)
+    st[1] += da
+    st[2] = da / dt
+    step = st[1] * dt
+    if (gap > 0 and step >= gap) or (gap < 0 and step <= gap) or gap == 0:
+        st[0], st[1], st[2] = target, 0.0, 0.0
+    else:
+        st[0] += step
+
+
+@njit(cache=True)
+def pi_ff_step(c, st, target, speed):
+    """One period: (drive force, brake force) [N] for ``target`` and ``speed`` [m/s].
+
+    ``st`` = ``[reference speed (NaN before the first step), its acceleration, its jerk, integral]``.
+    """
+    if math.isnan(st[0]):
+        st[0] = speed
+    _shape(c, st, target)
+    e = st[0] - speed
+    a = st[1] + c.lead * st[2] + c.kp * e + c.ki * st[3]
+    saturated = (a > c.max_accel and e > 0) or (a < -c.max_decel and e < 0)
+    if not saturated:
+        st[3] += e * c.period
+    a = min(max(a, -c.max_decel), c.max_accel)
+    resist = c.drag * speed * abs(speed) + (math.copysign(c.rolling, speed) if abs(speed) > 0.05 else 0.0)
+    force = c.mass * a + resist
+    return (force, 0.0) if force >= 0.0 else (0.0, -force)
+
+
 class PiFf:
     """Feed-forward PI on a jerk-limited reference; composed with the car's parameters for the feed-forward."""
 
     def __init__(self, vehicle: VehicleParams, params: PiFfParams | None = None) -> None:
         self.vehicle, self.params = vehicle, params or PiFfParams()
         self.period = self.params.period
+        self.consts = pi_ff_consts(vehicle, self.params)
+        self.state = np.zeros(4)
+        """``[reference speed, its acceleration, its jerk, integral of the error]``."""
         self.reset()
 
     def reset(self) -> None:
-        self.v_ref: float | None = None
-        self.a_ref = self.j_ref = 0.0
-        self.integral = 0.0
+        self.state[:] = (math.nan, 0.0, 0.0, 0.0)
 
-    def _shape(self, target: float) -> None:
-        """Move the reference toward ``target`` with acceleration and jerk limits, stopping exactly on it."""
-        p, dt = self.params, self.period
-        gap = target - self.v_ref
-        # the acceleration that still lets a jerk-limited ramp-down land on the target
-        a_land = math.copysign(math.sqrt(2.0 * p.max_jerk * abs(gap)), gap)
-        a_want = min(max(a_land, -p.max_decel), p.max_accel)
-        da = min(max(a_want - self.a_ref, -p.max_jerk * dt), p.max_jerk * dt)
-        self.a_ref += da
-        self.j_ref = da / dt
-        step = self.a_ref * dt
-        if (gap > 0 and step >= gap) or (gap < 0 and step <= gap) or gap == 0:
-            self.v_ref, self.a_ref, self.j_ref = target, 0.0, 0.0
-        else:
-            self.v_ref += step
+    @property
+    def v_ref(self) -> float | None:
+        """The reference speed [m/s], None before the first step."""
+        return None if math.isnan(self.state[0]) else float(self.state[0])
+
+    @property
+    def integral(self) -> float:
+        """Integral of the speed error [m]."""
+        return float(self.state[3])
 
     def step(self, target: float, speed: float, steer: float) -> LongitudinalOutput:
-        p, v = self.params, self.vehicle
-        if self.v_ref is None:
-            self.v_ref = speed
-        self._shape(target)
-        e = self.v_ref - speed
-        lead = self.vehicle.actuators.drive_time_constant + 0.5 * self.period
-        a = self.a_ref + lead * self.j_ref + p.kp * e + p.ki * self.integral
-        saturated = (a > p.max_accel and e > 0) or (a < -p.max_decel and e < 0)
-        if not saturated:
-            self.integral += e * self.period
-        a = min(max(a, -p.max_decel), p.max_accel)
-        resist = 0.5 * v.air_density * v.drag_area * speed * abs(speed) + math.copysign(
-            v.rolling_resistance * v.mass * GRAVITY, speed) * (abs(speed) > 0.05)
-        force = v.mass * a + resist
-        if force >= 0.0:
-            return LongitudinalOutput(Longitudinal.FORCE, force)
-        return LongitudinalOutput(Longitudinal.FORCE, 0.0, brake=-force)
+        force, brake = pi_ff_step(self.consts, self.state, float(target), float(speed))
+        return LongitudinalOutput(Longitudinal.FORCE, float(force), brake=float(brake))

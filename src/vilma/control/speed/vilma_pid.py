@@ -25,6 +25,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
 
 from vilma.control.speed.base import LongitudinalOutput
 from vilma.core.messages import Longitudinal
@@ -66,36 +70,87 @@ class VilmaPidParams:
         return cls(integer_abs=True, integer_target=True, mirror_negative=True)
 
 
+class VilmaPidConsts(NamedTuple):
+    """:class:`VilmaPidParams` as compiled code reads them."""
+
+    period: float
+    kp: float
+    kp_steer: float
+    ki: float
+    ki_steer: float
+    i_limit_speed: float
+    i_limit_steer: float
+    large_error: float
+    rise_per_period: float
+    fall_per_period: float
+    max_power_speed: float
+    max_power_steer: float
+    integer_abs: bool
+    integer_target: bool
+    mirror_negative: bool
+
+
+def vilma_pid_consts(p: VilmaPidParams) -> VilmaPidConsts:
+    """Flatten the parameters for :func:`vilma_pid_step`."""
+    return VilmaPidConsts(*(getattr(p, f) for f in VilmaPidConsts._fields))
+
+
+@njit(cache=True)
+def _abs(c, v):
+    return float(abs(math.trunc(v))) if c.integer_abs else abs(v)
+
+
+@njit(cache=True)
+def vilma_pid_step(c, st, target, speed, steer):
+    """One period: the power [original units] for ``target`` and ``speed`` [m/s] and last ``steer`` [rad].
+
+    ``st`` = ``[integral of the error, last power]``, updated in place.
+    """
+    v_d = float(math.trunc(target)) if c.integer_target else target
+    e = v_d - speed
+    kp = c.kp + _abs(c, c.kp_steer * steer)
+    if _abs(c, e) > c.large_error:
+        st[0] = 0.0  # setGains(Kp, 0, 0, 0, 0) then reset()
+        u = kp * e
+    else:
+        ki = c.ki + _abs(c, c.ki_steer * steer)
+        i_max = c.i_limit_speed * v_d + _abs(c, c.i_limit_steer * steer)
+        st[0] += c.period * e
+        u = kp * e + min(max(ki * st[0], -i_max), i_max)
+    u = min(max(u, st[1] - c.fall_per_period), st[1] + c.rise_per_period)
+    u = min(u, c.max_power_speed * v_d + _abs(c, c.max_power_steer * steer))
+    u = abs(u) if c.mirror_negative else max(u, 0.0)
+    st[1] = u
+    return u
+
+
 class VilmaPid:
     """The original gain-scheduled PID; outputs ``power`` commands."""
 
     def __init__(self, params: VilmaPidParams | None = None) -> None:
         self.params = params or VilmaPidParams()
         self.period = self.params.period
-        self.reset()
+        self.consts = vilma_pid_consts(self.params)
+        self.state = np.zeros(2)
+        """``[integral of the error, last power]``."""
 
     def reset(self) -> None:
-        self.i_error = 0.0
-        self.power = 0.0
+        self.state[:] = 0.0
 
-    def _abs(self, v: float) -> float:
-        return float(abs(math.trunc(v))) if self.params.integer_abs else abs(v)
+    @property
+    def i_error(self) -> float:
+        """Integral of the speed error [m]."""
+        return float(self.state[0])
+
+    @property
+    def power(self) -> float:
+        """The last power sent."""
+        return float(self.state[1])
+
+    @power.setter
+    def power(self, value: float) -> None:
+        self.state[1] = value
 
     def step(self, target: float, speed: float, steer: float) -> LongitudinalOutput:
-        p = self.params
-        v_d = float(math.trunc(target)) if p.integer_target else target
-        e = v_d - speed
-        kp = p.kp + self._abs(p.kp_steer * steer)
-        if self._abs(e) > p.large_error:
-            self.i_error = 0.0  # setGains(Kp, 0, 0, 0, 0) then reset()
-            u = kp * e
-        else:
-            ki = p.ki + self._abs(p.ki_steer * steer)
-            i_max = p.i_limit_speed * v_d + self._abs(p.i_limit_steer * steer)
-            self.i_error += p.period * e
-            u = kp * e + min(max(ki * self.i_error, -i_max), i_max)
-        u = min(max(u, self.power - p.fall_per_period), self.power + p.rise_per_period)
-        u = min(u, p.max_power_speed * v_d + self._abs(p.max_power_steer * steer))
-        u = abs(u) if p.mirror_negative else max(u, 0.0)
-        self.power = u
-        return LongitudinalOutput(Longitudinal.POWER, u, velocity_limit=p.velocity_amount)
+        u = vilma_pid_step(self.consts, self.state, float(target), float(speed), float(steer))
+        return LongitudinalOutput(Longitudinal.POWER, float(u), velocity_limit=self.params.velocity_amount)
