@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tests.control.conftest import drive_path
-from vilma.control.driver import Driver, DriverMode, DriverParams
+from vilma.control.driver import MEASURED, Driver, DriverMode, DriverParams
 from vilma.control.speed import VilmaPidParams
 from vilma.core.clock import RateError
 from vilma.sim import SimConfig, Simulator
@@ -36,7 +36,7 @@ def test_set_speed_and_hold_current_speed():
 
 def test_original_hold_current_speed_truncates():
     d = Driver(vilma(), DriverParams(speed_controller="vilma_pid", vilma_pid=VilmaPidParams.original()))
-    d._speed = 7.9
+    d.state[MEASURED] = 7.9  # the speed measured last
     d.hold_current_speed()
     assert d.task.speed == 7.0
 

@@ -18,8 +18,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from vilma.control.path import (
     PathController,
@@ -30,12 +32,19 @@ from vilma.control.path import (
     VilmaHeading,
     VilmaHeadingParams,
 )
-from vilma.control.speed import LongitudinalOutput, PiFf, PiFfParams, SpeedController, VilmaPid, VilmaPidParams
+from vilma.control.path.pure_pursuit import pure_pursuit_step
+from vilma.control.path.stanley import stanley_step
+from vilma.control.path.vilma_heading import vilma_heading_step
+from vilma.control.speed import PiFf, PiFfParams, SpeedController, VilmaPid, VilmaPidParams
+from vilma.control.speed.pi_ff import pi_ff_step
+from vilma.control.speed.vilma_pid import vilma_pid_step
 from vilma.core.clock import Clock, seconds_to_ns
-from vilma.core.messages import ActuatorCommand, DriverStatus, Longitudinal, PoseEstimate
+from vilma.core.messages import ActuatorCommand, DriverStatus, PoseEstimate
 from vilma.localization import make_estimator
 from vilma.sensors import Readings
 from vilma.trajectory import Trajectory, speed_profile
+from vilma.trajectory.trajectory import path_project, path_speed_at
+from vilma.vehicle.actuators import FORCE, MODE_IDS, POWER
 from vilma.vehicle.params import VehicleParams
 
 SPEED_CONTROLLERS = ("vilma_pid", "pi_ff")
@@ -109,18 +118,140 @@ def make_path_controller(params: DriverParams, vehicle: VehicleParams) -> PathCo
     return Stanley(vehicle, params.stanley)
 
 
+MODES = tuple(DriverMode)
+"""Mode ids of the compiled driver: the index in this tuple."""
+MANUAL, FOLLOW = MODES.index(DriverMode.MANUAL), MODES.index(DriverMode.FOLLOW)
+LONGITUDINAL = {v: k for k, v in MODE_IDS.items()}
+"""Compiled longitudinal mode id -> :class:`Longitudinal`."""
+
+(TICKS, MODE, SPEED, STOPPING, ARRIVED, HAS_POSE, X, Y, YAW, POSE_SPEED, YAW_RATE, MEASURED, STEER,
+ L_MODE, L_DRIVE, L_BRAKE, L_LIMIT, HAS_PENDING, P_MODE, P_DRIVE, P_BRAKE, P_LIMIT,
+ HAS_PROGRESS, INDEX, PROGRESS, REMAINING, CROSS) = range(27)
+"""Slots of the driver's state array: ticks since the order, mode id, ordered speed [m/s] (NaN: the path's),
+final stop under way, arrived, pose known and the pose (x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]),
+measured speed [m/s], steering [rad], the longitudinal command (mode id, drive, brake, velocity limit),
+the one held back by the actuation delay, and the progress on the path (segment, s, left [m], cross-track [m])."""
+N_STATE = 27
+
+PROGRESS_WINDOW = 40
+"""Segments searched on each side of the last projection when tracking progress."""
+
+
+class DriverConsts(NamedTuple):
+    """The driver's parameters as compiled code reads them."""
+
+    speed_id: int
+    """Index in :data:`SPEED_CONTROLLERS`."""
+    path_id: int
+    """Index in :data:`PATH_CONTROLLERS`."""
+    speed_ticks: int
+    path_ticks: int
+    period_ticks: int
+    period: float
+    actuation_delay: bool
+    stop_deceleration: float
+    rest_speed: float
+    mass: float
+    velocity_amount: float
+
+
+@njit(cache=True)
+def target_speed(ds, pa):
+    """The speed the driver aims at now [m/s]: ordered, or the path's at the progress made."""
+    if ds[MODE] == FOLLOW and math.isnan(ds[SPEED]):
+        return path_speed_at(pa, ds[PROGRESS] if ds[HAS_PROGRESS] else 0.0)
+    return ds[SPEED]
+
+
+@njit(cache=True)
+def _track(dc, ds, pa):
+    """Progress along the path and the switch to the final stop."""
+    hint = int(ds[INDEX]) if ds[HAS_PROGRESS] else -1
+    i, _, s, cross, _, _, _, left = path_project(pa, ds[X], ds[Y], hint, PROGRESS_WINDOW)
+    ds[HAS_PROGRESS], ds[INDEX], ds[PROGRESS], ds[REMAINING], ds[CROSS] = 1.0, i, s, left, cross
+    v = ds[MEASURED]
+    braking = v * v / (2.0 * dc.stop_deceleration)
+    if not ds[STOPPING] and left <= braking + v * dc.period:
+        ds[STOPPING] = 1.0
+
+
+@njit(cache=True)
+def _final_stop(dc, ds):
+    """Brake to stop on the last point: deceleration v^2 / (2 d), then hold."""
+    v, d = ds[MEASURED], max(ds[REMAINING], 0.05)
+    if ds[ARRIVED] or abs(v) < dc.rest_speed:
+        ds[ARRIVED] = 1.0
+        decel = dc.stop_deceleration
+    else:
+        decel = min(v * v / (2.0 * d), 2.0 * dc.stop_deceleration)
+    ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = FORCE, 0.0, dc.mass * decel, math.inf
+
+
+@njit(cache=True)
+def driver_step(dc, ds, pa, has_path, vp, pf, speed_state, vh, pp, st, path_state):
+    """One driver period on the pose and measured speed already in ``ds``; True if it commands.
+
+    ``vp``, ``pf``, ``vh``, ``pp``, ``st`` are the five controllers' constants; ``speed_state`` and
+    ``path_state`` the state arrays of the two in use. The command is left in ``ds`` (STEER, L_*).
+    """
+    ticks = int(ds[TICKS])
+    run_speed = ticks % dc.speed_ticks == 0
+    run_path = ticks % dc.path_ticks == 0
+    ds[TICKS] = ticks + dc.period_ticks
+    if ds[MODE] == MANUAL or not ds[HAS_POSE]:
+        return False
+    if has_path:
+        if run_path:
+            if dc.path_id == 0:
+                steer, _, _, done = vilma_heading_step(vh, path_state, pa, ds[X], ds[Y], ds[YAW])
+                if done:  # Turn-Wheels passed the last point
+                    ds[STOPPING] = 1.0
+            elif dc.path_id == 1:
+                steer, _, _ = pure_pursuit_step(pp, path_state, pa, ds[X], ds[Y], ds[YAW], ds[POSE_SPEED])
+            else:
+                steer, _, _ = stanley_step(st, path_state, pa, ds[X], ds[Y], ds[YAW], ds[POSE_SPEED], ds[YAW_RATE])
+            ds[STEER] = steer
+        _track(dc, ds, pa)
+    else:
+        ds[STEER] = 0.0
+    if ds[STOPPING] or ds[ARRIVED]:
+        _final_stop(dc, ds)
+    elif run_speed:
+        target = target_speed(ds, pa)
+        if dc.speed_id == 0:
+            mode, drive, brake, limit = POWER, vilma_pid_step(vp, speed_state, target, ds[MEASURED], ds[STEER]), 0.0, \
+                dc.velocity_amount
+        else:
+            drive, brake = pi_ff_step(pf, speed_state, target, ds[MEASURED])
+            mode, limit = FORCE, math.inf
+        if dc.actuation_delay:  # send what was computed one speed period ago
+            if ds[HAS_PENDING]:
+                ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = ds[P_MODE], ds[P_DRIVE], ds[P_BRAKE], ds[P_LIMIT]
+            else:
+                ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = POWER, 0.0, 0.0, math.inf
+            ds[HAS_PENDING], ds[P_MODE], ds[P_DRIVE], ds[P_BRAKE], ds[P_LIMIT] = 1.0, mode, drive, brake, limit
+        else:
+            ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = mode, drive, brake, limit
+    return True
+
+
 @dataclass(slots=True)
 class _Task:
     mode: DriverMode = DriverMode.MANUAL
     speed: float = 0.0
+    """Ordered speed [m/s]; NaN: the path's."""
     path: Trajectory | None = None
-    arrived: bool = False
-    stopping: bool = False
     error: str = ""
+
+
+_NO_PATH = Trajectory.from_points([(0.0, 0.0)])
 
 
 class Driver:
     """The self-driver of one car.
+
+    Its logic runs compiled (:func:`driver_step`) on a state array, so a scenario can run it inside a
+    compiled loop; this class gives it orders, feeds it readings and reads its command and status.
 
     Args:
         vehicle: the car's parameters (feed-forward, geometry).
@@ -129,24 +260,28 @@ class Driver:
     """
 
     def __init__(self, vehicle: VehicleParams, params: DriverParams | None = None, step: float = 0.01) -> None:
-        self.vehicle, self.params = vehicle, params or DriverParams()
-        self.speed_ctrl = make_speed_controller(self.params, vehicle)
-        self.path_ctrl = make_path_controller(self.params, vehicle)
+        self.vehicle = vehicle
+        self.params = p = params or DriverParams()
+        self.speed_ctrl = make_speed_controller(p, vehicle)
+        self.path_ctrl = make_path_controller(p, vehicle)
         clock = Clock(seconds_to_ns(step))
-        self.speed_ticks = clock.period_ticks(1.0 / self.speed_ctrl.period, f"{self.params.speed_controller} period")
-        self.path_ticks = clock.period_ticks(1.0 / self.path_ctrl.period, f"{self.params.path_controller} period")
+        self.speed_ticks = clock.period_ticks(1.0 / self.speed_ctrl.period, f"{p.speed_controller} period")
+        self.path_ticks = clock.period_ticks(1.0 / self.path_ctrl.period, f"{p.path_controller} period")
         self.period_ticks = math.gcd(self.speed_ticks, self.path_ticks)
         self.period = self.period_ticks * clock.step_s
-        self.estimator = make_estimator(self.params.pose_source, vehicle)
+        self.consts = DriverConsts(SPEED_CONTROLLERS.index(p.speed_controller),
+                                   PATH_CONTROLLERS.index(p.path_controller), self.speed_ticks, self.path_ticks,
+                                   self.period_ticks, self.period, p.actuation_delay, p.stop_deceleration,
+                                   p.rest_speed, vehicle.mass, p.vilma_pid.velocity_amount)
+        self.controller_consts = (VilmaPid(p.vilma_pid).consts, PiFf(vehicle, p.pi_ff).consts,
+                                  VilmaHeading(p.vilma_heading).consts, PurePursuit(vehicle, p.pure_pursuit).consts,
+                                  Stanley(vehicle, p.stanley).consts)
+        self.estimator = make_estimator(p.pose_source, vehicle)
+        self.state = np.zeros(N_STATE)
+        """The compiled driver's state (slots :data:`TICKS` ... :data:`CROSS`)."""
+        self.state[L_LIMIT] = math.inf
         self.task = _Task()
-        self._ticks = 0
         self._stamp_ns = 0
-        self._pose: PoseEstimate | None = None
-        self._speed = 0.0
-        self._steer = 0.0
-        self._long = LongitudinalOutput(Longitudinal.FORCE, 0.0)
-        self._pending: LongitudinalOutput | None = None
-        self._progress: tuple[int, float, float, float] | None = None
 
     # -- orders ------------------------------------------------------------------------------------------
 
@@ -160,7 +295,7 @@ class Driver:
 
     def hold_current_speed(self) -> None:
         """Hold the speed measured now (truncated to an integer with the original's quirks)."""
-        v = self._speed
+        v = float(self.state[MEASURED])
         if self.params.speed_controller == "vilma_pid" and self.params.vilma_pid.integer_target:
             v = float(math.trunc(v))
         self._start(_Task(DriverMode.HOLD_SPEED, speed=v))
@@ -168,7 +303,7 @@ class Driver:
     def go_to(self, x: float, y: float, speed: float) -> None:
         """Drive to the point ``(x, y)`` [m] at ``speed`` [m/s] and stop on it."""
         x, y, speed = _finite(x, "x"), _finite(y, "y"), _finite(speed, "speed")
-        start = (self._pose.x, self._pose.y) if self._pose else (0.0, 0.0)
+        start = (float(self.state[X]), float(self.state[Y])) if self.state[HAS_POSE] else (0.0, 0.0)
         if math.hypot(x - start[0], y - start[1]) < 1e-6:
             raise ValueError("go to point: the car is already at that point")
         self._start(_Task(DriverMode.GO_TO_POINT, speed=speed, path=Trajectory.from_points([start, (x, y)])))
@@ -191,43 +326,36 @@ class Driver:
         self.task = task
         self.speed_ctrl.reset()
         self.path_ctrl.reset()
-        self._pending = None
-        self._progress = None
-        self._ticks = 0
+        ds = self.state
+        ds[TICKS], ds[MODE], ds[SPEED] = 0.0, MODES.index(task.mode), task.speed
+        ds[STOPPING] = ds[ARRIVED] = ds[HAS_PENDING] = ds[HAS_PROGRESS] = 0.0
 
     # -- the loop ----------------------------------------------------------------------------------------
+
+    def step_args(self) -> tuple:
+        """The arguments of :func:`driver_step` for the present task."""
+        path = self.task.path
+        return (self.consts, self.state, (path or _NO_PATH).arrays, path is not None, self.controller_consts[0],
+                self.controller_consts[1], self.speed_ctrl.state, *self.controller_consts[2:], self.path_ctrl.state)
 
     def update(self, readings: dict[str, Readings]) -> ActuatorCommand | None:
         """Take one period's readings; returns the command to send now, or None in manual mode."""
         pose = self.estimator.update(readings)
+        ds = self.state
         if pose is not None:
-            self._pose, self._stamp_ns = pose, pose.stamp_ns
-            self._speed = self._measured_speed(readings, pose)
-        task = self.task
-        run_speed = self._ticks % self.speed_ticks == 0
-        run_path = self._ticks % self.path_ticks == 0
-        self._ticks += self.period_ticks
-        if task.mode == DriverMode.MANUAL or self._pose is None:
+            self._stamp_ns = pose.stamp_ns
+            ds[HAS_POSE], ds[X], ds[Y], ds[YAW], ds[POSE_SPEED], ds[YAW_RATE] = (1.0, pose.x, pose.y, pose.yaw,
+                                                                                  pose.speed, pose.yaw_rate)
+            ds[MEASURED] = self._measured_speed(readings, pose)
+        if not driver_step(*self.step_args()):
             return None
-        if task.path is not None:
-            if run_path:
-                out = self.path_ctrl.step(self._pose, task.path)
-                self._steer = out.steer
-                task.stopping |= out.done  # the controller ran out of path (Turn-Wheels passed the last point)
-            self._track(task)
-        else:
-            self._steer = 0.0
-        if task.stopping or task.arrived:
-            self._long = self._final_stop(task)
-        elif run_speed:
-            computed = self.speed_ctrl.step(self._target_speed(task), self._speed, self._steer)
-            if self.params.actuation_delay:
-                self._long, self._pending = self._pending or LongitudinalOutput(Longitudinal.POWER, 0.0), computed
-            else:
-                self._long = computed
-        o = self._long
-        return ActuatorCommand(stamp_ns=self._stamp_ns, steer=self._steer, longitudinal=o.mode, drive=o.drive,
-                               brake=o.brake, velocity_limit=o.velocity_limit, autonomous=True)
+        return self.command()
+
+    def command(self) -> ActuatorCommand:
+        """The command the driver's state holds."""
+        ds = self.state.tolist()
+        return ActuatorCommand(stamp_ns=self._stamp_ns, steer=ds[STEER], longitudinal=LONGITUDINAL[int(ds[L_MODE])],
+                               drive=ds[L_DRIVE], brake=ds[L_BRAKE], velocity_limit=ds[L_LIMIT], autonomous=True)
 
     def _measured_speed(self, readings: dict[str, Readings], pose: PoseEstimate) -> float:
         vel = readings.get("velocity")
@@ -236,39 +364,22 @@ class Driver:
             return math.sqrt(m.vx_world**2 + m.vy_world**2 + m.wz**2)
         return pose.speed
 
-    def _track(self, task: _Task) -> None:
-        """Progress along the path and the switch to the final stop."""
-        path = task.path
-        hint = self._progress[0] if self._progress else None
-        proj = path.project(self._pose.x, self._pose.y, hint=hint, window=40 if hint is not None else None)
-        self._progress = (proj.index, proj.s, proj.distance_to_end, proj.cross_track)
-        braking = self._speed**2 / (2.0 * self.params.stop_deceleration)
-        if not task.stopping and proj.distance_to_end <= braking + self._speed * self.period:
-            task.stopping = True
-
-    def _target_speed(self, task: _Task) -> float:
-        if task.mode == DriverMode.FOLLOW and math.isnan(task.speed):
-            return float(task.path.speed_at(self._progress[1] if self._progress else 0.0))
-        return task.speed
-
-    def _final_stop(self, task: _Task) -> LongitudinalOutput:
-        """Brake to stop on the last point: deceleration v^2 / (2 d), then hold."""
-        v, d = self._speed, max(self._progress[2], 0.05)
-        if task.arrived or abs(v) < self.params.rest_speed:
-            task.arrived = True
-            decel = self.params.stop_deceleration
-        else:
-            decel = min(v * v / (2.0 * d), 2.0 * self.params.stop_deceleration)
-        return LongitudinalOutput(Longitudinal.FORCE, 0.0, brake=self.vehicle.mass * decel)
+    @property
+    def arrived(self) -> bool:
+        """Whether the task's path is done and the car at rest on its end."""
+        return bool(self.state[ARRIVED])
 
     @property
     def status(self) -> DriverStatus:
         """What the driver is doing, for the ``driver/status`` topic."""
-        t = self.task
-        index, progress, remaining, cross = self._progress or (0, 0.0, 0.0, math.nan)
-        target = self._target_speed(t) if t.mode != DriverMode.MANUAL else 0.0
-        return DriverStatus(self._stamp_ns, t.mode.value, float(target), float(self._speed), int(index),
-                            float(progress), float(remaining), float(cross), t.arrived, t.error)
+        t, ds = self.task, self.state
+        if ds[HAS_PROGRESS]:
+            index, progress, remaining, cross = int(ds[INDEX]), ds[PROGRESS], ds[REMAINING], ds[CROSS]
+        else:
+            index, progress, remaining, cross = 0, 0.0, 0.0, math.nan
+        target = target_speed(ds, (t.path or _NO_PATH).arrays) if t.mode != DriverMode.MANUAL else 0.0
+        return DriverStatus(self._stamp_ns, t.mode.value, float(target), float(ds[MEASURED]), index,
+                            float(progress), float(remaining), float(cross), bool(ds[ARRIVED]), t.error)
 
 
 def _finite(v: float, name: str) -> float:
