@@ -281,7 +281,8 @@ class Driver:
         """The compiled driver's state (slots :data:`TICKS` ... :data:`CROSS`)."""
         self.state[L_LIMIT] = math.inf
         self.task = _Task()
-        self._stamp_ns = 0
+        self.stamp_ns = 0
+        """Stamp of the latest pose [ns]."""
 
     # -- orders ------------------------------------------------------------------------------------------
 
@@ -343,7 +344,7 @@ class Driver:
         pose = self.estimator.update(readings)
         ds = self.state
         if pose is not None:
-            self._stamp_ns = pose.stamp_ns
+            self.stamp_ns = pose.stamp_ns
             ds[HAS_POSE], ds[X], ds[Y], ds[YAW], ds[POSE_SPEED], ds[YAW_RATE] = (1.0, pose.x, pose.y, pose.yaw,
                                                                                   pose.speed, pose.yaw_rate)
             ds[MEASURED] = self._measured_speed(readings, pose)
@@ -354,7 +355,7 @@ class Driver:
     def command(self) -> ActuatorCommand:
         """The command the driver's state holds."""
         ds = self.state.tolist()
-        return ActuatorCommand(stamp_ns=self._stamp_ns, steer=ds[STEER], longitudinal=LONGITUDINAL[int(ds[L_MODE])],
+        return ActuatorCommand(stamp_ns=self.stamp_ns, steer=ds[STEER], longitudinal=LONGITUDINAL[int(ds[L_MODE])],
                                drive=ds[L_DRIVE], brake=ds[L_BRAKE], velocity_limit=ds[L_LIMIT], autonomous=True)
 
     def _measured_speed(self, readings: dict[str, Readings], pose: PoseEstimate) -> float:
@@ -378,7 +379,7 @@ class Driver:
         else:
             index, progress, remaining, cross = 0, 0.0, 0.0, math.nan
         target = target_speed(ds, (t.path or _NO_PATH).arrays) if t.mode != DriverMode.MANUAL else 0.0
-        return DriverStatus(self._stamp_ns, t.mode.value, float(target), float(ds[MEASURED]), index,
+        return DriverStatus(self.stamp_ns, t.mode.value, float(target), float(ds[MEASURED]), index,
                             float(progress), float(remaining), float(cross), bool(ds[ARRIVED]), t.error)
 
 

@@ -14,15 +14,16 @@ class TruthEstimator:
 
     def reset(self) -> None:
         self.estimate: PoseEstimate | None = None
-        self._speed = self._yaw_rate = 0.0
+        self.speed = self.yaw_rate = 0.0
+        """Of the latest velocity reading: forward speed [m/s] and yaw rate [rad/s]."""
 
     def update(self, readings: dict[str, Readings]) -> PoseEstimate | None:
         vel = readings.get("velocity")
         if vel is not None and len(vel):
             v = vel.latest()
-            self._speed, self._yaw_rate = v.vx, v.wz
+            self.speed, self.yaw_rate = v.vx, v.wz
         pose = readings.get("pose")
         if pose is not None and len(pose):
             p = pose.latest()
-            self.estimate = PoseEstimate(p.stamp_ns, p.x, p.y, p.yaw, self._speed, self._yaw_rate, 0.0, 0.0, 0.0)
+            self.estimate = PoseEstimate(p.stamp_ns, p.x, p.y, p.yaw, self.speed, self.yaw_rate, 0.0, 0.0, 0.0)
         return self.estimate

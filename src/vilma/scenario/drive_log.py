@@ -46,6 +46,13 @@ class DriveLog:
         self._rows[self._n] = row
         self._n += 1
 
+    def extend(self, rows: np.ndarray) -> None:
+        """Append rows (k, len(COLUMNS))."""
+        while self._n + len(rows) > len(self._rows):
+            self._rows = np.concatenate([self._rows, np.empty_like(self._rows)])
+        self._rows[self._n:self._n + len(rows)] = rows
+        self._n += len(rows)
+
     @property
     def rows(self) -> np.ndarray:
         """The rows so far, (n, len(COLUMNS)) (a view)."""

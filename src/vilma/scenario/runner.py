@@ -20,6 +20,7 @@ import numpy as np
 from vilma.control.driver import Driver
 from vilma.scenario.drive_log import DriveLog, TimeseriesWriter
 from vilma.scenario.fields import SpecError
+from vilma.scenario.lockstep import compiled_ok, run_compiled
 from vilma.scenario.metrics import check_expectations, scorecard
 from vilma.scenario.spec import Scenario, beside, to_yaml
 from vilma.sensors import Readings
@@ -59,8 +60,12 @@ def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
                         yaw=yaw0 if i.yaw is None else i.yaw, vx=i.speed)
 
 
-def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None = None) -> RunResult:
+def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None = None,
+        compiled: bool = True) -> RunResult:
     """Drive ``scenario`` to its end; ``realtime`` paces it to that many times real time.
+
+    Unpaced runs that qualify (:func:`~vilma.scenario.lockstep.compiled_ok`) run compiled, unless
+    ``compiled`` is False; the drive is the same either way.
 
     With ``out_dir``, the run's files go there (:func:`write_outputs`), the timeseries streamed as it runs.
 
@@ -91,7 +96,7 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
             series.add(readings)
 
     try:
-        result = _drive(scenario, sim, driver, log, path, step, realtime)
+        result = _drive(scenario, sim, driver, log, path, step, series.add if series else None, realtime, compiled)
     except BaseException:
         if series is not None:
             series.abort()
@@ -103,7 +108,7 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
 
 
 def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, path: Trajectory | None, step,
-           realtime: float | None) -> RunResult:
+           on_block, realtime: float | None, compiled: bool) -> RunResult:
     """The loop of :func:`run`: start the task, step until it is done or time is up, score."""
     period = driver.period_ticks
     wall0 = time.perf_counter()
@@ -118,8 +123,11 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
         return follows and driver.status.arrived and abs(sim.plant[3]) < scenario.driver.rest_speed
 
     remaining = scenario.duration - t_start
-    if realtime is None:
-        for _ in range(round(remaining / (period * sim.clock.step_s))):
+    periods = round(remaining / (period * sim.clock.step_s))
+    if realtime is None and compiled and compiled_ok(sim, driver):
+        run_compiled(sim, driver, log, periods, follows, on_block)
+    elif realtime is None:
+        for _ in range(periods):
             if finished():
                 break
             step(sim.advance(period))

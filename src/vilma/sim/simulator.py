@@ -194,8 +194,46 @@ class Simulator:
         m = advance(self._model, self._integrator, self._z, mode, self._cmd, self._consts, self.clock.step_s, n,
                     t0, periods, out_z, out_dx, out_tick)
         self.clock.tick = t0 + n
-        ticks, step_ns = out_tick[:m], self.clock.step_ns
-        for sensor, period in zip(self.sensors, periods.tolist(), strict=True):
+        self._measure(t0, n, out_tick[:m], out_z, out_dx, parts)
+
+    # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
+
+    def kernel_args(self) -> tuple:
+        """``(model, integrator, z, consts, step [s], sensor periods [ticks])`` for
+        :func:`~vilma.vehicle.integrate.advance` run by compiled code; ``z`` is the live plant vector."""
+        return self._model, self._integrator, self._z, self._consts, self.clock.step_s, self._periods
+
+    @property
+    def compiled_ok(self) -> bool:
+        """Whether compiled code may advance this simulator: no dead time, no watchdog stop under way."""
+        return not self._dead_ticks and not self._pending and not self.watchdog_tripped
+
+    def held_command(self) -> tuple[int, np.ndarray]:
+        """The command in force: longitudinal mode id and ``[steer, drive, brake, velocity limit]`` (a copy)."""
+        return self._mode, self._cmd.copy()
+
+    def take_over(self, t0: int, ticks: int, records: tuple[np.ndarray, np.ndarray, np.ndarray], count: int,
+                  mode: int, cmd: np.ndarray, commanded_tick: int | None) -> dict[str, Readings]:
+        """Catch up after compiled code advanced the plant ``ticks`` steps from tick ``t0``.
+
+        ``records`` are the ``(out_z, out_dx, out_tick)`` it filled (``count`` rows), ``mode`` and ``cmd``
+        the command it left in force, last set as an autonomous command at tick ``commanded_tick`` (None:
+        it set none). Returns the readings of those steps, as :meth:`advance` would have.
+        """
+        self.clock.tick = t0 + ticks
+        self._mode, self._cmd = mode, cmd.copy()
+        if commanded_tick is not None:
+            self._autonomous, self._last_command_tick = True, commanded_tick
+        out_z, out_dx, out_tick = records
+        parts: dict[str, list[Readings]] = {s.name: [] for s in self.sensors}
+        self._measure(t0, ticks, out_tick[:count], out_z, out_dx, parts)
+        return {name: Readings.concat(p) for name, p in parts.items() if p}
+
+    def _measure(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
+                 parts: dict[str, list[Readings]]) -> None:
+        """The sensors' readings of the steps ``t0 + 1 .. t0 + n`` from the plant recorded at ``ticks``."""
+        step_ns = self.clock.step_ns
+        for sensor, period in zip(self.sensors, self._periods.tolist(), strict=True):
             first, count = (t0 // period + 1) * period, (t0 + n) // period - t0 // period
             if count:
                 s = Samples(rows_of(ticks, period, count), out_z, out_dx)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 import msgspec
+import numpy as np
 from numba import njit
 
 from vilma.core.messages import ActuatorCommand, Longitudinal
@@ -32,17 +33,28 @@ class CommandError(ValueError):
     """A command that cannot be applied (NaN, infinity, unknown mode)."""
 
 
-def _limits(cmd: ActuatorCommand, p: VehicleParams) -> dict[str, tuple[float, float]]:
+COMMAND_FIELDS = ("steer", "drive", "brake", "velocity_limit")
+"""The numeric fields of a command, in the order of :func:`command_limits`' columns."""
+
+
+def command_limits(p: VehicleParams) -> np.ndarray:
+    """Ranges of the command fields by longitudinal mode: ``[mode id, field, (low, high)]``, shape (3, 4, 2)."""
     a = p.actuators
-    if cmd.longitudinal == Longitudinal.FORCE:
-        drive, brake = (-p.max_drive_force, p.max_drive_force), (0.0, p.max_brake_force)
-    elif cmd.longitudinal == Longitudinal.ACCEL:
-        drive, brake = (-a.max_decel, a.max_accel), (0.0, p.max_brake_force)
-    else:
-        top = p.max_drive_force / p.power_unit_force
-        drive, brake = (-top, top), (0.0, p.max_brake_force / (4.0 * p.brake_unit_force))
-    return {"steer": (-p.max_steer, p.max_steer), "drive": drive, "brake": brake,
-            "velocity_limit": (0.0, math.inf)}
+    top = p.max_drive_force / p.power_unit_force
+    out = np.empty((3, 4, 2))
+    out[:, 0] = (-p.max_steer, p.max_steer)
+    out[:, 3] = (0.0, math.inf)
+    out[FORCE, 1:3] = ((-p.max_drive_force, p.max_drive_force), (0.0, p.max_brake_force))
+    out[ACCEL, 1:3] = ((-a.max_decel, a.max_accel), (0.0, p.max_brake_force))
+    out[POWER, 1:3] = ((-top, top), (0.0, p.max_brake_force / (4.0 * p.brake_unit_force)))
+    return out
+
+
+@njit(cache=True)
+def clamp_command(limits, mode, cmd):
+    """Clamp ``cmd`` (steer, drive, brake, velocity limit) in place to the ranges of ``mode`` (a validated command)."""
+    for k in range(4):
+        cmd[k] = min(max(cmd[k], limits[mode, k, 0]), limits[mode, k, 1])
 
 
 def validate_command(cmd: ActuatorCommand, p: VehicleParams) -> tuple[ActuatorCommand, tuple[str, ...]]:
@@ -65,7 +77,7 @@ def validate_command(cmd: ActuatorCommand, p: VehicleParams) -> tuple[ActuatorCo
     cmd = msgspec.structs.replace(cmd, longitudinal=mode)
     notes: list[str] = []
     changes: dict[str, float] = {}
-    for name, (lo, hi) in _limits(cmd, p).items():
+    for name, (lo, hi) in zip(COMMAND_FIELDS, command_limits(p)[MODE_IDS[mode]].tolist(), strict=True):
         v = getattr(cmd, name)
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise CommandError(f"command field '{name}' is {v!r}: must be a number")

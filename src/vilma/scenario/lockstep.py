@@ -1,0 +1,174 @@
+"""The closed loop compiled: plant, driver and log in one numba loop, the sensors measured per block.
+
+:func:`run_compiled` does what the runner's Python loop does (advance one
+driver period, give the driver the exact pose, apply its command, log a row)
+with every period in compiled code, so a drive runs over a thousand times
+faster than real time. The sensors still sample the plant at their rates:
+the loop records the plant at their sample ticks and they measure it after
+each block, exactly as the simulator would have.
+
+It applies when the driver steers by the simulator's exact pose, as read by
+the noise-free ``pose`` and ``velocity`` sensors at least once a driver
+period, without actuator dead time; :func:`compiled_ok` says whether a run
+qualifies, and the runner falls back to the Python loop otherwise. Both
+loops give bit-identical drives (tested).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+from numba import njit
+
+from vilma.control.driver import (
+    ARRIVED,
+    HAS_POSE,
+    L_BRAKE,
+    L_DRIVE,
+    L_LIMIT,
+    L_MODE,
+    MANUAL,
+    MEASURED,
+    MODE,
+    POSE_SPEED,
+    STEER,
+    YAW_RATE,
+    Driver,
+    driver_step,
+    target_speed,
+)
+from vilma.control.driver import YAW as DYAW
+from vilma.control.driver import X as DX
+from vilma.control.driver import Y as DY
+from vilma.core.geometry import wrap
+from vilma.core.messages import PoseEstimate
+from vilma.localization import TruthEstimator
+from vilma.scenario.drive_log import COLUMNS, DriveLog
+from vilma.sensors import Readings
+from vilma.sim import Simulator
+from vilma.vehicle.actuators import clamp_command, command_limits
+from vilma.vehicle.integrate import advance, empty_records
+from vilma.vehicle.state import VX, VY, YAW, X, Y
+from vilma.vehicle.state import YAW_RATE as Z_YAW_RATE
+
+BLOCK = 256
+"""Driver periods per compiled call (the sensors measure and the log grows once a block)."""
+
+
+def _truth_periods(sim: Simulator) -> tuple[int, int]:
+    """Sample periods [ticks] of the pose and velocity sensors."""
+    s = sim.config.sensors
+    return tuple(sim.clock.period_ticks(r, "sensor") for r in (s.pose.rate_hz, s.velocity.rate_hz))
+
+
+def compiled_ok(sim: Simulator, driver: Driver) -> bool:
+    """Whether :func:`run_compiled` reproduces the Python loop for this simulator and driver.
+
+    The driver must steer by the exact pose, the pose and velocity sensors be noise-free and sample at
+    driver period ends (their period a divisor or a multiple of the driver's), the actuators have no
+    dead time, and the watchdog not fire between two periods.
+    """
+    pose, vel = sim.config.sensors.pose, sim.config.sensors.velocity
+    if driver.params.pose_source != "truth" or not sim.compiled_ok or pose is None or vel is None:
+        return False
+    if pose.position_noise or pose.yaw_noise or vel.linear_noise or vel.angular_noise:
+        return False
+    p = driver.period_ticks
+    wd = sim.clock.ticks_for(sim.config.watchdog_timeout)
+    return all(p % t == 0 or t % p == 0 for t in _truth_periods(sim)) and (wd == 0 or wd > p)
+
+
+@njit(cache=True)
+def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, out_tick, n, cmd_mode, cmd, limits,
+          dc, ds, pa, has_path, vp, pf, speed_state, vh, pp, st, path_state, original_speed, stop_at_rest, rows,
+          truth, pose_period, vel_period):
+    """Up to ``n`` driver periods; returns (periods run, sensor records written, arrived at rest).
+
+    ``truth`` = ``[speed, yaw rate]`` of the latest velocity reading, as :class:`TruthEstimator` keeps it.
+    """
+    j = 0
+    for k in range(n):
+        j += advance(model, integrator, z, cmd_mode[0], cmd, pc, dt, dc.period_ticks, tick, periods, out_z[j:],
+                     out_dx[j:], out_tick[j:])
+        tick += dc.period_ticks
+        # what TruthEstimator makes of the pose and velocity sensors (they sample at period ends only)
+        velocity_read = tick % vel_period == 0
+        if velocity_read:
+            truth[0], truth[1] = z[VX], z[Z_YAW_RATE]
+        if tick % pose_period == 0:
+            ds[HAS_POSE], ds[DX], ds[DY], ds[DYAW] = 1.0, z[X], z[Y], wrap(z[YAW])
+            ds[POSE_SPEED], ds[YAW_RATE] = truth[0], truth[1]
+        if ds[HAS_POSE]:
+            if original_speed and velocity_read:  # sqrt(vx^2 + vy^2 + wz^2), world frame, as the original
+                c, s = math.cos(z[YAW]), math.sin(z[YAW])
+                wx, wy = z[VX] * c - z[VY] * s, z[VX] * s + z[VY] * c
+                ds[MEASURED] = math.sqrt(wx * wx + wy * wy + z[Z_YAW_RATE] ** 2)
+            else:
+                ds[MEASURED] = ds[POSE_SPEED]
+        sent = driver_step(dc, ds, pa, has_path, vp, pf, speed_state, vh, pp, st, path_state)
+        r = rows[k]
+        r[0] = (tick * step_ns) * 1e-9
+        r[1:10] = z
+        r[10] = target_speed(ds, pa) if ds[MODE] != MANUAL else 0.0
+        r[11], r[12], r[13], r[14] = ds[MEASURED], ds[DX], ds[DY], ds[DYAW]
+        if sent:
+            mode = int(ds[L_MODE])
+            cmd[0], cmd[1], cmd[2], cmd[3] = ds[STEER], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT]
+            r[15], r[16], r[17] = cmd[0], cmd[1], cmd[2]  # as the driver sent it, before the car clamps it
+            clamp_command(limits, mode, cmd)
+            cmd_mode[0] = mode
+        else:
+            r[15] = r[16] = r[17] = math.nan
+        if stop_at_rest and ds[ARRIVED] and abs(z[VX]) < dc.rest_speed:
+            return k + 1, j, True
+    return n, j, False
+
+
+def _catch_up(est: TruthEstimator, ds: np.ndarray, truth: np.ndarray, stamp_ns: int) -> None:
+    """Leave the estimator as the Python loop would have: latest velocity reading and pose."""
+    est.speed, est.yaw_rate = float(truth[0]), float(truth[1])
+    if ds[HAS_POSE]:
+        est.estimate = PoseEstimate(stamp_ns, float(ds[DX]), float(ds[DY]), float(ds[DYAW]), float(ds[POSE_SPEED]),
+                                    float(ds[YAW_RATE]), 0.0, 0.0, 0.0)
+
+
+def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, stop_at_rest: bool,
+                 on_block: Callable[[dict[str, Readings]], None] | None = None) -> bool:
+    """Run up to ``periods`` driver periods compiled, appending a log row each; True if it stopped at rest.
+
+    ``on_block`` gets the sensor readings of each block (after its rows are in the log). The column
+    ``controller_us`` holds the wall time per period of the whole compiled loop (plant, driver and
+    log): an upper bound of the driver's cost.
+    """
+    model, integrator, z, pc, dt, sensor_periods = sim.kernel_args()
+    limits = command_limits(sim.config.vehicle)
+    mode, cmd = sim.held_command()
+    cmd_mode = np.array([mode])
+    args = driver.step_args()
+    est = driver.estimator
+    truth = np.array([est.speed, est.yaw_rate])
+    pose_period, vel_period = _truth_periods(sim)
+    records = empty_records(BLOCK * driver.period_ticks)
+    rows = np.empty((BLOCK, len(COLUMNS)))
+    done, stopped = 0, False
+    while done < periods and not stopped:
+        n = min(BLOCK, periods - done)
+        t0 = sim.clock.tick
+        wall = time.perf_counter()
+        k, m, stopped = _loop(model, integrator, z, pc, dt, sim.clock.step_ns, t0, sensor_periods, *records, n,
+                              cmd_mode, cmd, limits, *args, driver.params.original_speed, stop_at_rest, rows,
+                              truth, pose_period, vel_period)
+        rows[:k, -1] = (time.perf_counter() - wall) / k * 1e6
+        sent = np.flatnonzero(~np.isnan(rows[:k, 15]))
+        commanded = t0 + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None
+        driver.stamp_ns = sim.clock.step_ns * (t0 + k * driver.period_ticks)
+        _catch_up(est, driver.state, truth, sim.clock.step_ns * (sim.clock.tick // pose_period * pose_period))
+        readings = sim.take_over(t0, k * driver.period_ticks, records, m, int(cmd_mode[0]), cmd, commanded)
+        log.extend(rows[:k])
+        if on_block is not None:
+            on_block(readings)
+        done += k
+    return stopped
