@@ -16,13 +16,20 @@ if TYPE_CHECKING:
 
 PLOTS = ("path.png", "speed.png", "cross_track.png", "effort.png")
 """The files :func:`plot_run` writes."""
+MAX_POINTS = 20_000
+"""Points drawn per line at most (every k-th sample of longer runs: a PNG cannot show more)."""
 
 
 def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """Write :data:`PLOTS` into ``out_dir``; ``speed_log`` (times [s], speeds [m/s]) is overlaid on the speed."""
     log, name = result.log, result.scenario.name
-    t = log.column("t") - result.t_start
-    x, y = log.column("x"), log.column("y")
+    every = max(1, -(-len(log) // MAX_POINTS))
+
+    def col(c: str) -> np.ndarray:
+        return log.column(c)[::every]
+
+    t = col("t") - result.t_start
+    x, y = col("x"), col("y")
 
     fig, ax = plt.subplots(figsize=(7, 6))
     if result.path is not None:
@@ -33,8 +40,8 @@ def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.n
     _save(fig, out_dir / "path.png")
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    ax.plot(t, np.hypot(log.column("vx"), log.column("vy")), "b-", label="vilma speed")
-    ax.plot(t, log.column("target_speed"), "k--", lw=1.0, label="target")
+    ax.plot(t, np.hypot(col("vx"), col("vy")), "b-", label="vilma speed")
+    ax.plot(t, col("target_speed"), "k--", lw=1.0, label="target")
     if speed_log is not None:
         ax.plot(speed_log[0], speed_log[1], "r.-", ms=3, lw=0.8, label="original (log)")
     ax.set(xlabel="time since start [s]", ylabel="speed [m/s]", title=f"{name}: speed")
@@ -54,12 +61,12 @@ def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.n
     _save(fig, out_dir / "cross_track.png")
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    a1.plot(t, np.degrees(log.column("steer")), "b-", label="applied")
-    a1.plot(t, np.degrees(log.column("cmd_steer")), "k--", lw=0.8, label="commanded")
+    a1.plot(t, np.degrees(col("steer")), "b-", label="applied")
+    a1.plot(t, np.degrees(col("cmd_steer")), "k--", lw=0.8, label="commanded")
     a1.set(ylabel="steering [deg]", title=f"{name}: steering and drive")
     a1.legend()
-    a2.plot(t, log.column("drive_force"), "g-", label="drive force")
-    a2.plot(t, -log.column("brake_force"), "r-", label="brake force")
+    a2.plot(t, col("drive_force"), "g-", label="drive force")
+    a2.plot(t, -col("brake_force"), "r-", label="brake force")
     a2.set(xlabel="time since start [s]", ylabel="force [N]")
     a2.legend()
     for a in (a1, a2):

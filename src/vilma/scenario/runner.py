@@ -76,7 +76,7 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
     sim = Simulator(scenario.sim)
     sim.reset(initial_state(scenario, path))
     driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
-    log = DriveLog()
+    log = DriveLog(capacity=round(scenario.duration / driver.period) + 2)  # a row a period, allocated once
     series = None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
