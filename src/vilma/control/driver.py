@@ -366,11 +366,6 @@ class Driver:
         return pose.speed
 
     @property
-    def arrived(self) -> bool:
-        """Whether the task's path is done and the car at rest on its end."""
-        return bool(self.state[ARRIVED])
-
-    @property
     def status(self) -> DriverStatus:
         """What the driver is doing, for the ``driver/status`` topic."""
         t, ds = self.task, self.state

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from vilma.control.driver import Driver
-from vilma.scenario.drive_log import DriveLog, TimeseriesWriter
+from vilma.scenario.drive_log import PLANT_COLUMNS, DriveLog, TimeseriesWriter
 from vilma.scenario.fields import SpecError
 from vilma.scenario.lockstep import compiled_ok, run_compiled
 from vilma.scenario.metrics import check_expectations, scorecard
@@ -26,7 +26,7 @@ from vilma.scenario.spec import Scenario, beside, to_yaml
 from vilma.sensors import Readings
 from vilma.sim import Pacer, Simulator
 from vilma.trajectory import Trajectory, load_speed_log
-from vilma.vehicle.state import VehicleState
+from vilma.vehicle.state import VX, VehicleState
 
 
 @dataclass
@@ -120,7 +120,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
     follows = scenario.task.kind != "speed"
 
     def finished() -> bool:
-        return follows and driver.status.arrived and abs(sim.plant[3]) < scenario.driver.rest_speed
+        return follows and driver.status.arrived and abs(sim.plant[VX]) < scenario.driver.rest_speed
 
     remaining = scenario.duration - t_start
     periods = round(remaining / (period * sim.clock.step_s))
@@ -136,7 +136,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
                                                                          should_stop=finished)
     wall = time.perf_counter() - wall0
     rows = log.rows
-    healthy = bool(np.isfinite(rows[:, 1:10]).all()) and not sim.watchdog_tripped
+    healthy = bool(np.isfinite(rows[:, 1:1 + len(PLANT_COLUMNS)]).all()) and not sim.watchdog_tripped
     completed = healthy and (finished() if follows else True)
     metrics = scorecard(log, scenario, path, t_start, completed, wall)
     failures = check_expectations(metrics, {"completed": True, **scenario.expect})
