@@ -102,6 +102,66 @@ def _trajectory(args: argparse.Namespace) -> int:
     return 0
 
 
+def _scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}"):
+    """The scenario named (file or bundled), else the defaults with an idle task."""
+    from vilma.scenario import batch
+    from vilma.scenario.fields import load_yaml
+    from vilma.scenario.spec import load_scenario, parse_scenario
+
+    if name:
+        return load_scenario(batch.find_scenario(name))
+    data, src = load_yaml(task, "defaults")
+    return parse_scenario(data, src, name="defaults")
+
+
+def _zenoh(args: argparse.Namespace, listen_default: tuple[str, ...], connect_default: tuple[str, ...]):
+    from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
+
+    cfg = ZenohConfig(listen=tuple(args.listen) if args.listen is not None else listen_default,
+                      connect=tuple(args.connect) if args.connect is not None else connect_default)
+    return ZenohBus(cfg), cfg
+
+
+def _sim(args: argparse.Namespace) -> int:
+    from vilma import programs
+    from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
+
+    _check_factor(args.speed, "--speed")
+    scenario = _scenario_or_default(args.scenario)
+    bus, cfg = _zenoh(args, (DEFAULT_ENDPOINT,), ())
+    print(f"vilma sim: {scenario.name}, {args.speed:g}x real time; Zenoh listens on {', '.join(cfg.listen) or '-'}"
+          f", connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*", flush=True)
+    try:
+        return programs.sim_program(scenario, bus, args.speed, args.duration, print)
+    finally:
+        bus.close()
+
+
+def _drive(args: argparse.Namespace) -> int:
+    from vilma import programs
+    from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT, LOOPBACK_ANY_PORT
+
+    scenario = _scenario_or_default(args.scenario) if args.scenario else None
+    bus, cfg = _zenoh(args, (LOOPBACK_ANY_PORT,), (DEFAULT_ENDPOINT,))
+    print(f"vilma drive: {'task of ' + scenario.name if scenario else 'waiting for orders on vilma/vilma/driver/cmd'}"
+          f"; Zenoh connects to {', '.join(cfg.connect) or '-'}", flush=True)
+    try:
+        return programs.drive_program(scenario, bus, print)
+    finally:
+        bus.close()
+
+
+def _up(args: argparse.Namespace) -> int:
+    from vilma import programs
+
+    _check_factor(args.speed, "--speed")
+    scenario = _scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
+                                                     "[60, 0]], speed: 8.33}")
+    print(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)",
+          flush=True)
+    return programs.up(scenario, args.speed, args.duration, lambda line: print(line, flush=True))
+
+
 def _parser() -> argparse.ArgumentParser:
     from vilma import __version__
     from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
@@ -122,6 +182,21 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--realtime", type=float, default=None, metavar="K",
                    help="pace to K times real time (default: as fast as possible)")
     r.set_defaults(func=_run)
+    for name, helptext in (("sim", "the simulator as a server on Zenoh, paced to real time"),
+                           ("drive", "the self-driver as its own process on Zenoh"),
+                           ("up", "simulator and driver in one process, real time")):
+        q = sub.add_parser(name, help=helptext)
+        q.add_argument("scenario", nargs="?", metavar="SCENARIO", help="scenario file or bundled name (its car, "
+                       "sensors, controllers and task)")
+        if name != "drive":
+            q.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
+            q.add_argument("--duration", type=float, default=float("inf"), help="stop after this sim time [s]")
+        if name != "up":
+            q.add_argument("--listen", action="append", metavar="ENDPOINT",
+                           help="Zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
+            q.add_argument("--connect", action="append", metavar="ENDPOINT",
+                           help="Zenoh endpoint to connect to (repeatable)")
+        q.set_defaults(func={"sim": _sim, "drive": _drive, "up": _up}[name])
     t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
                        description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "
                                    "transform it and write it (.csv: CSV, else the original's format).")

@@ -16,7 +16,7 @@ import msgspec
 from vilma.core.geometry import quaternion_from_euler
 
 
-class Message(msgspec.Struct, frozen=True, tag=True):
+class Message(msgspec.Struct, frozen=True, tag=True, array_like=True):
     """Base of every message: ``stamp_ns`` is sim time [ns]."""
 
     stamp_ns: int
@@ -183,3 +183,35 @@ class PoseEstimate(Message, frozen=True):
     std_x: float
     std_y: float
     std_yaw: float
+
+
+class DriverOrder(Message, frozen=True, kw_only=True):
+    """An order to the self-driver (the original GUI's Automatic Driving buttons).
+
+    ``action``: ``manual``, ``set_speed`` (``speed`` [m/s]), ``hold_speed``, ``go_to`` (``x``, ``y`` [m],
+    ``speed``), ``follow`` (``points`` [[x, y], ...] [m] or a trajectory ``file``; ``speed``, or NaN for
+    the file's own speeds).
+    """
+
+    stamp_ns: int = 0
+    action: str
+    speed: float = math.nan
+    x: float = math.nan
+    y: float = math.nan
+    points: list[tuple[float, float]] = []
+    file: str = ""
+
+
+class SimControl(Message, frozen=True, kw_only=True):
+    """An order to the simulator: ``action`` ``reset`` (to the start pose) or ``status``."""
+
+    stamp_ns: int = 0
+    action: str
+
+
+class Reply(Message, frozen=True, kw_only=True):
+    """The answer to an order: ``ok``, or the one-line ``error`` saying why not."""
+
+    stamp_ns: int = 0
+    ok: bool
+    error: str = ""

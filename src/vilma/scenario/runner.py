@@ -113,7 +113,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
     period = driver.period_ticks
     wall0 = time.perf_counter()
     step(sim.advance(period))  # the first readings: the estimator starts
-    task = _start(driver, scenario, path)
+    task = start_task(driver, scenario, path)
     t_start = sim.time_ns * 1e-9
     if task is not None:
         path = task
@@ -146,7 +146,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
     return RunResult(scenario, metrics, failures, log, path, t_start)
 
 
-def _start(driver: Driver, scenario: Scenario, path: Trajectory | None) -> Trajectory | None:
+def start_task(driver: Driver, scenario: Scenario, path: Trajectory | None) -> Trajectory | None:
     """Give the driver its task; returns the path it drives when it makes one (go to a point)."""
     t = scenario.task
     try:

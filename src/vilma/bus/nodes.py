@@ -1,0 +1,190 @@
+"""The simulator and the self-driver as bus nodes: what ``vilma sim``, ``vilma drive`` and ``vilma up`` run.
+
+:class:`SimNode` advances the simulator one frame at a time (paced by the
+caller), publishes every reading on its sensor topic and a ``sim/status``
+after each frame (the frame's end: the driver's clock), and applies the
+commands that arrive on ``cmd`` at the start of the next frame. It answers
+``sim/cmd`` (reset, status).
+
+:class:`DriverNode` collects the readings of each frame, runs the driver
+once per driver period of sim time when a frame ends, publishes the command
+on ``cmd`` and its status on ``driver/status``, and takes orders on
+``driver/cmd``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+import msgspec
+import numpy as np
+
+from vilma.bus.base import Bus
+from vilma.bus.topics import SENSOR_TOPICS, topic
+from vilma.control.driver import Driver
+from vilma.core.messages import ActuatorCommand, DriverOrder, Message, Reply, SimControl, SimStatus
+from vilma.sensors import Readings
+from vilma.sim import Simulator
+from vilma.trajectory import Trajectory, TrajectoryFileError, load_trajectory
+from vilma.vehicle.actuators import CommandError
+from vilma.vehicle.state import VehicleState
+
+log = logging.getLogger(__name__)
+
+
+class SimNode:
+    """The simulator on a bus (see the module docstring). ``on_frame`` also gets each frame's readings."""
+
+    def __init__(self, sim: Simulator, bus: Bus, car: str = "vilma", start: VehicleState | None = None,
+                 on_frame: Callable[[dict[str, Readings]], None] | None = None) -> None:
+        self.sim, self.bus, self.car = sim, bus, car
+        self.start = start or sim.config.initial
+        self.on_frame = on_frame
+        self._pending: list[ActuatorCommand] = []
+        self._lock = threading.Lock()
+        self._reset = False
+        self.real_time_factor = math.nan
+        self._keys = {name: topic(name, car) for name in SENSOR_TOPICS}
+        self._subs = [bus.subscribe(topic("cmd", car), self.command), bus.serve(topic("sim/cmd", car), self._order)]
+
+    def command(self, cmd: Message) -> None:
+        """Take a command from any thread; it applies at the start of the next frame."""
+        with self._lock:
+            self._pending.append(cmd)
+
+    def _order(self, order: SimControl) -> Reply:
+        if order.action == "reset":
+            with self._lock:
+                self._reset = True
+            return Reply(ok=True)
+        if order.action == "status":
+            return Reply(ok=True, error=f"t={self.sim.clock.time_s:.3f} s")
+        return Reply(ok=False, error=f"unknown simulator order {order.action!r}; use reset or status")
+
+    def frame(self, readings: dict[str, Readings]) -> None:
+        """After the simulator advanced one frame: publish what it measured, then its status."""
+        for name, r in readings.items():
+            key = self._keys.get(name)
+            if key is not None:
+                for msg in r.messages():
+                    self.bus.publish(key, msg)
+        if self.on_frame is not None:
+            self.on_frame(readings)
+        self.bus.publish(topic("sim/status", self.car), self.sim.status(self.real_time_factor))
+        self.apply_pending()
+
+    def apply_pending(self) -> None:
+        """Apply the commands and the reset that arrived since the last frame."""
+        with self._lock:
+            pending, self._pending = self._pending, []
+            reset, self._reset = self._reset, False
+        if reset:
+            self.sim.reset(self.start)
+        for cmd in pending:
+            try:
+                self.sim.command(cmd)
+            except CommandError as e:
+                log.warning("refused a command: %s", e)
+
+    def close(self) -> None:
+        for s in self._subs:
+            s.close()
+
+
+def readings_of(name: str, messages: list[Message]) -> Readings:
+    """Messages of one sensor back into :class:`Readings` (in stamp order)."""
+    messages = sorted(messages, key=lambda m: m.stamp_ns)
+    rows = [msgspec.structs.astuple(m) for m in messages]
+    return Readings(name, SENSOR_TOPICS[name], np.array([r[0] for r in rows], dtype=np.int64),
+                    np.array([r[1:] for r in rows], dtype=float))
+
+
+class DriverNode:
+    """The self-driver on a bus (see the module docstring)."""
+
+    def __init__(self, driver: Driver, bus: Bus, car: str = "vilma", step_ns: int = 10_000_000) -> None:
+        self.driver, self.bus, self.car = driver, bus, car
+        self.period_ns = driver.period_ticks * step_ns
+        self._inbox: dict[str, list[Message]] = {name: [] for name in SENSOR_TOPICS}
+        self._lock = threading.Lock()
+        self._next_ns: int | None = None
+        self.commands_sent = 0
+        self.on_pose: Callable[[], None] | None = None
+        """Called once, at the end of the first period in which the driver knows the car's pose."""
+        self._subs = [bus.subscribe(topic(name, car), self._collector(name)) for name in SENSOR_TOPICS]
+        self._subs += [bus.subscribe(topic("sim/status", car), self._frame_end),
+                       bus.serve(topic("driver/cmd", car), self.order)]
+
+    def _collector(self, name: str):
+        box = self._inbox[name]
+
+        def take(msg: Message) -> None:
+            with self._lock:
+                box.append(msg)
+        return take
+
+    def _frame_end(self, status: SimStatus) -> None:
+        t = status.stamp_ns
+        if self._next_ns is None or t < self._next_ns - self.period_ns:  # the first frame, or the sim was reset
+            self._next_ns = t
+        if t < self._next_ns:
+            return
+        with self._lock:
+            readings = {name: readings_of(name, box) for name, box in self._inbox.items() if box}
+            for box in self._inbox.values():
+                box.clear()
+        periods = 1 + (t - self._next_ns) // self.period_ns
+        self._next_ns += periods * self.period_ns
+        cmd = None
+        for i in range(periods):  # one update per driver period of sim time; the readings go to the first
+            cmd = self.driver.update(readings if i == 0 else {}) or cmd
+        if self.on_pose is not None and self.driver.estimator.estimate is not None:
+            hook, self.on_pose = self.on_pose, None
+            hook()
+        if cmd is not None:
+            self.bus.publish(topic("cmd", self.car), cmd)
+            self.commands_sent += 1
+        self.bus.publish(topic("driver/status", self.car), self.driver.status)
+
+    def order(self, order: DriverOrder) -> Reply:
+        """Carry out an order; a Reply says whether it was taken, or why not."""
+        d, a = self.driver, order.action
+        speed = None if math.isnan(order.speed) else order.speed
+        try:
+            if a == "manual":
+                d.manual()
+            elif a == "set_speed":
+                d.set_speed(_need(speed, "speed"))
+            elif a == "hold_speed":
+                d.hold_current_speed()
+            elif a == "go_to":
+                d.go_to(order.x, order.y, _need(speed, "speed"))
+            elif a == "follow":
+                d.follow(_path_of(order), speed)
+            else:
+                return Reply(ok=False, error=f"unknown order {a!r}; use manual, set_speed, hold_speed, go_to, follow")
+        except (ValueError, TrajectoryFileError) as e:
+            return Reply(ok=False, error=f"{a}: {e}")
+        return Reply(ok=True)
+
+    def close(self) -> None:
+        for s in self._subs:
+            s.close()
+
+
+def _need(value: float | None, name: str) -> float:
+    if value is None:
+        raise ValueError(f"give {name}")
+    return value
+
+
+def _path_of(order: DriverOrder) -> Trajectory:
+    if order.file:
+        return load_trajectory(Path(order.file))
+    if len(order.points) < 2:
+        raise ValueError("give a trajectory file or at least 2 points")
+    return Trajectory.from_points(order.points)

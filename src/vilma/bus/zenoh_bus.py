@@ -1,0 +1,142 @@
+"""The bus between processes and hosts: Zenoh 1.x, peer to peer, configured explicitly.
+
+Out of the box Zenoh listens on every interface and scouts by multicast; vilma
+does neither unless told: it listens and connects only on the endpoints given
+(default: loopback), and multicast scouting is off. Commands and orders are
+sent reliably with congestion control that blocks; sensor feeds may drop
+under congestion (a display wants the latest value, not a backlog).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from dataclasses import dataclass, field
+
+import zenoh
+
+from vilma.bus.codec import DecodeError, decode, encode
+from vilma.bus.topics import SENSOR_TOPICS, message_type
+from vilma.core.messages import Message, Reply
+
+log = logging.getLogger(__name__)
+
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+"""Where ``vilma sim`` listens and the other programs connect by default."""
+LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
+"""Where the other programs listen by default: peers that meet through the simulator learn of each other
+(gossip) and connect directly, so a driver's status reaches a GUI without passing through the simulator."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ZenohConfig:
+    """Endpoints of a Zenoh peer, as ``tcp/<address>:<port>`` (also ``udp/``, ``tls/``...)."""
+
+    listen: tuple[str, ...] = ()
+    """Endpoints to listen on (none: only connect out)."""
+    connect: tuple[str, ...] = ()
+    """Endpoints of peers to connect to."""
+    multicast_scouting: bool = False
+    """Find peers by UDP multicast on the local network (off: only the endpoints given)."""
+    extra: dict[str, str] = field(default_factory=dict)
+    """Other Zenoh settings, JSON5 by key path (``transport/unicast/max_links``: ``"2"``)."""
+
+    def exposed(self) -> list[str]:
+        """Listen endpoints that are not on the loopback interface."""
+        return [e for e in self.listen if not any(h in e for h in ("/127.", "/localhost:", "/[::1]:"))]
+
+    def to_zenoh(self) -> zenoh.Config:
+        """The Zenoh configuration."""
+        cfg = zenoh.Config()
+        cfg.insert_json5("mode", '"peer"')
+        cfg.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+        cfg.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
+        cfg.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast_scouting))
+        for key, value in self.extra.items():
+            cfg.insert_json5(key, value)
+        return cfg
+
+
+class ZenohBus:
+    """A :class:`~vilma.bus.base.Bus` over a Zenoh session. Callbacks run on Zenoh's threads."""
+
+    def __init__(self, config: ZenohConfig) -> None:
+        for e in config.exposed():
+            log.warning("Zenoh listens on %s, beyond this machine: anyone who reaches it can drive the car", e)
+        try:
+            self.session = zenoh.open(config.to_zenoh())
+        except zenoh.ZError as e:
+            raise OSError(f"cannot open Zenoh on listen {list(config.listen)} connect {list(config.connect)}: {e}")\
+                from None
+        self.config = config
+        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._entities: list = []
+
+    def publish(self, key: str, msg: Message) -> None:
+        pub = self._publishers.get(key)
+        if pub is None:
+            sensor = key.rsplit("/", 1)[-1] in SENSOR_TOPICS
+            pub = self.session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.DROP if sensor else zenoh.CongestionControl.BLOCK,
+                reliability=zenoh.Reliability.RELIABLE)
+            self._publishers[key] = pub
+        pub.put(encode(msg))
+
+    def subscribe(self, key: str, handler) -> _Undeclare:
+        expected = message_type(key)
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            try:
+                msg = decode(sample.payload.to_bytes(), expected)
+            except DecodeError as e:
+                log.warning("dropped a message on %s: %s", key, e)
+                return
+            try:
+                handler(msg)
+            except Exception:
+                log.exception("subscriber of %s failed", key)
+
+        sub = self.session.declare_subscriber(key, on_sample)
+        self._entities.append(sub)
+        return _Undeclare(sub)
+
+    def serve(self, key: str, server) -> _Undeclare:
+        expected = message_type(key)
+
+        def on_query(query: zenoh.Query) -> None:
+            try:
+                reply = server(decode(query.payload.to_bytes() if query.payload else b"", expected))
+            except DecodeError as e:
+                reply = Reply(ok=False, error=f"{key}: {e}")
+            except Exception as e:
+                log.exception("server of %s failed", key)
+                reply = Reply(ok=False, error=f"{key}: {e}")
+            query.reply(key, encode(reply))
+
+        q = self.session.declare_queryable(key, on_query)
+        self._entities.append(q)
+        return _Undeclare(q)
+
+    def request(self, key: str, msg: Message, timeout: float = 2.0) -> Reply:
+        for r in self.session.get(key, payload=encode(msg), timeout=timeout):
+            if r.ok is not None:
+                try:
+                    out = decode(r.ok.payload.to_bytes(), Reply)
+                except DecodeError as e:
+                    return Reply(ok=False, error=f"{key}: bad reply: {e}")
+                return out
+        return Reply(ok=False, error=f"nobody answered on {key} within {timeout:g} s (is the program running?)")
+
+    def close(self) -> None:
+        for p in self._publishers.values():
+            p.undeclare()
+        self._publishers.clear()
+        self.session.close()
+
+
+class _Undeclare:
+    def __init__(self, entity) -> None:
+        self._entity = entity
+
+    def close(self) -> None:
+        self._entity.undeclare()

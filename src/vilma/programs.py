@@ -1,0 +1,117 @@
+"""The long-running programs: ``vilma sim``, ``vilma drive`` and ``vilma up``.
+
+Each runs until its duration is over or SIGINT / SIGTERM arrives, then closes
+its bus and servers (within a second).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+from vilma.bus.base import Bus
+from vilma.bus.local import LocalBus
+from vilma.bus.nodes import DriverNode, SimNode
+from vilma.control.driver import Driver
+from vilma.scenario.runner import initial_state, start_task
+from vilma.scenario.spec import Scenario
+from vilma.sim import Pacer, Simulator
+
+FRAME = 0.02
+"""Sim time the simulator advances between publications [s] (the pose and velocity sensors' default period)."""
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[threading.Event]:
+    """An event set by SIGINT or SIGTERM while the block runs (the previous handlers come back after)."""
+    stop = threading.Event()
+    old = {s: signal.signal(s, lambda *_: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield stop
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def run_paced(sim: Simulator, node: SimNode, speed: float, duration: float, stop: threading.Event,
+              every: Callable[[], None] | None = None) -> None:
+    """Advance ``sim`` frame by frame at ``speed`` x real time for ``duration`` [s] (inf: until ``stop``)."""
+    wall0, sim0 = time.monotonic(), sim.clock.time_s
+    pacer = Pacer(sim, speed=speed, period=FRAME)
+
+    def frame(readings) -> None:
+        wall = time.monotonic() - wall0
+        node.real_time_factor = (sim.clock.time_s - sim0) / wall if wall > 0 else math.nan
+        node.frame(readings)
+
+    left = duration
+    while left > 0 and not stop.is_set():
+        chunk = min(left, 1.0)
+        pacer.run(chunk, on_period=frame, should_stop=stop.is_set)
+        left -= chunk
+        if every is not None:
+            every()
+
+
+def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Scenario | None) -> DriverNode:
+    """The driver node on ``bus``; with a scenario, its task starts once the driver knows where the car is."""
+    node = DriverNode(driver, bus, car, step_ns)
+    if scenario is not None:
+        node.on_pose = lambda: start_task(driver, scenario, scenario.reference_path())
+    return node
+
+
+def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str], None]) -> int:
+    """Simulator and driver in one process on the local bus, paced; prints a line a second."""
+    bus = LocalBus()
+    sim = Simulator(scenario.sim)
+    start = initial_state(scenario, scenario.reference_path())
+    sim.reset(start)
+    driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
+    sim_node = SimNode(sim, bus, start=start)
+    drv = serve_driver(driver, bus, "vilma", sim.clock.step_ns, scenario)
+
+    def line() -> None:
+        st, s = driver.status, sim.state
+        report(f"t {sim.clock.time_s:7.2f} s  x {s.x:8.2f} y {s.y:8.2f} m  speed {s.speed:5.2f} m/s  "
+               f"{st.mode}{' arrived' if st.arrived else ''}  off path {st.cross_track:+.3f} m  "
+               f"{sim_node.real_time_factor:.2f}x real time")
+
+    with stop_on_signals() as stop:
+        run_paced(sim, sim_node, speed, duration, stop, line)
+    drv.close()
+    sim_node.close()
+    bus.close()
+    return 0
+
+
+def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, report: Callable[[str], None]) -> int:
+    """``vilma sim``: the simulator serving ``bus``, paced, until ``duration`` [s] or a signal."""
+    sim = Simulator(scenario.sim)
+    start = initial_state(scenario, scenario.reference_path())
+    sim.reset(start)
+    node = SimNode(sim, bus, start=start)
+    with stop_on_signals() as stop:
+        run_paced(sim, node, speed, duration, stop)
+    node.close()
+    report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s")
+    return 0
+
+
+def drive_program(scenario: Scenario | None, bus: Bus, report: Callable[[str], None]) -> int:
+    """``vilma drive``: the self-driver on ``bus`` until stopped; a scenario's task starts on the first pose."""
+    params = scenario.driver if scenario is not None else None
+    step = scenario.sim.step if scenario is not None else 0.01
+    vehicle = scenario.sim.vehicle if scenario is not None else Simulator().config.vehicle
+    driver = Driver(vehicle, params, step=step)
+    node = serve_driver(driver, bus, "vilma", round(step * 1e9), scenario)
+    with stop_on_signals() as stop:
+        while not stop.wait(1.0):
+            pass
+    node.close()
+    report(f"vilma drive: stopped after {node.commands_sent} commands")
+    return 0

@@ -1,0 +1,138 @@
+"""Real Zenoh sessions between real processes: vilma sim and vilma drive on loopback."""
+
+from __future__ import annotations
+
+import logging
+import math
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+import zenoh
+
+from vilma.bus import Latest, topic
+from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
+from vilma.core.messages import Pose
+from vilma.scenario import load_scenario
+from vilma.scenario.batch import BUNDLED
+
+SPEED = 4.0
+"""The simulator runs at this many times real time in these tests."""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _vilma(*args: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "vilma.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+
+
+def _wait(predicate, timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
+
+
+def _stop(proc: subprocess.Popen) -> float:
+    """SIGINT, then the seconds it took to exit (it must exit cleanly)."""
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=10)
+    assert proc.returncode == 0, out
+    return time.monotonic() - t0
+
+
+@pytest.fixture
+def sim_endpoint():
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    sim = _vilma("sim", "course_30kmh_stanley", "--speed", str(SPEED), "--listen", endpoint)
+    watcher = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
+    pose = Latest(watcher, topic("pose"))
+    _wait(lambda: pose.value is not None, 20, "the simulator's first pose")
+    yield endpoint, watcher
+    watcher.close()
+    assert _stop(sim) < 1.5
+
+
+@pytest.mark.slow
+def test_sim_and_drive_in_two_processes_follow_the_course_to_its_end(sim_endpoint):
+    endpoint, watcher = sim_endpoint
+    status = Latest(watcher, topic("driver/status"))
+    drive = _vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
+    _wait(lambda: status.value is not None and status.value.arrived, 60, "the car to arrive")
+    end = load_scenario(BUNDLED / "course_30kmh_stanley.yaml").reference_path().xy[-1]
+    _wait(lambda: watcher_speed(watcher) < 0.05, 10, "the car to stop")
+    p = Latest(watcher, topic("pose"))
+    _wait(lambda: p.value is not None, 5, "a pose")
+    assert math.hypot(p.value.x - end[0], p.value.y - end[1]) < 1.0
+    assert _stop(drive) < 1.5
+
+
+def watcher_speed(bus: ZenohBus) -> float:
+    v = Latest(bus, topic("velocity"))
+    _wait(lambda: v.value is not None, 5, "a velocity")
+    v.close()
+    return v.value.speed
+
+
+@pytest.mark.slow
+def test_killed_driver_the_watchdog_stops_the_car_and_a_new_driver_resumes(sim_endpoint):
+    endpoint, watcher = sim_endpoint
+    pose, vel = Latest(watcher, topic("pose")), Latest(watcher, topic("velocity"))
+    drive = _vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
+    _wait(lambda: vel.value is not None and vel.value.speed > 7.0, 30, "cruising speed")
+    drive.kill()
+    drive.communicate()
+    v0, x0, y0 = vel.value.speed, pose.value.x, pose.value.y
+    _wait(lambda: vel.value.speed < 0.05, 20, "the watchdog to stop the car")
+    travelled = math.hypot(pose.value.x - x0, pose.value.y - y0)
+    # The last command holds for the 0.5 s watchdog time (pi_ff requests at most 2 m/s^2), plus the sim time
+    # the kill and the poses take to cross the bus (a few ms of wall time, SPEED times more sim time: 0.1 s);
+    # then the watchdog brakes at 3 m/s^2 through the brake's first-order lag.
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    a_max, hold = scenario.driver.pi_ff.max_accel, 0.5 + 0.1
+    tau, stop = scenario.sim.vehicle.actuators.brake_time_constant, scenario.sim.vehicle.actuators.stop_deceleration
+    v1 = v0 + a_max * hold
+    bound = v0 * hold + 0.5 * a_max * hold**2 + v1 * tau + v1 * v1 / (2 * stop)
+    assert travelled < bound
+    status = Latest(watcher, topic("driver/status"))
+    again = _vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
+    _wait(lambda: status.value is not None and status.value.arrived, 60, "the new driver to finish the course")
+    assert _stop(again) < 1.5
+
+
+def test_a_malformed_frame_is_dropped_with_a_warning_and_the_next_is_read(caplog):
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    a = ZenohBus(ZenohConfig(listen=(endpoint,)))
+    b = ZenohBus(ZenohConfig(connect=(endpoint,)))
+    got, ready = [], threading.Event()
+    b.subscribe(topic("pose"), lambda m: (got.append(m), ready.set()))
+    raw = a.session.declare_publisher(topic("pose"), congestion_control=zenoh.CongestionControl.BLOCK)
+    good = Pose(1, 1.0, 2.0, 0.0, 0.0, 0.0, 0.0)
+    with caplog.at_level(logging.WARNING):
+        deadline = time.monotonic() + 10
+        while not ready.is_set() and time.monotonic() < deadline:  # until the two peers have met
+            raw.put(b"\xc1not msgpack")
+            a.publish(topic("pose"), good)
+            ready.wait(0.1)
+    assert got and got[0] == good
+    assert "dropped a message on vilma/vilma/pose: not a vilma frame" in caplog.text
+    raw.undeclare()
+    a.close()
+    b.close()
+
+
+def test_exposed_endpoints_are_warned_about(caplog):
+    with caplog.at_level(logging.WARNING):
+        bus = ZenohBus(ZenohConfig(listen=(f"tcp/0.0.0.0:{_free_port()}",)))
+    bus.close()
+    assert "beyond this machine" in caplog.text
