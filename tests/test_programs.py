@@ -1,0 +1,32 @@
+"""``vilma up``: simulator and driver in one process, paced, ended by its duration or a signal."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+
+def test_up_drives_paced_and_reports_each_second():
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "up", "course_30kmh_stanley", "--speed", "10",
+                        "--duration", "6"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    lines = [line for line in r.stdout.splitlines() if line.startswith("t ")]
+    assert [float(line.split()[1]) for line in lines] == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    assert "follow" in lines[-1]
+    rtf = float(lines[-1].split()[-3].rstrip("x"))
+    assert 9.0 < rtf < 10.5  # paced to 10x real time (a slow machine may fall behind slightly)
+
+
+def test_up_stops_cleanly_on_sigint_within_a_second():
+    p = subprocess.Popen([sys.executable, "-m", "vilma.cli", "up", "--speed", "1"], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    first = p.stdout.readline()  # the banner: it runs
+    assert first.startswith("vilma up:")
+    p.stdout.readline()  # one status line: the loop is going
+    t0 = time.monotonic()
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=10)
+    assert p.returncode == 0 and "Traceback" not in err
+    assert time.monotonic() - t0 < 1.5
