@@ -27,6 +27,6 @@ def test_up_stops_cleanly_on_sigint_within_a_second():
     p.stdout.readline()  # one status line: the loop is going
     t0 = time.monotonic()
     p.send_signal(signal.SIGINT)
-    out, err = p.communicate(timeout=10)
+    _, err = p.communicate(timeout=10)
     assert p.returncode == 0 and "Traceback" not in err
     assert time.monotonic() - t0 < 1.5

@@ -46,8 +46,9 @@ def run_paced(sim: Simulator, node: SimNode, speed: float, duration: float, stop
     def frame(readings) -> None:
         wall = time.monotonic() - wall0
         node.real_time_factor = (sim.clock.time_s - sim0) / wall if wall > 0 else math.nan
-        node.frame(readings)
+        node.frame(readings, frame_ns)
 
+    frame_ns = round(pacer.period * 1e9)
     left = duration
     while left > 0 and not stop.is_set():
         chunk = min(left, 1.0)
@@ -98,7 +99,8 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     with stop_on_signals() as stop:
         run_paced(sim, node, speed, duration, stop)
     node.close()
-    report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s")
+    report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s; commands {node.on_time} on time (within a frame), "
+           f"{node.late} late")
     return 0
 
 

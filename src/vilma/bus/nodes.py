@@ -48,6 +48,10 @@ class SimNode:
         self._lock = threading.Lock()
         self._reset = False
         self.real_time_factor = math.nan
+        self.frame_ns = 0
+        """Sim time the last frame advanced [ns]."""
+        self.on_time = self.late = 0
+        """Commands that arrived within one frame of the sim time they were computed at (stamped), or later."""
         self._keys = {name: topic(name, car) for name in SENSOR_TOPICS}
         self._subs = [bus.subscribe(topic("cmd", car), self.command), bus.serve(topic("sim/cmd", car), self._order)]
 
@@ -65,8 +69,9 @@ class SimNode:
             return Reply(ok=True, error=f"t={self.sim.clock.time_s:.3f} s")
         return Reply(ok=False, error=f"unknown simulator order {order.action!r}; use reset or status")
 
-    def frame(self, readings: dict[str, Readings]) -> None:
-        """After the simulator advanced one frame: publish what it measured, then its status."""
+    def frame(self, readings: dict[str, Readings], frame_ns: int = 0) -> None:
+        """After the simulator advanced one frame (of ``frame_ns``): publish what it measured, then its status."""
+        self.frame_ns = frame_ns
         for name, r in readings.items():
             key = self._keys.get(name)
             if key is not None:
@@ -85,6 +90,11 @@ class SimNode:
         if reset:
             self.sim.reset(self.start)
         for cmd in pending:
+            if cmd.stamp_ns:
+                if self.sim.time_ns - cmd.stamp_ns <= self.frame_ns:
+                    self.on_time += 1
+                else:
+                    self.late += 1
             try:
                 self.sim.command(cmd)
             except CommandError as e:

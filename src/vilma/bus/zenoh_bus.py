@@ -4,7 +4,10 @@ Out of the box Zenoh listens on every interface and scouts by multicast; vilma
 does neither unless told: it listens and connects only on the endpoints given
 (default: loopback), and multicast scouting is off. Commands and orders are
 sent reliably with congestion control that blocks; sensor feeds may drop
-under congestion (a display wants the latest value, not a backlog).
+under congestion (a display wants the latest value, not a backlog). Every
+message is sent express (not held back for batching), which also keeps a
+frame's readings ahead of its ``sim/status``: a driver that waited for a
+batch would steer by the previous frame's pose.
 """
 
 from __future__ import annotations
@@ -78,7 +81,7 @@ class ZenohBus:
             sensor = key.rsplit("/", 1)[-1] in SENSOR_TOPICS
             pub = self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.DROP if sensor else zenoh.CongestionControl.BLOCK,
-                reliability=zenoh.Reliability.RELIABLE)
+                reliability=zenoh.Reliability.RELIABLE, express=True)
             self._publishers[key] = pub
         pub.put(encode(msg))
 
@@ -139,4 +142,7 @@ class _Undeclare:
         self._entity = entity
 
     def close(self) -> None:
-        self._entity.undeclare()
+        """Undeclare (once: closing again does nothing)."""
+        entity, self._entity = self._entity, None
+        if entity is not None:
+            entity.undeclare()
