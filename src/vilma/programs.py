@@ -99,8 +99,9 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     with stop_on_signals() as stop:
         run_paced(sim, node, speed, duration, stop)
     node.close()
-    report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s; commands {node.on_time} on time (within a frame), "
-           f"{node.late} late")
+    z = sim.state
+    report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s, the car at x={z.x:.2f} y={z.y:.2f} m, "
+           f"speed {z.speed:.2f} m/s; commands {node.on_time} on time (within a frame), {node.late} late")
     return 0
 
 
