@@ -115,10 +115,20 @@ def _scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}"):
 
 
 def _zenoh(args: argparse.Namespace, listen_default: tuple[str, ...], connect_default: tuple[str, ...]):
-    from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
+    import dataclasses
+    from pathlib import Path
 
-    cfg = ZenohConfig(listen=tuple(args.listen) if args.listen is not None else listen_default,
-                      connect=tuple(args.connect) if args.connect is not None else connect_default)
+    from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
+    from vilma.scenario.fields import build, read_yaml
+
+    cfg = ZenohConfig(listen=listen_default, connect=connect_default)
+    if args.zenoh_config:  # a YAML file with listen, connect, multicast_scouting
+        data, src = read_yaml(Path(args.zenoh_config))
+        cfg = build(ZenohConfig, data, src, base=cfg)
+    if args.listen is not None:
+        cfg = dataclasses.replace(cfg, listen=tuple(args.listen))
+    if args.connect is not None:
+        cfg = dataclasses.replace(cfg, connect=tuple(args.connect))
     return ZenohBus(cfg), cfg
 
 
@@ -196,6 +206,8 @@ def _parser() -> argparse.ArgumentParser:
                            help="Zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
             q.add_argument("--connect", action="append", metavar="ENDPOINT",
                            help="Zenoh endpoint to connect to (repeatable)")
+            q.add_argument("--zenoh-config", metavar="FILE",
+                           help="YAML file with listen, connect (lists of endpoints) and multicast_scouting")
         q.set_defaults(func={"sim": _sim, "drive": _drive, "up": _up}[name])
     t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
                        description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "

@@ -136,3 +136,18 @@ def test_exposed_endpoints_are_warned_about(caplog):
         bus = ZenohBus(ZenohConfig(listen=(f"tcp/0.0.0.0:{_free_port()}",)))
     bus.close()
     assert "beyond this machine" in caplog.text
+
+
+def test_zenoh_config_file_and_its_errors(tmp_path):
+    good = tmp_path / "z.yaml"
+    good.write_text("listen: [tcp/127.0.0.1:0]\nconnect: []\nextra: [[transport/unicast/max_links, '2']]\n")
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--zenoh-config", str(good), "--duration", "0.1"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert "Zenoh listens on tcp/127.0.0.1:0" in r.stdout
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("listen: tcp/127.0.0.1:0\n")
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--zenoh-config", str(bad)], capture_output=True,
+                       text=True, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert f"{bad}:1: listen: expected a list" in r.stderr

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import zenoh
 
@@ -41,8 +41,8 @@ class ZenohConfig:
     """Endpoints of peers to connect to."""
     multicast_scouting: bool = False
     """Find peers by UDP multicast on the local network (off: only the endpoints given)."""
-    extra: dict[str, str] = field(default_factory=dict)
-    """Other Zenoh settings, JSON5 by key path (``transport/unicast/max_links``: ``"2"``)."""
+    extra: tuple[tuple[str, str], ...] = ()
+    """Other Zenoh settings: (key path, JSON5 value) pairs, e.g. ``("transport/unicast/max_links", "2")``."""
 
     def exposed(self) -> list[str]:
         """Listen endpoints that are not on the loopback interface."""
@@ -55,7 +55,7 @@ class ZenohConfig:
         cfg.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         cfg.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast_scouting))
-        for key, value in self.extra.items():
+        for key, value in self.extra:
             cfg.insert_json5(key, value)
         return cfg
 
