@@ -14,6 +14,7 @@ import pytest
 
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
+from vilma.scenario.runner import run
 
 
 def _netns_available() -> str | None:
@@ -56,20 +57,22 @@ def two_hosts():
 @pytest.mark.skipif(REASON is not None, reason=f"distributed test skipped: {REASON}")
 def test_sim_and_drive_on_two_hosts_follow_the_course(two_hosts):
     sim_ns, drv_ns = two_hosts
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    run(scenario, compiled=False)  # fill the compiled-code cache first: the programs then start at once
     vilma = [sys.executable, "-m", "vilma.cli"]
     sim = subprocess.Popen(["ip", "netns", "exec", sim_ns, *vilma, "sim", "course_30kmh_stanley", "--speed", "4",
-                            "--duration", "45", "--listen", "tcp/10.231.0.1:7447"], stdout=subprocess.PIPE,
+                            "--duration", "80", "--listen", "tcp/10.231.0.1:7447"], stdout=subprocess.PIPE,
                            stderr=subprocess.STDOUT, text=True)
     drive = subprocess.Popen(["ip", "netns", "exec", drv_ns, *vilma, "drive", "course_30kmh_stanley", "--connect",
                               "tcp/10.231.0.1:7447", "--listen", "tcp/10.231.0.2:0"], stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, text=True)
-    sim_out, _ = sim.communicate(timeout=90)
+    sim_out, _ = sim.communicate(timeout=150)
     drive.send_signal(signal.SIGINT)
     drive_out, _ = drive.communicate(timeout=10)
     assert sim.returncode == 0 and drive.returncode == 0, sim_out + drive_out
     assert "beyond this machine" in sim_out  # listening on a non-loopback address is warned about
     m = re.search(r"the car at x=(\S+) y=(\S+) m, speed (\S+) m/s; commands (\d+) on time", sim_out)
     x, y, speed, commands = float(m.group(1)), float(m.group(2)), float(m.group(3)), int(m.group(4))
-    end = load_scenario(BUNDLED / "course_30kmh_stanley.yaml").reference_path().xy[-1]
+    end = scenario.reference_path().xy[-1]
     assert commands > 1000  # the driver on the other host drove it
     assert math.hypot(x - end[0], y - end[1]) < 1.0 and speed < 0.05

@@ -19,6 +19,7 @@ from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
 from vilma.core.messages import Pose
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
+from vilma.scenario.runner import run
 
 SPEED = 4.0
 """The simulator runs at this many times real time in these tests."""
@@ -53,6 +54,7 @@ def _stop(proc: subprocess.Popen) -> float:
 
 @pytest.fixture
 def sim_endpoint():
+    run(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"), compiled=False)  # fill the compiled-code cache first
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
     sim = _vilma("sim", "course_30kmh_stanley", "--speed", str(SPEED), "--listen", endpoint)
     watcher = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
