@@ -60,16 +60,26 @@ def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.n
     ax.grid(alpha=0.3)
     _save(fig, out_dir / "cross_track.png")
 
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     a1.plot(t, np.degrees(col("steer")), "b-", label="applied")
     a1.plot(t, np.degrees(col("cmd_steer")), "k--", lw=0.8, label="commanded")
-    a1.set(ylabel="steering [deg]", title=f"{name}: steering and drive")
+    a1.set(ylabel="steering [deg]", title=f"{name}: steering, drive command and forces")
     a1.legend()
-    a2.plot(t, col("drive_force"), "g-", label="drive force")
-    a2.plot(t, -col("brake_force"), "r-", label="brake force")
-    a2.set(xlabel="time since start [s]", ylabel="force [N]")
+    d = result.scenario.driver
+    unit = "power (original units)" if d.speed_controller == "vilma_pid" else "force [N]"
+    a2.plot(t, col("cmd_drive"), "m-", label=f"{d.speed_controller} command")
+    a2.set(ylabel=f"drive: {unit}")
     a2.legend()
-    for a in (a1, a2):
+    speed = np.hypot(col("vx"), col("vy"))
+    a3.plot(t, col("drive_force"), "g-", label="drive force")
+    a3.plot(t, -col("brake_force"), "r-", label="brake force (negative)")
+    a3.set(xlabel="time since start [s]", ylabel="applied force [N]")
+    a3.legend(loc="upper left")
+    kw = a3.twinx()
+    kw.plot(t, col("drive_force") * speed / 1000.0, "k:", label="drive power")
+    kw.set(ylabel="drive power [kW]")
+    kw.legend(loc="upper right")
+    for a in (a1, a2, a3):
         a.grid(alpha=0.3)
     _save(fig, out_dir / "effort.png")
 
