@@ -138,11 +138,15 @@ def _sim(args: argparse.Namespace) -> int:
 
     _check_factor(args.speed, "--speed")
     scenario = _scenario_or_default(args.scenario)
+    morse = None if args.no_morse else programs.MorseOptions(
+        args.morse_host, args.morse_port, args.morse_stream_port,
+        tuple(args.allow_commands_from) if args.allow_commands_from else None)
     bus, cfg = _zenoh(args, (DEFAULT_ENDPOINT,), ())
     print(f"vilma sim: {scenario.name}, {args.speed:g}x real time; Zenoh listens on {', '.join(cfg.listen) or '-'}"
           f", connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*", flush=True)
     try:
-        return programs.sim_program(scenario, bus, args.speed, args.duration, print)
+        return programs.sim_program(scenario, bus, args.speed, args.duration, lambda s: print(s, flush=True), morse,
+                                    record=_record_path(args))
     finally:
         bus.close()
 
@@ -169,7 +173,24 @@ def _up(args: argparse.Namespace) -> int:
                                                      "[60, 0]], speed: 8.33}")
     print(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)",
           flush=True)
-    return programs.up(scenario, args.speed, args.duration, lambda line: print(line, flush=True))
+    return programs.up(scenario, args.speed, args.duration, lambda line: print(line, flush=True), _record_path(args))
+
+
+def _record_path(args: argparse.Namespace):
+    from pathlib import Path
+
+    return Path(args.record) if args.record else None
+
+
+def _gui(args: argparse.Namespace) -> int:
+    from vilma.gui.app import main
+
+    _check_factor(args.speed, "--speed")
+    if args.connect:
+        from vilma.bus.zenoh_bus import LOOPBACK_ANY_PORT
+
+        return main(args, bus=_zenoh(args, (LOOPBACK_ANY_PORT,), ())[0])
+    return main(args, scenario=_scenario_or_default(args.scenario))
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -201,6 +222,7 @@ def _parser() -> argparse.ArgumentParser:
         if name != "drive":
             q.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
             q.add_argument("--duration", type=float, default=float("inf"), help="stop after this sim time [s]")
+            q.add_argument("--record", metavar="FILE", help="record every topic to this MCAP file (sim time)")
         if name != "up":
             q.add_argument("--listen", action="append", metavar="ENDPOINT",
                            help="Zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
@@ -208,7 +230,29 @@ def _parser() -> argparse.ArgumentParser:
                            help="Zenoh endpoint to connect to (repeatable)")
             q.add_argument("--zenoh-config", metavar="FILE",
                            help="YAML file with listen, connect (lists of endpoints) and multicast_scouting")
+        if name == "sim":
+            q.add_argument("--morse-host", default="127.0.0.1", metavar="ADDR",
+                           help="address of the MORSE socket interface (default 127.0.0.1; others are exposed)")
+            q.add_argument("--morse-port", type=int, default=4000, metavar="PORT",
+                           help="MORSE service port, the next free up to +9 (default 4000; 0: any free)")
+            q.add_argument("--morse-stream-port", type=int, default=60000, metavar="PORT",
+                           help="first MORSE datastream port (default 60000; 0: any free)")
+            q.add_argument("--allow-commands-from", action="append", metavar="ADDR",
+                           help="take MORSE commands only from this address or network (repeatable)")
+            q.add_argument("--no-morse", action="store_true", help="do not serve the MORSE socket interface")
         q.set_defaults(func={"sim": _sim, "drive": _drive, "up": _up}[name])
+    g = sub.add_parser("gui", help="the control and monitoring window (embedded simulator, or --connect)")
+    g.add_argument("scenario", nargs="?", metavar="SCENARIO", help="embedded: scenario file or bundled name (car, "
+                   "sensors, controllers; its path fills the table)")
+    g.add_argument("--connect", action="append", metavar="ENDPOINT",
+                   help="join `vilma sim` / `vilma drive` over Zenoh at ENDPOINT, e.g. tcp/127.0.0.1:7447")
+    g.add_argument("--listen", action="append", metavar="ENDPOINT", help="with --connect: Zenoh endpoint to listen on")
+    g.add_argument("--zenoh-config", metavar="FILE", help="with --connect: YAML file with listen, connect")
+    g.add_argument("--speed", type=float, default=1.0, metavar="K", help="embedded: K times real time (default 1)")
+    g.add_argument("--refresh", type=int, default=250, metavar="MS", help="Car Status refresh [ms] (default 250)")
+    g.add_argument("--record-dir", metavar="DIR", help="where Record Trajectory / Speed write (default .)")
+    g.add_argument("--quit-after", type=float, metavar="S", help="close after S wall seconds (for scripts)")
+    g.set_defaults(func=_gui)
     t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
                        description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "
                                    "transform it and write it (.csv: CSV, else the original's format).")

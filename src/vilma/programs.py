@@ -12,6 +12,8 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
 
 from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
@@ -23,6 +25,27 @@ from vilma.sim import Pacer, Simulator
 
 FRAME = 0.02
 """Sim time the simulator advances between publications [s] (the pose and velocity sensors' default period)."""
+
+
+@dataclass(frozen=True)
+class MorseOptions:
+    """Where ``vilma sim`` serves the MORSE socket interface (``vilma.morse``): the first service port tried
+    (the next free up to +9; 0: any), the first datastream port (0: any), and the peers whose commands are
+    taken (None: all)."""
+
+    host: str = "127.0.0.1"
+    service_port: int = 4000
+    stream_port: int = 60000
+    allow_commands_from: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        from vilma.morse.core import parse_networks
+
+        for name in ("service_port", "stream_port"):
+            if not 0 <= getattr(self, name) <= 65535:
+                raise ValueError(f"MORSE {name.replace('_', ' ')} must be in 0..65535 (0: any free port), "
+                                 f"got {getattr(self, name)}")
+        parse_networks(self.allow_commands_from)  # a bad address fails before anything starts
 
 
 @contextlib.contextmanager
@@ -66,9 +89,23 @@ def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Sce
     return node
 
 
-def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str], None]) -> int:
-    """Simulator and driver in one process on the local bus, paced; prints a line a second."""
+def _recording(bus: Bus, record: Path | None, source: str):
+    """A :class:`~vilma.record.recorder.BusRecorder` of car ``vilma`` into ``record``, or None."""
+    if record is None:
+        return None
+    from vilma.record.recorder import BusRecorder, Recorder
+
+    return BusRecorder(bus, Recorder(record, source=source))
+
+
+def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str], None],
+       record: Path | None = None) -> int:
+    """Simulator and driver in one process on the local bus, paced; prints a line a second.
+
+    With ``record``, every topic is recorded to that MCAP file (finished on SIGINT or SIGTERM too).
+    """
     bus = LocalBus()
+    recording = _recording(bus, record, "vilma up")
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, scenario.reference_path())
     sim.reset(start)
@@ -77,6 +114,8 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
     drv = serve_driver(driver, bus, "vilma", sim.clock.step_ns, scenario)
 
     def line() -> None:
+        if recording is not None:
+            recording.recorder.tick()
         st, s = driver.status, sim.state
         report(f"t {sim.clock.time_s:7.2f} s  x {s.x:8.2f} y {s.y:8.2f} m  speed {s.speed:5.2f} m/s  "
                f"{st.mode}{' arrived' if st.arrived else ''}  off path {st.cross_track:+.3f} m  "
@@ -86,19 +125,45 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
         run_paced(sim, sim_node, speed, duration, stop, line)
     drv.close()
     sim_node.close()
+    if recording is not None:
+        recording.close()
     bus.close()
     return 0
 
 
-def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, report: Callable[[str], None]) -> int:
-    """``vilma sim``: the simulator serving ``bus``, paced, until ``duration`` [s] or a signal."""
+def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, report: Callable[[str], None],
+                morse: MorseOptions | None = MorseOptions(), record: Path | None = None) -> int:
+    """``vilma sim``: the simulator serving ``bus`` and the MORSE interface (unless ``morse`` is None), paced,
+    until ``duration`` [s], a signal or MORSE's ``simulation quit``. With ``record``, every topic of the car
+    on ``bus`` is recorded to that MCAP file."""
+    from vilma.morse import MorseServer
+
+    recording = _recording(bus, record, "vilma sim")
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, scenario.reference_path())
     sim.reset(start)
     node = SimNode(sim, bus, start=start)
     with stop_on_signals() as stop:
-        run_paced(sim, node, speed, duration, stop)
+        server = None
+        if morse is not None:
+            server = MorseServer(host=morse.host, service_port=morse.service_port, stream_port=morse.stream_port,
+                                 on_command=node.command, on_reset=node.reset, on_quit=stop.set,
+                                 time_ns=lambda: sim.time_ns, allow_commands_from=morse.allow_commands_from,
+                                 vehicle=sim.config.vehicle)
+            server.start()
+            node.on_frame = server.publish
+            host, port = server.service_address
+            first, last = min(server.stream_ports.values()), max(server.stream_ports.values())
+            report(f"vilma sim: MORSE services on {host}:{port}, datastreams {first}-{last} "
+                   f"(robot vilma: {', '.join(f.split('.', 1)[1] for f in server.stream_ports)})")
+        try:
+            run_paced(sim, node, speed, duration, stop, recording.recorder.tick if recording is not None else None)
+        finally:
+            if server is not None:
+                server.stop()
     node.close()
+    if recording is not None:
+        recording.close()
     z = sim.state
     report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s, the car at x={z.x:.2f} y={z.y:.2f} m, "
            f"speed {z.speed:.2f} m/s; commands {node.on_time} on time (within a frame), {node.late} late")

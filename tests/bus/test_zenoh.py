@@ -56,7 +56,7 @@ def _stop(proc: subprocess.Popen) -> float:
 def sim_endpoint():
     run(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"), compiled=False)  # fill the compiled-code cache first
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    sim = _vilma("sim", "course_30kmh_stanley", "--speed", str(SPEED), "--listen", endpoint)
+    sim = _vilma("sim", "course_30kmh_stanley", "--speed", str(SPEED), "--listen", endpoint, "--no-morse")
     watcher = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
     pose = Latest(watcher, topic("pose"))
     _wait(lambda: pose.value is not None, 20, "the simulator's first pose")
@@ -143,7 +143,8 @@ def test_endpoints_beyond_loopback_are_recognised():
 def test_zenoh_config_file_and_its_errors(tmp_path):
     good = tmp_path / "z.yaml"
     good.write_text("listen: [tcp/127.0.0.1:0]\nconnect: []\nextra: [[transport/unicast/max_links, '2']]\n")
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--zenoh-config", str(good), "--duration", "0.1"],
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--zenoh-config", str(good), "--duration", "0.1",
+                        "--no-morse"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     assert "Zenoh listens on tcp/127.0.0.1:0" in r.stdout

@@ -60,10 +60,14 @@ class SimNode:
         with self._lock:
             self._pending.append(cmd)
 
+    def reset(self) -> None:
+        """Put the car back at its start pose at the start of the next frame (any thread)."""
+        with self._lock:
+            self._reset = True
+
     def _order(self, order: SimControl) -> Reply:
         if order.action == "reset":
-            with self._lock:
-                self._reset = True
+            self.reset()
             return Reply(ok=True)
         if order.action == "status":
             return Reply(ok=True, error=f"t={self.sim.clock.time_s:.3f} s")

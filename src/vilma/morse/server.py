@@ -1,0 +1,427 @@
+"""MORSE-compatible socket server: the service port and one datastream port per component.
+
+Runs an asyncio loop in a daemon thread. The simulator calls :meth:`MorseServer.publish`
+with its readings (any thread, never blocks); actuator streams and the robot's services
+call ``on_command`` (on the server thread). Topology and lines: ``reference/morse-protocol.md``;
+component fields and units: :mod:`vilma.morse.components`.
+
+Deviations from MORSE, all more tolerant: blank request lines are ignored; several
+``time sleep`` may run at once; ``<id> cancel`` only reaches requests of the same
+connection; actuator messages may leave fields out (they default to 0); ``time now``
+counts from the start of the run (MORSE's ``use_relative_time``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import ipaddress
+import logging
+import socket
+import threading
+from collections import deque
+from collections.abc import Callable, Collection
+from typing import TYPE_CHECKING, Any
+
+from vilma.core.messages import ActuatorCommand
+from vilma.morse import protocol as p
+from vilma.morse.core import MorseCore
+from vilma.vehicle.params import VehicleParams
+
+if TYPE_CHECKING:
+    from vilma.sensors.base import Readings
+
+log = logging.getLogger(__name__)
+
+SERVICE_PORT_TRIES = 10
+"""Service ports tried from ``service_port`` on (MORSE: 4000-4009)."""
+STREAM_PORT_TRIES = 100
+"""Busy ports skipped at most when placing one datastream."""
+SERVICE_HIGH_WATER = 256 * 1024
+"""Replies queued to one service client [bytes] above which the server stops reading its requests."""
+PUBLISH_BACKLOG = 256
+"""Batches of readings waiting for the server thread; older ones are dropped beyond it."""
+TICK = 0.02
+"""Period of the check for due ``time sleep`` requests when no readings arrive [s]."""
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _listen(host: str, port: int) -> socket.socket:
+    """A listening TCP socket on ``host:port`` (port 0: any free); OSError when busy."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    s = socket.socket(family, socket.SOCK_STREAM)
+    try:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        s.bind((host, port))
+        s.listen(128)
+        s.setblocking(False)
+    except BaseException:
+        s.close()
+        raise
+    return s
+
+
+class _ServiceConn(asyncio.Protocol):
+    """One client of the service port."""
+
+    def __init__(self, server: MorseServer) -> None:
+        self.server, self.lines = server, p.LineBuffer()
+        self.transport: asyncio.Transport | None = None
+        self.address = "?"
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        peer = transport.get_extra_info("peername")
+        self.address = str(peer[0]) if peer else "?"
+        transport.set_write_buffer_limits(high=SERVICE_HIGH_WATER)
+        self.server._service_conns.add(self)
+
+    def data_received(self, data: bytes) -> None:
+        for line in self.lines.feed(data):
+            if self.transport is None or self.transport.is_closing():
+                return
+            self.server.core.handle_line(self, line)
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.server._service_conns.discard(self)
+        self.server.core.peer_gone(self)
+        self.transport = None
+
+    def pause_writing(self) -> None:  # the client does not read its replies: stop reading its requests
+        if self.transport is not None:
+            self.transport.pause_reading()
+
+    def resume_writing(self) -> None:
+        if self.transport is not None:
+            self.transport.resume_reading()
+
+    def send(self, data: bytes) -> None:
+        """Queue reply bytes (dropped if the connection is closing)."""
+        if self.transport is not None and not self.transport.is_closing():
+            self.transport.write(data)
+
+
+class _OutConn(asyncio.Protocol):
+    """One reader of a sensor datastream: gets every frame while it keeps up, loses frames otherwise."""
+
+    def __init__(self, server: MorseServer, fqn: str) -> None:
+        self.server, self.fqn = server, fqn
+        self.transport: asyncio.Transport | None = None
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        sock = transport.get_extra_info("socket")
+        if sock is not None:  # a small kernel buffer too: a slow reader gets fresh frames, not seconds-old ones
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.server.stream_buffer_limit)
+        self.server._out[self.fqn].add(self)
+
+    def data_received(self, data: bytes) -> None:
+        pass  # MORSE ignores what clients write to an output stream
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.server._out[self.fqn].discard(self)
+        self.transport = None
+
+    def write(self, data: bytes, lines: int) -> None:
+        """Send ``lines`` frames, or drop them when this client already has too much queued."""
+        t, st = self.transport, self.server._stats[self.fqn]
+        if t is None or t.is_closing():
+            return
+        if t.get_write_buffer_size() > self.server.stream_buffer_limit:
+            st["dropped"] += lines
+            return
+        t.write(data)  # goes straight to the socket when the kernel has room; else it is queued here
+        st["sent"] += lines
+        st["max_buffered"] = max(st["max_buffered"], t.get_write_buffer_size())
+
+
+class _InConn(asyncio.Protocol):
+    """One writer of an actuator datastream: each read applies its last complete line."""
+
+    def __init__(self, server: MorseServer, fqn: str) -> None:
+        self.server, self.fqn, self.lines = server, fqn, p.LineBuffer()
+        self.transport: asyncio.Transport | None = None
+        self.address = "?"
+        self.errors = 0
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        peer = transport.get_extra_info("peername")
+        self.address = str(peer[0]) if peer else "?"
+        self.server._in_conns.add(self)
+        core = self.server.core
+        if not core.allowed(self.address):
+            msg = core.refusal(self.address)
+            log.warning("%s stream: %s", self.fqn, msg)
+            transport.write(p.format_reply("", p.FAILED, msg).lstrip())
+            transport.close()
+
+    def data_received(self, data: bytes) -> None:
+        last = None
+        for line in self.lines.feed(data):
+            if isinstance(line, p.TooLong):
+                self._error(f"{self.fqn}: line longer than {p.MAX_LINE} bytes skipped")
+            elif line.strip():
+                last = line
+        if last is not None and self.transport is not None and not self.transport.is_closing():
+            err = self.server.core.actuator_line(self.fqn, self.address, last)
+            if err:
+                self._error(err)
+
+    def _error(self, msg: str) -> None:
+        self.errors += 1
+        log.log(logging.WARNING if self.errors == 1 else logging.DEBUG, "%s (from %s; ignored)", msg, self.address)
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.server._in_conns.discard(self)
+        self.transport = None
+
+
+class MorseServer:
+    """MORSE socket interface of one vilma car (robot ``robot``), for pymorse and raw-socket clients.
+
+    Args:
+        host: address to bind; anything but loopback is logged as a warning (commands then come from
+            the network: see ``allow_commands_from``).
+        service_port: first service port tried (the first free of ``service_port .. +9``); 0: any free.
+        stream_port: first datastream port; components get consecutive free ports in
+            :data:`~vilma.morse.components.COMPONENTS` order; 0: any free.
+        robot: the robot's name; components are ``<robot>.pose`` ...
+        on_command: gets every actuator command, on the server thread (queue it; keep it cheap).
+        on_reset: called by ``simulation reset_objects`` (None: that service answers FAILED).
+        on_quit: called after ``simulation quit`` is answered and the sockets close (None: FAILED).
+        time_ns: current sim time [ns] (``time now``, ``time sleep``, command stamps).
+        allow_commands_from: addresses or networks whose commands (actuator streams, the robot's
+            services, motion services, reset, quit, (de)activate) are taken; None: all.
+        vehicle: the car, for MotionVW (wheelbase, limits); default the ``vilma`` preset.
+        stream_buffer_limit: bytes queued to one datastream reader above which its frames are dropped.
+    """
+
+    def __init__(self, *, host: str = "127.0.0.1", service_port: int = 4000, stream_port: int = 60000,
+                 robot: str = "vilma", on_command: Callable[[ActuatorCommand], None],
+                 on_reset: Callable[[], None] | None = None, on_quit: Callable[[], None] | None = None,
+                 time_ns: Callable[[], int], allow_commands_from: Collection[str] | None = None,
+                 vehicle: VehicleParams | None = None, stream_buffer_limit: int = 64 * 1024) -> None:
+        for name, port in (("service_port", service_port), ("stream_port", stream_port)):
+            if not 0 <= port <= 65535:
+                raise ValueError(f"{name} must be in 0..65535 (0: any free port), got {port}")
+        self.host, self._service_port, self._stream_port = host, service_port, stream_port
+        self.stream_buffer_limit = stream_buffer_limit
+        self.core = MorseCore(robot=robot, on_command=on_command, on_reset=on_reset, on_quit=on_quit,
+                              time_ns=time_ns, allow_commands_from=allow_commands_from, vehicle=vehicle,
+                              shutdown=self._close_sockets)
+        self.stream_ports: dict[str, int] = {}
+        self._address: tuple[str, int] | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._servers: list[asyncio.base_events.Server] = []
+        self._service_conns: set[_ServiceConn] = set()
+        self._in_conns: set[_InConn] = set()
+        self._out: dict[str, set[_OutConn]] = {f: set() for f, s in self.core.specs.items() if s.direction == "OUT"}
+        self._stats = {f: {"sent": 0, "dropped": 0, "max_buffered": 0} for f in self._out}
+        self._lock = threading.Lock()
+        self._queue: deque[dict[str, Readings]] = deque()
+        self._scheduled = False
+        self._open = False
+        self.publish_dropped = 0
+        """Batches of readings dropped because the server thread fell behind."""
+
+    # -- life cycle --------------------------------------------------------------------------------------
+
+    @property
+    def service_address(self) -> tuple[str, int]:
+        """``(host, port)`` of the service port."""
+        if self._address is None:
+            raise RuntimeError("MorseServer is not started: call start() first")
+        return self._address
+
+    def start(self) -> None:
+        """Bind every port and serve from a daemon thread; returns once listening.
+
+        Raises:
+            OSError: no free service port in ``service_port .. +9`` or no free stream port.
+        """
+        if self._thread is not None:
+            raise RuntimeError("MorseServer.start() was already called; make a new server to restart")
+        if not _is_loopback(self.host):
+            log.warning("MORSE interface bound to %s, not loopback: anyone who can reach it can drive the car "
+                        "(restrict with allow_commands_from)", self.host or "all interfaces")
+        socks = self._bind()
+        loop = asyncio.new_event_loop()
+        self._loop = loop
+        self._thread = threading.Thread(target=self._run, args=(loop,), name="vilma-morse", daemon=True)
+        self._thread.start()
+        try:
+            asyncio.run_coroutine_threadsafe(self._serve(socks), loop).result(timeout=5.0)
+        except BaseException:
+            for s in socks.values():
+                s.close()
+            self.stop()
+            raise
+        log.info("MORSE interface: services on %s:%d, streams %s", *self.service_address,
+                 ", ".join(f"{f} {p}" for f, p in self.stream_ports.items()))
+
+    def _bind(self) -> dict[str, socket.socket]:
+        socks: dict[str, socket.socket] = {}
+        try:
+            socks[""] = self._bind_service()
+            self._address = (self.host, socks[""].getsockname()[1])
+            port = self._stream_port
+            for fqn in self.core.specs:
+                socks[fqn] = s = self._bind_stream(fqn, port)
+                self.stream_ports[fqn] = s.getsockname()[1]
+                if port:
+                    port = self.stream_ports[fqn] + 1
+        except BaseException:
+            for s in socks.values():
+                s.close()
+            self.stream_ports.clear()
+            self._address = None
+            raise
+        self.core.stream_ports = dict(self.stream_ports)
+        return socks
+
+    def _bind_service(self) -> socket.socket:
+        if self._service_port == 0:
+            return _listen(self.host, 0)
+        last = self._service_port + SERVICE_PORT_TRIES - 1
+        for port in range(self._service_port, min(last, 65535) + 1):
+            with contextlib.suppress(OSError):
+                return _listen(self.host, port)
+        raise OSError(f"MORSE service ports {self._service_port}-{last} on {self.host} are all busy: stop the other "
+                      f"simulator, or pass service_port=0 for any free port")
+
+    def _bind_stream(self, fqn: str, first: int) -> socket.socket:
+        if first == 0:
+            return _listen(self.host, 0)
+        last = min(first + STREAM_PORT_TRIES - 1, 65535)
+        for port in range(first, last + 1):
+            with contextlib.suppress(OSError):
+                return _listen(self.host, port)
+        raise OSError(f"no free port for the {fqn} datastream in {first}-{last} on {self.host}: pass another "
+                      f"stream_port, or 0 for any free ports")
+
+    async def _serve(self, socks: dict[str, socket.socket]) -> None:
+        loop = asyncio.get_running_loop()
+        for fqn, sock in socks.items():
+            if not fqn:
+                factory: Callable[[], asyncio.Protocol] = lambda: _ServiceConn(self)  # noqa: E731
+            elif fqn in self._out:
+                factory = lambda fqn=fqn: _OutConn(self, fqn)  # noqa: E731
+            else:
+                factory = lambda fqn=fqn: _InConn(self, fqn)  # noqa: E731
+            self._servers.append(await loop.create_server(factory, sock=sock, backlog=128))
+        self._open = True
+        loop.call_later(TICK, self._tick)
+
+    def _run(self, loop: asyncio.AbstractEventLoop) -> None:
+        asyncio.set_event_loop(loop)
+        try:
+            loop.run_forever()
+        finally:
+            self._close_sockets(abort=True)
+            loop.run_until_complete(asyncio.sleep(0))  # let the transports finish closing their sockets
+            loop.close()
+
+    def stop(self) -> None:
+        """Close every socket (within 1 s) and end the server thread. Safe to call twice or from a callback."""
+        loop, thread = self._loop, self._thread
+        if loop is None or thread is None:
+            return
+        self._open = False
+        if threading.current_thread() is thread:  # from on_quit or on_command: finish after this callback
+            self._close_sockets(abort=True)
+            loop.stop()
+            return
+        with contextlib.suppress(RuntimeError):  # the loop has already stopped
+            loop.call_soon_threadsafe(self._close_sockets, True)
+            loop.call_soon_threadsafe(loop.stop)
+        thread.join(timeout=1.0)
+        if thread.is_alive():
+            log.warning("MORSE server thread did not stop within 1 s")
+
+    def _close_sockets(self, abort: bool = False) -> None:
+        """Stop listening and close every connection: at once (``abort``), or flushing replies first (quit)."""
+        self._open = False
+        for srv in self._servers:
+            srv.close()
+        self._servers.clear()
+        conns: list[Any] = [*self._service_conns, *self._in_conns, *(c for s in self._out.values() for c in s)]
+        for c in conns:
+            t = c.transport
+            if t is None:
+                continue
+            if abort or not isinstance(c, _ServiceConn):
+                t.abort()
+            else:
+                t.close()  # deliver the quit reply, then close
+        if not abort and self._loop is not None:
+            self._loop.call_later(1.0, self._close_sockets, True)
+
+    def _tick(self) -> None:
+        if not self._open or self._loop is None:
+            return
+        try:
+            self.core.check_pending()
+        except Exception:
+            log.exception("MORSE time sleep check failed")
+        self._loop.call_later(TICK, self._tick)
+
+    # -- data --------------------------------------------------------------------------------------------
+
+    def publish(self, readings: dict[str, Readings]) -> None:
+        """Stream a batch of readings (by vilma sensor name): one JSON line per reading on its component's
+        datastream. Thread-safe, never blocks; ignored before start and after stop."""
+        loop = self._loop
+        if loop is None or not self._open:
+            return
+        with self._lock:
+            if len(self._queue) >= PUBLISH_BACKLOG:
+                self._queue.popleft()
+                self.publish_dropped += 1
+            self._queue.append(readings)
+            if self._scheduled:
+                return
+            self._scheduled = True
+        with contextlib.suppress(RuntimeError):  # the loop closed meanwhile
+            loop.call_soon_threadsafe(self._drain)
+
+    def _drain(self) -> None:
+        with self._lock:
+            batches = list(self._queue)
+            self._queue.clear()
+            self._scheduled = False
+        if not self._open:
+            return
+        wanted = {fqn for fqn, conns in self._out.items() if conns}
+        for readings in batches:
+            try:
+                lines = self.core.readings(readings, wanted)
+            except Exception:
+                log.exception("MORSE: could not stream a batch of readings")
+                continue
+            for fqn, data in lines.items():
+                n = data.count(b"\n")
+                for conn in list(self._out[fqn]):
+                    conn.write(data, n)
+
+    def stats(self) -> dict[str, dict[str, int]]:
+        """Per sensor stream: ``clients``, frames ``sent`` and ``dropped`` (slow readers), ``max_buffered``
+        bytes queued to one reader, and ``buffered`` now (the largest over its readers). Call it from any
+        thread; the numbers are a snapshot."""
+        out = {}
+        for fqn, conns in self._out.items():
+            sizes = [c.transport.get_write_buffer_size() for c in list(conns) if c.transport is not None]
+            out[fqn] = {"clients": len(conns), "buffered": max(sizes, default=0), **self._stats[fqn]}
+        return out

@@ -1,0 +1,45 @@
+"""``vilma sim`` serves the MORSE interface: a raw MORSE client drives it and quits it."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+
+from tests.morse.conftest import LineClient
+
+
+def test_vilma_sim_serves_morse_until_quit():
+    p = subprocess.Popen([sys.executable, "-m", "vilma.cli", "sim", "--listen", "tcp/127.0.0.1:0", "--morse-port",
+                          "0", "--morse-stream-port", "0", "--speed", "2"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        port = None
+        for line in p.stdout:
+            m = re.search(r"MORSE services on 127\.0\.0\.1:(\d+)", line)
+            if m:
+                port = int(m.group(1))
+                break
+        assert port, p.stderr.read()
+        c = LineClient(port)
+        assert c.ask(b"a vilma controlpower [1,1000,3]\n") == b"a SUCCESS\n"
+        c.ask(b"w time sleep [3.0]\n")
+        assert json.loads(c.ask(b"s vilma status []\n").split(b" ", 2)[2]) > 1.0
+        assert c.ask(b"q simulation quit []\n") == b"q SUCCESS\n"
+        out, err = p.communicate(timeout=5)
+        c.close()
+    finally:
+        p.kill()
+    assert p.returncode == 0, err
+    speed = float(re.search(r"speed ([\d.]+) m/s", out).group(1))
+    assert abs(speed - 3.0) < 0.5  # held at velocityAmount 3 m/s
+
+
+def test_bad_morse_options_exit_with_one_line():
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--allow-commands-from", "no.such/99"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip().splitlines() == [
+        "vilma sim: error: allow_commands_from: 'no.such/99' is not an IP address or network; "
+        "use e.g. '127.0.0.1' or '192.168.1.0/24'"]
