@@ -110,7 +110,7 @@ def test_overrides_set_nested_values_and_controller_gains(tmp_path):
     ("speed_controller: pi_ff\n", "s.yaml:1: no task"),
     ("task: {speed: 5}\nvehicle: tesla\n", "s.yaml:2: vehicle: unknown vehicle preset 'tesla'"),
     ("task: {speed: 5}\nvehicle: {preset: vilma, mas: 1}\n", "s.yaml:2: vehicle.mas: unknown key; did you mean 'mass'"),
-    ("task: {speed: 5}\nplant: mujoco\n", "s.yaml:2: plant: unknown plant 'mujoco'"),
+    ("task: {speed: 5}\nplant: bullet\n", "s.yaml:2: plant: unknown plant 'bullet'"),
     ("task: {speed: 5}\nstep: 0.02\n", "s.yaml:2: step: physics step must be in (0, 0.01] s"),
     ("task: {speed: 5}\nsensors: {imu: {rate_hz: 30}}\n",
      "s.yaml:2: sensors.imu.rate_hz: sensor imu: 30 Hz is a period of 33.3333 ms, not a whole multiple"),

@@ -44,6 +44,7 @@ from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_y
 from vilma.sensors import SensorSuite
 from vilma.sensors.gps import GeodeticOrigin
 from vilma.sim import SimConfig
+from vilma.sim.simulator import MUJOCO
 from vilma.trajectory import Trajectory, TrajectoryFileError, increase_point_count, load_trajectory, resample
 from vilma.trajectory.course import spline_course
 from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE, smooth_banded, smooth_iterative
@@ -260,8 +261,8 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
             raise src.error(("origin",), "an origin needs the gps sensor; remove 'origin' or 'sensors.gps: false'")
         sensors = dataclasses.replace(sensors, gps=dataclasses.replace(sensors.gps, origin=origin))
     model = get("plant", str, "single_track")
-    if model not in models.MODELS:
-        raise src.error(("plant",), f"unknown plant {model!r}; use one of {', '.join(models.MODELS)}")
+    if model not in (*models.MODELS, MUJOCO):
+        raise src.error(("plant",), f"unknown plant {model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
     try:
         sim = SimConfig(vehicle=vehicle, model=model, integrator=get("integrator", str, "rk4"),
                         step=get("step", float, 0.01), sensors=sensors, seed=get("seed", int, 0),

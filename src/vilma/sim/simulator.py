@@ -29,6 +29,9 @@ from vilma.vehicle.state import NX, VehicleState
 
 log = logging.getLogger(__name__)
 
+MUJOCO = "mujoco"
+"""The 3D plant's model name."""
+
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class SimConfig:
@@ -36,7 +39,8 @@ class SimConfig:
 
     vehicle: VehicleParams = field(default_factory=vilma)
     model: str = "single_track"
-    """Plant model: one of :data:`vilma.vehicle.models.MODELS`."""
+    """Plant model: one of :data:`vilma.vehicle.models.MODELS`, or ``mujoco`` (the 3D plant,
+    :mod:`vilma.plant3d`: suspension, roll and pitch; slower)."""
     integrator: str = "rk4"
     """``rk4`` or ``euler``."""
     step: float = 0.01
@@ -49,8 +53,8 @@ class SimConfig:
     initial: VehicleState = VehicleState()
 
     def __post_init__(self) -> None:
-        if self.model not in models.MODELS:
-            raise ValueError(f"unknown model {self.model!r}; use one of {', '.join(models.MODELS)}")
+        if self.model not in (*models.MODELS, MUJOCO):
+            raise ValueError(f"unknown model {self.model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {self.integrator!r}; use one of {', '.join(INTEGRATORS)}")
         if not 0 < self.step <= 0.01:
@@ -71,7 +75,12 @@ class Simulator:
         self.config = c = config or SimConfig()
         self.clock = Clock(seconds_to_ns(c.step))
         self._consts = plant_consts(c.vehicle)
-        self._model = models.MODELS.index(c.model)
+        self._plant3d = None
+        if c.model == MUJOCO:
+            from vilma.plant3d import MujocoPlant  # imports MuJoCo only when asked for
+
+            self._plant3d = MujocoPlant(c.vehicle)
+        self._model = models.MODELS.index(c.model) if c.model in models.MODELS else -1
         self._integrator = INTEGRATORS.index(c.integrator)
         self.sensors = build_sensors(c.sensors, c.vehicle)
         self._periods = np.array(
@@ -89,8 +98,10 @@ class Simulator:
             self.config = c = dataclasses.replace(c, seed=seed)
         self.clock.tick = 0
         self._z = (initial or c.initial).to_array()
-        # lateral states that the model fixes (kinematic: all of them; single track: at low speed)
-        self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), self._z[NX:], self._consts)
+        if self._plant3d is not None:
+            self._plant3d.reset(initial or c.initial)
+        else:  # lateral states that the model fixes (kinematic: all of them; single track: at low speed)
+            self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), self._z[NX:], self._consts)
         for sensor in self.sensors:
             sensor.reset(self._z.copy(), sensor_rng(c.seed, sensor.name))
         self._mode = MODE_IDS[ActuatorCommand().longitudinal]
@@ -191,8 +202,12 @@ class Simulator:
         capacity = min(n, int(np.sum(n // periods + 1))) if len(periods) else 0
         out_z, out_dx, out_tick = empty_records(capacity)
         mode = STOP if self.watchdog_tripped else self._mode
-        m = advance(self._model, self._integrator, self._z, mode, self._cmd, self._consts, self.clock.step_s, n,
-                    t0, periods, out_z, out_dx, out_tick)
+        if self._plant3d is not None:
+            m = self._plant3d.advance(self._z, mode, self._cmd, self.clock.step_s, n, t0, periods, out_z, out_dx,
+                                      out_tick)
+        else:
+            m = advance(self._model, self._integrator, self._z, mode, self._cmd, self._consts, self.clock.step_s, n,
+                        t0, periods, out_z, out_dx, out_tick)
         self.clock.tick = t0 + n
         self._measure(t0, n, out_tick[:m], out_z, out_dx, parts)
 
@@ -206,7 +221,8 @@ class Simulator:
     @property
     def compiled_ok(self) -> bool:
         """Whether compiled code may advance this simulator: no dead time, no watchdog stop under way."""
-        return not self._dead_ticks and not self._pending and not self.watchdog_tripped
+        return (self._plant3d is None and not self._dead_ticks and not self._pending
+                and not self.watchdog_tripped)
 
     def held_command(self) -> tuple[int, np.ndarray]:
         """The command in force: longitudinal mode id and ``[steer, drive, brake, velocity limit]`` (a copy)."""

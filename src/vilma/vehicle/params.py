@@ -43,6 +43,34 @@ class ActuatorParams:
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class SuspensionParams:
+    """What the 3D plant adds to a planar car: heights, suspension, wheel mass and body inertia."""
+
+    cg_height: float = 0.55
+    """Centre of mass above the ground at rest [m]."""
+    stiffness: float = 36_000.0
+    """Spring rate of one corner [N/m]."""
+    damping: float = 2_600.0
+    """Damper rate of one corner [N s/m]."""
+    travel: float = 0.12
+    """Wheel travel each way from the rest position to the bump stop [m]."""
+    wheel_mass: float = 20.0
+    """One wheel with its hub and brake, unsprung [kg]."""
+    wheel_width: float = 0.2
+    """Tyre width [m]."""
+    roll_inertia: float = 0.0
+    """Moment of inertia of the whole car about its longitudinal axis [kg m^2] (0: a box estimate)."""
+    pitch_inertia: float = 0.0
+    """Moment of inertia about the lateral axis [kg m^2] (0: a box estimate)."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if not math.isfinite(v) or v < 0 or (v == 0 and f.name not in ("roll_inertia", "pitch_inertia")):
+                raise ValueError(f"suspension: {f.name} must be a finite number > 0, got {v!r}")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class VehicleParams:
     """A car for the planar models. Lengths [m], masses [kg], forces [N], angles [rad]."""
 
@@ -99,6 +127,8 @@ class VehicleParams:
     Bullet's ``applyBraking`` value is an impulse per physics step [N s]; at
     MORSE's 30 steps/s that is 30 N per unit."""
     actuators: ActuatorParams = ActuatorParams()
+    suspension: SuspensionParams = SuspensionParams()
+    """Used by the 3D plant only."""
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -166,6 +196,16 @@ def vilma() -> VehicleParams:
 
     Calibrated: ``power_unit_force`` = 3.43 N per unit so that power 1000 gives
     0 to 100 km/h in 10.8 s on this model (tests/vehicle check it).
+
+    Suspension (3D plant), from Bullet's raycast vehicle, whose suspension
+    coefficients are per kg of chassis (``btRaycastVehicle`` multiplies the
+    force by the chassis mass): stiffness 30 is 30 * 1211 = 36 330 N/m per
+    corner (1.7 Hz with a quarter of the car, 82 mm static sag); the
+    template's damping 1.0 (rebound) and 80 (compression) are 1 211 and
+    96 880 N s/m, the second rigid for practical purposes, so one symmetric
+    damper of 2 650 N s/m (damping ratio 0.4 of a corner, *assumed*) stands
+    in. Rest length 0.15 m minus the static sag leaves about 70 mm of travel.
+    The centre of mass is the chassis origin, 0.786 m above the ground.
     """
     return VehicleParams(
         name="vilma",
@@ -187,6 +227,7 @@ def vilma() -> VehicleParams:
         rolling_resistance=0.013,
         power_unit_force=3.43,
         actuators=ActuatorParams(steer_time_constant=0.0, steer_rate_limit=10.0),
+        suspension=SuspensionParams(cg_height=0.786, stiffness=30.0 * 1211.0, damping=2650.0, travel=0.07),
     )
 
 

@@ -1,0 +1,156 @@
+"""Stepping the MuJoCo car with vilma's actuator outputs, and reading it back as vilma's plant state."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from vilma.plant3d.car_model import CORNERS, TIMESTEP, World, car_xml
+from vilma.vehicle.actuators import actuator_step, targets
+from vilma.vehicle.models.common import V_SIGN
+from vilma.vehicle.params import VehicleParams, plant_consts
+from vilma.vehicle.state import NX, VehicleState
+
+
+def ackermann(steer: float, wheelbase: float, track: float) -> tuple[float, float]:
+    """Left and right front-wheel angles [rad] that share the turning centre of a bicycle front angle ``steer``."""
+    if abs(steer) < 1e-9:
+        return 0.0, 0.0
+    radius = wheelbase / math.tan(steer)  # signed: positive turning left
+    return math.atan(wheelbase / (radius - track / 2)), math.atan(wheelbase / (radius + track / 2))
+
+
+class MujocoPlant:
+    """vilma's car in MuJoCo (see :mod:`vilma.plant3d.car_model`).
+
+    :meth:`step` holds the actuator outputs ``steer`` [rad, bicycle front angle], ``drive`` [N at the
+    wheels] and ``brake`` [N, >= 0] for a while, limited and split between the axles as the planar
+    models do; drag and rolling resistance act on the chassis.
+    """
+
+    def __init__(self, params: VehicleParams, world: World = World(), cameras: str = "") -> None:
+        self.params = params
+        self.model = mujoco.MjModel.from_xml_string(car_xml(params, world, cameras))
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._chassis = m.body("chassis").id
+        self._spin_dof = np.array([m.joint(f"spin_{c}").dofadr[0] for c in CORNERS])
+        self._drive = np.array([m.actuator(f"drive_{c}").id for c in CORNERS])
+        self._steer = np.array([m.actuator(f"steer_{c}").id for c in ("fl", "fr")])
+        self._susp_q = np.array([m.joint(f"susp_{c}").qposadr[0] for c in CORNERS])
+        self._steer_q = np.array([m.joint(f"steer_{c}").qposadr[0] for c in ("fl", "fr")])
+        self._k_drag = 0.5 * params.air_density * params.drag_area
+        self._f_roll = params.rolling_resistance * params.mass * 9.81
+        self._consts = plant_consts(params)
+        self.reset()
+
+    def reset(self, state: VehicleState = VehicleState()) -> None:
+        """Put the car at ``state`` (position, heading, body velocities), settled on its springs."""
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        d.qpos[0:3] = (state.x, state.y, self.params.suspension.cg_height)
+        d.qpos[3:7] = (math.cos(state.yaw / 2), 0.0, 0.0, math.sin(state.yaw / 2))
+        c, s = math.cos(state.yaw), math.sin(state.yaw)
+        d.qvel[0:3] = (state.vx * c - state.vy * s, state.vx * s + state.vy * c, 0.0)
+        d.qvel[5] = state.yaw_rate
+        d.qvel[self._spin_dof] = state.vx / self.params.wheel_radius
+        self.set_controls(state.steer, 0.0, 0.0)
+        d.qpos[self._steer_q] = ackermann(state.steer, self.params.wheelbase, self.params.track)
+        mujoco.mj_forward(m, d)
+
+    @property
+    def time(self) -> float:
+        """MuJoCo time since the last reset [s]."""
+        return float(self.data.time)
+
+    def set_controls(self, steer: float, drive: float, brake: float) -> None:
+        """Hold ``steer`` [rad], ``drive`` [N] and ``brake`` [N] from now on."""
+        p, d = self.params, self.data
+        d.ctrl[self._steer] = ackermann(steer, p.wheelbase, p.track)
+        vx = self.body_velocity()[0]
+        f = min(max(drive, -p.max_drive_force), p.max_drive_force)
+        f_power = p.max_power / max(abs(vx), 1e-3)
+        f = min(max(f, -f_power), f_power)
+        r = p.wheel_radius
+        front, rear = p.drive_split_front * f / 2 * r, (1 - p.drive_split_front) * f / 2 * r
+        d.ctrl[self._drive] = (front, front, rear, rear)
+        b = min(max(brake, 0.0), p.max_brake_force)
+        bf, br = p.brake_split_front * b / 2 * r, (1 - p.brake_split_front) * b / 2 * r
+        self.model.dof_frictionloss[self._spin_dof] = (bf, bf, br, br)
+        resist = self._k_drag * vx * abs(vx) + self._f_roll * math.tanh(vx / V_SIGN)
+        c, s = self._heading()
+        d.xfrc_applied[self._chassis, 0:2] = (-resist * c, -resist * s)
+
+    def step(self, steer: float, drive: float, brake: float, dt: float) -> None:
+        """Advance ``dt`` [s] (a whole number of MuJoCo steps) with these actuator outputs."""
+        self.set_controls(steer, drive, brake)
+        mujoco.mj_step(self.model, self.data, nstep=max(1, round(dt / TIMESTEP)))
+
+    def advance(self, z: np.ndarray, mode: int, cmd: np.ndarray, dt: float, n: int, tick: int,
+                periods: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray, out_tick: np.ndarray) -> int:
+        """:func:`vilma.vehicle.integrate.advance` on this plant: ``n`` steps of ``dt`` [s] with the command
+        ``(mode, cmd)`` through vilma's actuators; ``z`` (planar state and actuator outputs) is updated in
+        place and the sensors' sample ticks are recorded. Returns the number of rows written."""
+        u = z[NX:].copy()
+        x = self.planar_state()
+        j = 0
+        for i in range(1, n + 1):
+            steer, drive, brake = targets(mode, cmd, x, u, self._consts)
+            actuator_step(u, steer, drive, brake, self._consts, dt)
+            self.step(u[0], u[1], u[2], dt)
+            x = self.planar_state()
+            if ((tick + i) % periods == 0).any():
+                out_z[j, :NX], out_z[j, NX:] = x, u
+                out_dx[j] = self.derivative()
+                out_tick[j] = tick + i
+                j += 1
+        z[:NX], z[NX:] = x, u
+        return j
+
+    def derivative(self) -> tuple[float, float, float, float, float, float]:
+        """Time derivative of :meth:`planar_state` now (as the planar models' ``derivative``)."""
+        d = self.data
+        _, _, _, vx, vy, r = self.planar_state()
+        c, s = self._heading()
+        ax_w, ay_w = d.qacc[0], d.qacc[1]
+        dr = (self.data.xmat[self._chassis].reshape(3, 3) @ d.qacc[3:6])[2]
+        return (float(d.qvel[0]), float(d.qvel[1]), r, c * ax_w + s * ay_w + vy * r, -s * ax_w + c * ay_w - vx * r,
+                float(dr))
+
+    def _heading(self) -> tuple[float, float]:
+        xmat = self.data.xmat[self._chassis]
+        n = math.hypot(xmat[0], xmat[3]) or 1.0
+        return xmat[0] / n, xmat[3] / n
+
+    def body_velocity(self) -> np.ndarray:
+        """Velocity of the centre of mass in the body frame ``(vx, vy, vz)`` [m/s]."""
+        rot = self.data.xmat[self._chassis].reshape(3, 3)
+        return rot.T @ self.data.qvel[0:3]
+
+    def planar_state(self) -> tuple[float, float, float, float, float, float]:
+        """``(x, y, yaw, vx, vy, yaw_rate)`` as vilma's planar models hold them (yaw from the heading of
+        body x in the ground plane, velocities of the centre of mass in the heading frame)."""
+        d = self.data
+        c, s = self._heading()
+        vx_w, vy_w = d.qvel[0], d.qvel[1]
+        omega_world = self.data.xmat[self._chassis].reshape(3, 3) @ d.qvel[3:6]
+        return (float(d.qpos[0]), float(d.qpos[1]), math.atan2(s, c), c * vx_w + s * vy_w, -s * vx_w + c * vy_w,
+                float(omega_world[2]))
+
+    def attitude(self) -> tuple[float, float, float]:
+        """``(z [m] of the centre of mass, roll, pitch [rad])`` (ZYX Euler angles, roll about body x)."""
+        w, x, y, z = self.data.qpos[3:7]
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+        return float(self.data.qpos[2]), roll, pitch
+
+    def wheel_speeds(self) -> np.ndarray:
+        """Wheel spin rates ``fl, fr, rl, rr`` [rad/s], positive rolling forward."""
+        return self.data.qvel[self._spin_dof].copy()
+
+    def suspension(self) -> np.ndarray:
+        """Suspension positions ``fl, fr, rl, rr`` [m] from the static rest position, positive in compression
+        (the wheel up toward the body)."""
+        return self.data.qpos[self._susp_q].copy()
