@@ -146,7 +146,7 @@ def _sim(args: argparse.Namespace) -> int:
           f", connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*", flush=True)
     try:
         return programs.sim_program(scenario, bus, args.speed, args.duration, lambda s: print(s, flush=True), morse,
-                                    record=_record_path(args))
+                                    record=_record_path(args), foxglove=args.foxglove)
     finally:
         bus.close()
 
@@ -173,7 +173,8 @@ def _up(args: argparse.Namespace) -> int:
                                                      "[60, 0]], speed: 8.33}")
     print(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)",
           flush=True)
-    return programs.up(scenario, args.speed, args.duration, lambda line: print(line, flush=True), _record_path(args))
+    return programs.up(scenario, args.speed, args.duration, lambda line: print(line, flush=True), _record_path(args),
+                       args.foxglove)
 
 
 def _record_path(args: argparse.Namespace):
@@ -191,6 +192,15 @@ def _gui(args: argparse.Namespace) -> int:
 
         return main(args, bus=_zenoh(args, (LOOPBACK_ANY_PORT,), ())[0])
     return main(args, scenario=_scenario_or_default(args.scenario))
+
+
+def _record_command(name: str):
+    """The handler ``name`` of :mod:`vilma.record.commands`, imported when it runs."""
+    def handler(args: argparse.Namespace) -> int:
+        from vilma.record import commands
+
+        return getattr(commands, name)(args)
+    return handler
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -223,6 +233,8 @@ def _parser() -> argparse.ArgumentParser:
             q.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
             q.add_argument("--duration", type=float, default=float("inf"), help="stop after this sim time [s]")
             q.add_argument("--record", metavar="FILE", help="record every topic to this MCAP file (sim time)")
+            q.add_argument("--foxglove", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+                           help="serve every topic live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
         if name != "up":
             q.add_argument("--listen", action="append", metavar="ENDPOINT",
                            help="Zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
@@ -253,6 +265,23 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--record-dir", metavar="DIR", help="where Record Trajectory / Speed write (default .)")
     g.add_argument("--quit-after", type=float, metavar="S", help="close after S wall seconds (for scripts)")
     g.set_defaults(func=_gui)
+    rp = sub.add_parser("report", help="scorecard and plots of a recording (run.mcap) alone")
+    rp.add_argument("recording", metavar="RUN.mcap")
+    rp.add_argument("--out", metavar="DIR", help="where metrics.json and the plots go (default RUN-report/)")
+    rp.set_defaults(func=_record_command("report_command"))
+    ex = sub.add_parser("export", help="a recording as a ROS 2 bag (rosbag2, MCAP storage, standard types)")
+    ex.add_argument("format", choices=("rosbag2",))
+    ex.add_argument("recording", metavar="RUN.mcap")
+    ex.add_argument("out", metavar="OUTDIR", help="the bag's folder (must not exist)")
+    ex.set_defaults(func=_record_command("export_command"))
+    rl = sub.add_parser("replay", help="play a recording onto the bus (Zenoh) as if live: pause, seek, speed")
+    rl.add_argument("recording", metavar="RUN.mcap")
+    rl.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
+    rl.add_argument("--start", type=float, default=0.0, metavar="S", help="start at sim time S [s]")
+    rl.add_argument("--listen", action="append", metavar="ENDPOINT", help="Zenoh endpoint to listen on (repeatable)")
+    rl.add_argument("--connect", action="append", metavar="ENDPOINT", help="Zenoh endpoint to connect to")
+    rl.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
+    rl.set_defaults(func=_record_command("replay_command"))
     t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
                        description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "
                                    "transform it and write it (.csv: CSV, else the original's format).")

@@ -98,14 +98,27 @@ def _recording(bus: Bus, record: Path | None, source: str):
     return BusRecorder(bus, Recorder(record, source=source))
 
 
+def _foxglove(bus: Bus, port: int | None, report: Callable[[str], None]):
+    """A Foxglove WebSocket server of car ``vilma``'s topics on 127.0.0.1:``port`` (0: any free), or None."""
+    if port is None:
+        return None
+    from vilma.record.live import FoxgloveLive
+
+    live = FoxgloveLive(bus, port=port)
+    report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
+    return live
+
+
 def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str], None],
-       record: Path | None = None) -> int:
+       record: Path | None = None, foxglove: int | None = None) -> int:
     """Simulator and driver in one process on the local bus, paced; prints a line a second.
 
-    With ``record``, every topic is recorded to that MCAP file (finished on SIGINT or SIGTERM too).
+    With ``record``, every topic is recorded to that MCAP file (finished on SIGINT or SIGTERM too); with
+    ``foxglove`` (a port), they are served live to Foxglove.
     """
     bus = LocalBus()
     recording = _recording(bus, record, "vilma up")
+    live = _foxglove(bus, foxglove, report)
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, scenario.reference_path())
     sim.reset(start)
@@ -127,18 +140,22 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
     sim_node.close()
     if recording is not None:
         recording.close()
+    if live is not None:
+        live.close()
     bus.close()
     return 0
 
 
 def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, report: Callable[[str], None],
-                morse: MorseOptions | None = MorseOptions(), record: Path | None = None) -> int:
+                morse: MorseOptions | None = MorseOptions(), record: Path | None = None,
+                foxglove: int | None = None) -> int:
     """``vilma sim``: the simulator serving ``bus`` and the MORSE interface (unless ``morse`` is None), paced,
     until ``duration`` [s], a signal or MORSE's ``simulation quit``. With ``record``, every topic of the car
-    on ``bus`` is recorded to that MCAP file."""
+    on ``bus`` is recorded to that MCAP file; with ``foxglove`` (a port), served live to Foxglove."""
     from vilma.morse import MorseServer
 
     recording = _recording(bus, record, "vilma sim")
+    live = _foxglove(bus, foxglove, report)
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, scenario.reference_path())
     sim.reset(start)
@@ -164,6 +181,8 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     node.close()
     if recording is not None:
         recording.close()
+    if live is not None:
+        live.close()
     z = sim.state
     report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s, the car at x={z.x:.2f} y={z.y:.2f} m, "
            f"speed {z.speed:.2f} m/s; commands {node.on_time} on time (within a frame), {node.late} late")

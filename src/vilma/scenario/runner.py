@@ -61,13 +61,14 @@ def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
 
 
 def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None = None,
-        compiled: bool = True) -> RunResult:
+        compiled: bool = True, record: bool = True) -> RunResult:
     """Drive ``scenario`` to its end; ``realtime`` paces it to that many times real time.
 
     Unpaced runs that qualify (:func:`~vilma.scenario.lockstep.compiled_ok`) run compiled, unless
     ``compiled`` is False; the drive is the same either way.
 
-    With ``out_dir``, the run's files go there (:func:`write_outputs`), the timeseries streamed as it runs.
+    With ``out_dir``, the run's files go there (:func:`write_outputs`), the timeseries and the recording
+    ``run.mcap`` (:mod:`vilma.record.run`, unless ``record`` is False) streamed as it runs.
 
     Raises:
         SpecError: the scenario's files cannot be used (a bad trajectory file, an impossible order).
@@ -77,10 +78,18 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
     sim.reset(initial_state(scenario, path))
     driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
     log = DriveLog(capacity=round(scenario.duration / driver.period) + 2)  # a row a period, allocated once
-    series = None
+    series = rec = on_block = None
     if out_dir is not None:
+        from vilma.record.run import RUN_FILE, RunRecorder  # the recording only when files are written
+
         out_dir.mkdir(parents=True, exist_ok=True)
         series = TimeseriesWriter(out_dir / "timeseries.csv", sim.sensors, log)
+        rec = RunRecorder(out_dir / RUN_FILE, scenario, log) if record else None
+
+        def on_block(readings: dict[str, Readings]) -> None:
+            series.add(readings)
+            if rec is not None:
+                rec.add(readings)
 
     def step(readings: dict[str, Readings]) -> None:
         t0 = time.perf_counter()
@@ -92,18 +101,22 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
         log.add((sim.time_ns * 1e-9, *z, st.target_speed, st.speed,
                  *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
                  *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
-        if series is not None:
-            series.add(readings)
+        if on_block is not None:
+            on_block(readings)
 
     try:
-        result = _drive(scenario, sim, driver, log, path, step, series.add if series else None, realtime, compiled)
+        result = _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled)
     except BaseException:
         if series is not None:
             series.abort()
+            if rec is not None:
+                rec.abort()
         raise
     if series is not None:
         series.close()
         write_outputs(result, out_dir)
+        if rec is not None:
+            rec.finish(result)
     return result
 
 

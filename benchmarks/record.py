@@ -1,0 +1,80 @@
+"""Cost and size of recordings: prints JSON.
+
+- ``one_hour_run``: a one-hour drive (speed task on a long straight, every sensor at its default rate) by
+  :func:`vilma.scenario.runner.run` with its files, with and without ``run.mcap``; the recording's share of
+  the wall time, its size and message count. Targets (issue 7): cost <= 5 %, size < 200 MB an hour.
+- ``closed_loop_alone_s``: the same drive compiled, no files at all (the loop's own speed).
+- ``live``: ``vilma up``'s loop (simulator and driver on the local bus, every topic) unpaced for
+  ``LIVE_SECONDS`` of sim time, with and without ``--record``: recording CPU per sim second, i.e. the
+  share of a real-time loop's second it takes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from vilma import programs
+from vilma.record.reader import read_recording
+from vilma.scenario.batch import BUNDLED
+from vilma.scenario.runner import run
+from vilma.scenario.spec import load_scenario
+
+LIVE_SECONDS = 120.0
+
+
+def _hour(tmp: Path) -> dict:
+    f = tmp / "hour.yaml"
+    f.write_text("task: {speed: 15}\nduration: 3600\n", encoding="utf-8")
+    scenario = load_scenario(f)
+    run(scenario, out_dir=tmp / "warm")  # numba caches, imports
+    t0 = time.perf_counter()
+    run(scenario)
+    alone = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    run(scenario, out_dir=tmp / "plain", record=False)
+    plain = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    r = run(scenario, out_dir=tmp / "rec")
+    with_rec = time.perf_counter() - t0
+    size = (tmp / "rec" / "run.mcap").stat().st_size
+    messages = sum(read_recording(tmp / "rec" / "run.mcap").count(t) for t in
+                   ("pose", "tf", "velocity", "gps", "imu", "wheel_speed", "odometry", "actuators", "drive_log"))
+    return {"sim_seconds": r.metrics["sim_time_s"], "wall_s_files_without_recording": round(plain, 2),
+            "wall_s_files_with_recording": round(with_rec, 2),
+            "recording_cost_pct_of_run_with_files": round(100 * (with_rec - plain) / plain, 1),
+            "recording_cost_pct_of_compiled_loop_alone": round(100 * (with_rec - plain) / alone, 1),
+            "closed_loop_alone_s": round(alone, 2), "run_mcap_mb": round(size / 2**20, 1),
+            "messages": messages, "bytes_per_message": round(size / messages, 1)}
+
+
+def _live(tmp: Path) -> dict:
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    out = {}
+    for name, record in (("without", None), ("with", tmp / "live.mcap")):
+        t0, c0 = time.perf_counter(), time.process_time()
+        programs.up(scenario, 1e6, LIVE_SECONDS, lambda _: None, record=record)
+        out[name] = (time.perf_counter() - t0, time.process_time() - c0)
+    cpu = (out["with"][1] - out["without"][1]) / LIVE_SECONDS
+    return {"sim_seconds": LIVE_SECONDS, "loop_cpu_s_per_sim_s_without": round(out["without"][1] / LIVE_SECONDS, 4),
+            "loop_cpu_s_per_sim_s_with": round(out["with"][1] / LIVE_SECONDS, 4),
+            "recording_cpu_pct_of_real_time": round(100 * cpu, 2) if math.isfinite(cpu) else None,
+            "recording_cost_pct_of_unpaced_loop": round(100 * (out["with"][0] - out["without"][0])
+                                                        / out["without"][0], 1),
+            "mb_per_hour": round((tmp / "live.mcap").stat().st_size / 2**20 * 3600 / LIVE_SECONDS, 1)}
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        out = {"benchmark": "record", "one_hour_run": _hour(tmp), "live": _live(tmp)}
+    json.dump(out, sys.stdout, indent=2)
+    print()
+
+
+if __name__ == "__main__":
+    main()

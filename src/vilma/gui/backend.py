@@ -1,0 +1,152 @@
+"""What the GUI talks to: an embedded simulator and driver (local bus, background thread) or a remote bus.
+
+:class:`Embedded` is ``vilma up`` inside the GUI process: the simulator and
+the self-driver on a :class:`~vilma.bus.local.LocalBus`, stepped by a
+background thread paced to real time (or ``speed`` times it).
+:class:`Remote` wraps a bus that reaches ``vilma sim`` / ``vilma drive``
+elsewhere (Zenoh). The GUI uses only the bus of either; the embedded one
+also lets it swap the driver's controllers live (the bus has no order for
+that).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+
+from vilma.bus.base import Bus
+from vilma.bus.local import LocalBus
+from vilma.bus.nodes import DriverNode, SimNode
+from vilma.control.driver import Driver, DriverMode, DriverParams
+from vilma.programs import run_paced
+from vilma.scenario.fields import load_yaml
+from vilma.scenario.runner import initial_state
+from vilma.scenario.spec import Scenario, parse_scenario
+from vilma.sim import Simulator
+from vilma.vehicle.params import VehicleParams, vilma
+
+log = logging.getLogger(__name__)
+
+
+def default_scenario() -> Scenario:
+    """The defaults (the paper's car, every sensor) with an idle task: the car waits at the origin."""
+    data, src = load_yaml("name: gui\ntask: {speed: 0.0001}", "defaults")
+    return parse_scenario(data, src, name="gui")
+
+
+class Embedded:
+    """Simulator and driver in this process on a local bus, paced to ``speed`` x real time.
+
+    The scenario gives the car, sensors, start pose and driver parameters; its
+    task is not started (the GUI gives the orders).
+    """
+
+    embedded = True
+
+    def __init__(self, scenario: Scenario | None = None, speed: float = 1.0, car: str = "vilma") -> None:
+        if not 0 < speed < math.inf:
+            raise ValueError(f"--speed must be a positive factor, got {speed!r}")
+        self.scenario = scenario or default_scenario()
+        self.speed, self.car = speed, car
+        self.bus: Bus = LocalBus()
+        self.sim = Simulator(self.scenario.sim)
+        self.start_state = initial_state(self.scenario, self.scenario.reference_path())
+        self.sim.reset(self.start_state)
+        self.driver_params = self.scenario.driver
+        driver = Driver(self.vehicle, self.driver_params, step=self.sim.config.step)
+        self.sim_node = SimNode(self.sim, self.bus, car, start=self.start_state)
+        self.driver_node = DriverNode(driver, self.bus, car, self.sim.clock.step_ns)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.error: str = ""
+        """Why the simulation thread ended, if it failed."""
+
+    @property
+    def vehicle(self) -> VehicleParams:
+        """The simulated car."""
+        return self.sim.config.vehicle
+
+    def describe(self) -> str:
+        """One line for the title and the status bar."""
+        return f"embedded simulator ({self.scenario.name}), {self.speed:g}x real time"
+
+    def start(self) -> None:
+        """Start stepping the simulation in a background thread."""
+        if self._thread is None:
+            self._stop.clear()
+            self._thread = threading.Thread(target=self._run, name="vilma-gui-sim", daemon=True)
+            self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            run_paced(self.sim, self.sim_node, self.speed, math.inf, self._stop)
+        except Exception as e:
+            log.exception("the embedded simulation stopped")
+            self.error = str(e)
+
+    def set_driver_params(self, params: DriverParams) -> None:
+        """Swap the driver for one with ``params``; a task under way continues with the new controllers.
+
+        Raises:
+            ValueError: the parameters do not fit the simulator (periods, values).
+        """
+        new = Driver(self.vehicle, params, step=self.sim.config.step)
+        old = self.driver_node.driver
+        task = old.task
+        if task.mode in (DriverMode.FOLLOW, DriverMode.GO_TO_POINT) and task.path is not None:
+            new.follow(task.path, None if task.path.speed is not None else task.speed)
+        elif task.mode in (DriverMode.SET_SPEED, DriverMode.HOLD_SPEED):
+            new.set_speed(task.speed)
+        if params.pose_source == old.params.pose_source:
+            new.estimator = old.estimator  # keeps what it knows of the pose
+        self.driver_node.driver = new
+        self.driver_params = params
+
+    def stop(self) -> None:
+        """Stop the simulation thread (within a frame)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            self._thread = None
+
+    @property
+    def running(self) -> bool:
+        """Whether the simulation thread is stepping."""
+        return self._thread is not None and self._thread.is_alive()
+
+    def close(self) -> None:
+        """Stop the simulation and release the bus."""
+        self.stop()
+        self.driver_node.close()
+        self.sim_node.close()
+        self.bus.close()
+
+
+class Remote:
+    """A bus that reaches a simulator and a driver in other processes (``vilma sim`` / ``vilma drive``)."""
+
+    embedded = False
+
+    def __init__(self, bus: Bus, where: str = "Zenoh", car: str = "vilma") -> None:
+        self.bus, self.where, self.car = bus, where, car
+        self.vehicle = vilma()
+        self.driver_params = DriverParams()
+        self.scenario: Scenario | None = None
+
+    def describe(self) -> str:
+        """One line for the title and the status bar."""
+        return f"connected to {self.where}"
+
+    def start(self) -> None:
+        """Nothing to start: the simulator runs elsewhere."""
+
+    def set_driver_params(self, params: DriverParams) -> None:
+        """Not possible over the bus (it has no order for controller parameters)."""
+        raise ValueError("controllers and gains can be changed only in the embedded simulator; start "
+                         "`vilma drive SCENARIO` with them instead")
+
+    def close(self) -> None:
+        """Close the bus."""
+        self.bus.close()
+

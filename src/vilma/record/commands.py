@@ -1,0 +1,78 @@
+"""The handlers of ``vilma report``, ``vilma export`` and ``vilma replay`` (the parser is in :mod:`vilma.cli`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def report_command(args: argparse.Namespace) -> int:
+    """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone."""
+    from vilma.record.report import report
+
+    result = report(Path(args.recording), Path(args.out) if args.out else None)
+    for k, v in result.metrics.items():
+        print(f"{k:32s} {v}")
+    print(f"vilma report: metrics.json and plots in {result.out_dir}")
+    for line in result.failures:
+        print(f"FAIL {line}")
+    return 1 if result.failures else 0
+
+
+def export_command(args: argparse.Namespace) -> int:
+    """``vilma export rosbag2 RUN.mcap OUTDIR``."""
+    from vilma.record.rosbag import export_rosbag2
+
+    counts = export_rosbag2(Path(args.recording), Path(args.out))
+    print(f"vilma export: rosbag2 (MCAP storage) in {args.out}: "
+          + ", ".join(f"{t} {n}" for t, n in counts.items()))
+    return 0
+
+
+def replay_command(args: argparse.Namespace) -> int:
+    """``vilma replay RUN.mcap``: play onto Zenoh; stdin lines ``p`` (pause/resume), ``s T`` (seek to T s),
+    ``x K`` (speed K), ``q`` (quit)."""
+    import sys
+    import threading
+
+    from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
+    from vilma.cli import _zenoh
+    from vilma.programs import stop_on_signals
+    from vilma.record.replay import Replayer
+
+    bus, cfg = _zenoh(args, (DEFAULT_ENDPOINT,), ())
+    try:
+        player = Replayer(Path(args.recording), bus, args.speed)
+        if args.start:
+            player.seek(args.start)
+        print(f"vilma replay: {args.recording}, {(player.end_ns - player.start_ns) * 1e-9:.2f} s of sim time at "
+              f"{args.speed:g}x on Zenoh {', '.join(cfg.listen) or '-'}; topics vilma/{player.car}/*. "
+              "Type p (pause/resume), s T (seek), x K (speed), q (quit).", flush=True)
+        with stop_on_signals() as stop:
+            def commands() -> None:
+                for line in sys.stdin:
+                    word, *rest = line.split() or [""]
+                    try:
+                        if word == "p":
+                            player.resume() if player.paused else player.pause()
+                        elif word == "s" and rest:
+                            player.seek(float(rest[0]))
+                        elif word == "x" and rest:
+                            player.set_speed(float(rest[0]))
+                        elif word == "q":
+                            stop.set()
+                            return
+                        elif word:
+                            print("commands: p, s T, x K, q", flush=True)
+                    except ValueError as e:
+                        print(f"vilma replay: {e}", flush=True)
+
+            threading.Thread(target=commands, daemon=True).start()
+            player.start()
+            while not stop.is_set() and not player.wait(0.2):
+                pass
+        player.close()
+        print(f"vilma replay: {player.published} messages published", flush=True)
+        return 0
+    finally:
+        bus.close()

@@ -1,0 +1,76 @@
+"""``--foxglove``: a Foxglove WebSocket server (foxglove-sdk) broadcasting a car's topics live, with sim time.
+
+The channels and their JSON are those of a recording (:mod:`vilma.record.schemas`):
+``vilma/<car>/pose`` as ``foxglove.PoseInFrame``, ``.../gps`` as ``foxglove.LocationFix``,
+``.../tf`` as ``foxglove.FrameTransform``, the rest as ``vilma.<Type>``. Each
+message's log time is its sim time, and the server broadcasts the sim time of
+each ``sim/status`` (Foxglove's clock follows the simulation). Open Foxglove,
+"Open connection", ``ws://127.0.0.1:8765``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from vilma.bus.base import Bus
+from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
+from vilma.core.messages import Message
+from vilma.record.recorder import LIVE_TOPICS, msgspec_row
+from vilma.record.schemas import TF, encode_struct, numeric_layouts, struct_schema
+
+DEFAULT_PORT = 8765
+"""Foxglove's usual WebSocket port."""
+
+
+class FoxgloveLive:
+    """Serves car ``car``'s topics on ``bus`` to Foxglove at ``host``:``port`` (0: a free port) until :meth:`close`."""
+
+    def __init__(self, bus: Bus, car: str = "vilma", host: str = "127.0.0.1", port: int = DEFAULT_PORT) -> None:
+        import foxglove
+        from foxglove.websocket import Capability
+
+        self._fox = foxglove
+        self.car = car
+        self._context = foxglove.Context()
+        self.server = foxglove.start_server(name=f"vilma ({car})", host=host, port=port, context=self._context,
+                                            capabilities=[Capability.Time])
+        self._layouts = numeric_layouts(car)
+        self._channels: dict[str, object] = {}
+        for name in (*LIVE_TOPICS, TF):  # advertised from the start, so a client sees every channel at once
+            self._channel(name)
+        self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in LIVE_TOPICS]
+
+    @property
+    def port(self) -> int:
+        """The port the server listens on."""
+        return self.server.port
+
+    def _channel(self, name: str):
+        ch = self._channels.get(name)
+        if ch is None:
+            lay = self._layouts.get(name)
+            schema_name, schema = ((lay.schema_name, lay.schema) if lay is not None
+                                   else (f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name])))
+            ch = self._fox.Channel(f"vilma/{self.car}/{name}", message_encoding="json", context=self._context,
+                                   schema=self._fox.Schema(name=schema_name, encoding="jsonschema", data=schema))
+            self._channels[name] = ch
+        return ch
+
+    def _taker(self, name: str) -> Callable[[Message], None]:
+        def take(msg: Message) -> None:
+            if name in SENSOR_TOPICS:
+                values = msgspec_row(msg)
+                self._channel(name).log(self._layouts[name].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
+                if name == "pose":
+                    self._channel(TF).log(self._layouts[TF].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
+            else:
+                self._channel(name).log(encode_struct(msg), log_time=msg.stamp_ns)
+                if name == "sim/status":
+                    self.server.broadcast_time(msg.stamp_ns)
+        return take
+
+    def close(self) -> None:
+        """Stop listening to the bus and stop the server."""
+        for s in self._subs:
+            s.close()
+        self.server.stop()

@@ -1,0 +1,148 @@
+"""Reading a vilma recording back: messages as vilma types, readings as arrays, metadata and attachments.
+
+:func:`read_recording` reads the file from the start, record by record, so a
+file whose writer was killed (no summary, a torn last record) is read up to
+its last complete chunk; :attr:`Recording.complete` says whether the footer
+was there.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import msgspec
+import numpy as np
+import zstandard
+from mcap.exceptions import InvalidMagic, McapError
+from mcap.records import Attachment, Channel, Footer, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+
+from vilma.bus.topics import SENSOR_TOPICS, TOPICS
+from vilma.core import messages as m
+from vilma.record.mcap_file import MAGIC
+from vilma.record.schemas import DRIVE_LOG, decode_fields
+from vilma.scenario.drive_log import COLUMNS
+from vilma.sensors import Readings
+
+
+class RecordingError(ValueError):
+    """A file that is not a readable MCAP recording: one line saying which and why."""
+
+
+@dataclass
+class Recording:
+    """What a recording holds. Topics are named within the car (``pose``, ``driver/status``, ``drive_log``)."""
+
+    path: Path
+    car: str = "vilma"
+    schemas: dict[str, str] = field(default_factory=dict)
+    """Topic -> schema name."""
+    raw: dict[str, tuple[list[int], list[bytes]]] = field(default_factory=dict)
+    """Topic -> (log times [ns], JSON payloads), in file order."""
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    attachments: dict[str, bytes] = field(default_factory=dict)
+    complete: bool = False
+    """Whether the file ended with its summary and footer (False: cut short, read up to the last chunk)."""
+
+    @property
+    def topics(self) -> list[str]:
+        """Topics with at least one message."""
+        return [t for t, (st, _) in self.raw.items() if st]
+
+    def count(self, name: str) -> int:
+        """Messages on topic ``name``."""
+        return len(self.raw.get(name, ((), ()))[0])
+
+    def objects(self, name: str) -> list[dict]:
+        """The JSON objects of topic ``name``, in stamp order."""
+        st, data = self.raw.get(name, ([], []))
+        objs = msgspec.json.decode(b"[" + b",".join(data) + b"]") if data else []
+        order = np.argsort(np.asarray(st, np.int64), kind="stable")
+        return [objs[i] for i in order.tolist()]
+
+    def readings(self, name: str) -> Readings:
+        """A sensor topic as arrays (stamp order); NaN where a value was null."""
+        cls = SENSOR_TOPICS[name]
+        return _arrays(self, name, cls.__struct_fields__[1:], cls)
+
+    def drive_log(self) -> np.ndarray:
+        """The runner's rows (:data:`~vilma.scenario.drive_log.COLUMNS`), shape (n, len(COLUMNS)); empty if none."""
+        return _arrays(self, DRIVE_LOG, COLUMNS, m.Message).values
+
+    def messages(self, name: str) -> list[m.Message]:
+        """Topic ``name`` as vilma messages, in stamp order."""
+        if name in SENSOR_TOPICS:
+            return self.readings(name).messages()
+        cls = TOPICS[name]
+        return [decode_fields(cls, o) for o in self.objects(name)]
+
+    def meta(self, name: str) -> dict:
+        """Metadata record ``name`` with its JSON values decoded (empty if absent)."""
+        out = {}
+        for k, v in self.metadata.get(name, {}).items():
+            try:
+                out[k] = json.loads(v)
+            except ValueError:
+                out[k] = v
+        return out
+
+
+def _arrays(rec: Recording, name: str, fields: tuple[str, ...], cls: type[m.Message]) -> Readings:
+    row = msgspec.defstruct("Row", [("stamp_ns", int), *((f, float | None, None) for f in fields)])
+    data = rec.raw.get(name, ([], []))[1]
+    rows = msgspec.json.decode(b"[" + b",".join(data) + b"]", type=list[row]) if data else []
+    stamps = np.array([r.stamp_ns for r in rows], np.int64)
+    # None (JSON null) becomes NaN in a float array
+    values = np.array([msgspec.structs.astuple(r)[1:] for r in rows], dtype=float).reshape(len(rows), len(fields))
+    order = np.argsort(stamps, kind="stable")
+    return Readings(name, cls, stamps[order], values[order])
+
+
+def read_recording(path: Path) -> Recording:
+    """Read ``path`` (see the module docstring).
+
+    Raises:
+        RecordingError: not an MCAP file, or not readable at all.
+    """
+    path = Path(path)
+    rec = Recording(path)
+    try:
+        f = path.open("rb")
+    except OSError as e:
+        raise RecordingError(f"{path}: cannot read: {e.strerror or e}") from None
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, str] = {}
+    prefix: str | None = None
+    with f:
+        try:
+            for r in StreamReader(f, record_size_limit=1 << 31).records:
+                if isinstance(r, Message):
+                    name = channels.get(r.channel_id)
+                    if name is not None:
+                        st, data = rec.raw[name]
+                        st.append(r.log_time)
+                        data.append(r.data)
+                elif isinstance(r, Schema):
+                    schemas[r.id] = r
+                elif isinstance(r, Channel):
+                    if prefix is None and r.topic.startswith("vilma/") and r.topic.count("/") >= 2:
+                        rec.car = r.topic.split("/")[1]
+                        prefix = f"vilma/{rec.car}/"
+                    name = r.topic[len(prefix):] if prefix and r.topic.startswith(prefix) else r.topic
+                    if r.id not in channels:
+                        channels[r.id] = name
+                        rec.raw.setdefault(name, ([], []))
+                        rec.schemas[name] = schemas[r.schema_id].name if r.schema_id in schemas else ""
+                elif isinstance(r, Metadata):
+                    rec.metadata[r.name] = dict(r.metadata)
+                elif isinstance(r, Attachment):
+                    rec.attachments[r.name] = r.data
+                elif isinstance(r, Footer):
+                    rec.complete = True
+        except (McapError, struct.error, zstandard.ZstdError, ValueError, EOFError) as e:
+            if isinstance(e, InvalidMagic) or f.tell() < len(MAGIC):
+                raise RecordingError(f"{path}: not a readable MCAP recording ({type(e).__name__}: {e})") from None
+    return rec

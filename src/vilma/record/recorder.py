@@ -1,0 +1,172 @@
+"""Recording a car's topics to MCAP: from a bus (live programs) or from a run's arrays (``vilma run``).
+
+:class:`Recorder` turns vilma messages and reading arrays into channels of an
+:class:`~vilma.record.mcap_file.McapFile` (layouts in :mod:`vilma.record.schemas`).
+A recording that cannot go on (unwritable path, full disk) says so in one line
+through ``on_error`` and then drops what comes: the drive goes on.
+:class:`BusRecorder` subscribes to every topic of a car on a bus.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from vilma.bus.base import Bus
+from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
+from vilma.core.messages import Message
+from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
+from vilma.record.schemas import DRIVE_LOG, TF, encode_struct, numeric_layouts, struct_schema
+from vilma.sensors import Readings
+
+log = logging.getLogger(__name__)
+
+LIVE_TOPICS = tuple(n for n in TOPICS if n not in ("driver/cmd", "sim/cmd"))
+"""Topics a live recording subscribes to (orders on ``*/cmd`` are requests, not publications)."""
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+class Recorder:
+    """One MCAP recording of car ``car`` (see the module docstring); ``source`` says which program made it."""
+
+    def __init__(self, path: Path, car: str = "vilma", source: str = "vilma", policy: ChunkPolicy = ChunkPolicy(),
+                 on_error: Callable[[str], None] = _stderr) -> None:
+        self.path, self.car, self.on_error = Path(path), car, on_error
+        self.error: str | None = None
+        self._layouts = numeric_layouts(car)
+        self._channels: dict[str, int] = {}
+        self._lock = threading.Lock()
+        self._file: McapFile | None = None
+        try:
+            self._file = McapFile(self.path, policy, profile="")
+            self._file.add_metadata("vilma", {"car": car, "source": source, "time": "sim time, ns since the start",
+                                              "frames": "ENU map; yaw counter-clockwise from east"})
+        except RecordError as e:
+            self._stop(e)
+
+    @property
+    def ok(self) -> bool:
+        """Whether the recording is still going."""
+        return self._file is not None
+
+    def _stop(self, e: RecordError) -> None:
+        self.error = f"{e}; the drive goes on without recording"
+        if self._file is not None:
+            self._file.closed = True
+        self._file = None
+        self.on_error(self.error)
+
+    def _guard(self, fn: Callable[[McapFile], None]) -> None:
+        with self._lock:
+            if self._file is None:
+                return
+            try:
+                fn(self._file)
+            except RecordError as e:
+                self._stop(e)
+
+    def _channel(self, f: McapFile, name: str) -> int:
+        cid = self._channels.get(name)
+        if cid is None:
+            key = f"vilma/{self.car}/{name}"
+            lay = self._layouts.get(name)
+            if lay is not None:
+                cid = f.add_channel(key, lay.schema_name, lay.schema)
+            else:
+                cid = f.add_channel(key, f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name]))
+            self._channels[name] = cid
+        return cid
+
+    # -- what to record ----------------------------------------------------------------------------------------
+
+    def add_readings(self, readings: dict[str, Readings]) -> None:
+        """Sensor readings (arrays) of one stretch of sim time; ``pose`` also makes the ``tf`` frame."""
+        batches = []
+        for name, r in readings.items():
+            if len(r) and name in self._layouts:
+                batches.append((name, r.stamp_ns, r.values))
+                if name == "pose":
+                    batches.append((TF, r.stamp_ns, r.values))
+        self._guard(lambda f: self._write(f, batches))
+
+    def add_log_rows(self, rows: np.ndarray) -> None:
+        """Rows of the run's :class:`~vilma.scenario.drive_log.DriveLog` (``t`` [s] gives the stamp)."""
+        if len(rows):
+            stamps = np.round(rows[:, 0] * 1e9).astype(np.int64)
+            self._guard(lambda f: self._write(f, [(DRIVE_LOG, stamps, rows)]))
+
+    def _write(self, f: McapFile, batches: list[tuple[str, np.ndarray, np.ndarray]]) -> None:
+        for name, st, v in batches:  # a topic's messages in stamp order; topics one after the other
+            cid = self._channel(f, name)
+            blob, starts = self._layouts[name].records(st, v, cid)
+            f.write_records(cid, np.asarray(st, np.int64), blob, starts)
+
+    def add_message(self, name: str, msg: Message) -> None:
+        """One message of topic ``name`` (``pose``, ``cmd``, ``driver/status``...), as it went on the bus."""
+        def put(f: McapFile) -> None:
+            if name in SENSOR_TOPICS:
+                values = msgspec_row(msg)
+                f.write(self._channel(f, name), msg.stamp_ns, self._layouts[name].encode_one(msg.stamp_ns, values),
+                        close_chunk=name != "pose")  # a pose and its frame in the same chunk
+                if name == "pose":
+                    f.write(self._channel(f, TF), msg.stamp_ns, self._layouts[TF].encode_one(msg.stamp_ns, values))
+            else:
+                f.write(self._channel(f, name), msg.stamp_ns, encode_struct(msg))
+        self._guard(put)
+
+    def tick(self) -> None:
+        """Flush the open chunk if it is a second old (call it now and then)."""
+        self._guard(lambda f: f.tick())
+
+    def add_attachment(self, name: str, media_type: str, data: bytes) -> None:
+        """A file kept in the recording (the scenario, the scorecard)."""
+        self._guard(lambda f: f.add_attachment(name, media_type, data))
+
+    def add_metadata(self, name: str, data: dict) -> None:
+        """A metadata record; values are written as JSON text."""
+        self._guard(lambda f: f.add_metadata(name, {k: json.dumps(v) for k, v in data.items()}))
+
+    @property
+    def message_count(self) -> int:
+        """Messages recorded so far."""
+        return self._file.message_count if self._file is not None else 0
+
+    def close(self) -> None:
+        """Finish the file (summary and footer)."""
+        self._guard(lambda f: f.close())
+        self._file = None
+
+
+def msgspec_row(msg: Message) -> list[float]:
+    """A numeric message's fields after ``stamp_ns``, in order."""
+    return [getattr(msg, f) for f in msg.__struct_fields__[1:]]
+
+
+class BusRecorder:
+    """Records every topic of ``car`` on ``bus`` into ``recorder`` until :meth:`close`."""
+
+    def __init__(self, bus: Bus, recorder: Recorder, car: str = "vilma") -> None:
+        self.recorder = recorder
+        self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in LIVE_TOPICS]
+
+    def _taker(self, name: str) -> Callable[[Message], None]:
+        rec = self.recorder
+
+        def take(msg: Message) -> None:
+            rec.add_message(name, msg)
+        return take
+
+    def close(self) -> None:
+        """Stop listening and finish the file."""
+        for s in self._subs:
+            s.close()
+        self.recorder.close()

@@ -1,0 +1,156 @@
+"""``vilma ros1-bridge``: vilma's bus on a real ROS 1 master, with the original VILMA's topics.
+
+Publishes what the original program subscribed to (vilma-original.md section 5),
+stamped with sim time:
+
+================ ================================ ==============================================
+``/pose``        geometry_msgs/PoseStamped        frame ``/map``; quaternion from roll, pitch, yaw
+``/velocity``    geometry_msgs/TwistStamped       linear: world-frame velocity [m/s] (as MORSE's
+                                                  sensor); angular: body rates [rad/s]
+``/gps``         sensor_msgs/NavSatFix            latitude, longitude [deg], altitude [m]
+``/imu``         sensor_msgs/Imu                  orientation, angular velocity, specific force
+``/wheelspeed``  std_msgs/Float64MultiArray       ``[fl, fr, rl, rr]`` [rad/s]
+================ ================================ ==============================================
+
+and takes commands on ``/cmd`` (std_msgs/Float64MultiArray ``[steer rad, drive N, brake N]``, optionally
+``velocity_limit`` [m/s] and ``autonomous`` (0/1) after them; drive and brake are forces at the wheels),
+which it puts on the bus as :class:`~vilma.core.messages.ActuatorCommand`.
+
+ROS 1 comes from Debian (``ros-core python3-rospy python3-geometry-msgs python3-sensor-msgs
+python3-std-msgs``) and its Python packages live in ``/usr/lib/python3/dist-packages``: run the bridge with
+that folder on the path (see the README). ``rospy`` is imported only here.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+from vilma.bus.base import Bus
+from vilma.bus.topics import topic
+from vilma.core import messages as m
+from vilma.core.geometry import quaternion_from_euler
+
+CMD_TOPIC = "/cmd"
+"""Where the bridge takes actuator commands."""
+
+
+def rospy_or_reason() -> tuple[object | None, str]:
+    """``rospy`` if it can be imported, else None and why not (one line)."""
+    try:
+        import rospy
+    except ImportError as e:
+        return None, (f"ROS 1 (rospy) is not importable: {e}; apt-get install ros-core python3-rospy "
+                      "python3-geometry-msgs python3-sensor-msgs python3-std-msgs, and put "
+                      "/usr/lib/python3/dist-packages on PYTHONPATH")
+    return rospy, ""
+
+
+class Ros1Bridge:
+    """Car ``car``'s topics on ``bus`` published to ROS 1, and ``/cmd`` taken from it (see the module docstring).
+
+    ``rospy.init_node`` must have been called (:func:`init_node`).
+    """
+
+    def __init__(self, bus: Bus, car: str = "vilma", cmd_topic: str = CMD_TOPIC) -> None:
+        import rospy
+        from geometry_msgs.msg import PoseStamped, TwistStamped
+        from sensor_msgs.msg import Imu, NavSatFix, NavSatStatus
+        from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+        self._rospy, self.bus, self.car = rospy, bus, car
+        self._types = (PoseStamped, TwistStamped, Imu, NavSatFix, NavSatStatus, Float64MultiArray, MultiArrayDimension)
+        self._pubs = {name: rospy.Publisher(ros, typ, queue_size=50) for name, ros, typ in (
+            ("pose", "/pose", PoseStamped), ("velocity", "/velocity", TwistStamped), ("gps", "/gps", NavSatFix),
+            ("imu", "/imu", Imu), ("wheel_speed", "/wheelspeed", Float64MultiArray))}
+        self._stamp_ns = 0
+        self._lock = threading.Lock()
+        self.commands = 0
+        """Commands taken from ROS so far."""
+        self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in self._pubs]
+        self._subs.append(bus.subscribe(topic("sim/status", car), self._clock))
+        self._cmd_sub = rospy.Subscriber(cmd_topic, Float64MultiArray, self._command, queue_size=10)
+
+    def _clock(self, status: m.SimStatus) -> None:
+        with self._lock:
+            self._stamp_ns = status.stamp_ns
+
+    def _stamp(self, stamp_ns: int):
+        return self._rospy.Time(stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000)
+
+    def _taker(self, name: str):
+        convert = getattr(self, f"_{name}")
+        pub = self._pubs[name]
+
+        def take(msg: m.Message) -> None:
+            pub.publish(convert(msg))
+        return take
+
+    def _header(self, out, stamp_ns: int, frame: str):
+        out.header.stamp = self._stamp(stamp_ns)
+        out.header.frame_id = frame
+        return out
+
+    def _pose(self, p: m.Pose):
+        out = self._header(self._types[0](), p.stamp_ns, "/map")
+        out.pose.position.x, out.pose.position.y, out.pose.position.z = p.x, p.y, p.z
+        q = out.pose.orientation
+        q.x, q.y, q.z, q.w = (float(v) for v in quaternion_from_euler(p.roll, p.pitch, p.yaw))
+        return out
+
+    def _velocity(self, v: m.Velocity):
+        out = self._header(self._types[1](), v.stamp_ns, self.car)
+        lin, ang = out.twist.linear, out.twist.angular
+        lin.x, lin.y, lin.z = v.vx_world, v.vy_world, v.vz_world
+        ang.x, ang.y, ang.z = v.wx, v.wy, v.wz
+        return out
+
+    def _imu(self, i: m.Imu):
+        out = self._header(self._types[2](), i.stamp_ns, self.car)
+        o = out.orientation
+        o.x, o.y, o.z, o.w = i.qx, i.qy, i.qz, i.qw
+        w, a = out.angular_velocity, out.linear_acceleration
+        w.x, w.y, w.z = i.wx, i.wy, i.wz
+        a.x, a.y, a.z = i.ax, i.ay, i.az
+        return out
+
+    def _gps(self, g: m.GpsFix):
+        out = self._header(self._types[3](), g.stamp_ns, "gps")
+        out.status.status, out.status.service = self._types[4].STATUS_FIX, self._types[4].SERVICE_GPS
+        out.latitude, out.longitude, out.altitude = g.latitude, g.longitude, g.altitude
+        out.position_covariance_type = 0
+        return out
+
+    def _wheel_speed(self, w: m.WheelSpeeds):
+        out = self._types[5]()
+        out.layout.dim = [self._types[6](label="fl,fr,rl,rr [rad/s]", size=4, stride=4)]
+        out.data = [w.fl, w.fr, w.rl, w.rr]
+        return out
+
+    def _command(self, msg) -> None:
+        d = list(msg.data)
+        if len(d) < 3 or not all(math.isfinite(v) for v in d[:3]):
+            self._rospy.logwarn_throttle(5.0, f"vilma bridge: a command needs [steer, drive, brake], got {d}")
+            return
+        with self._lock:
+            stamp = self._stamp_ns
+        cmd = m.ActuatorCommand(stamp_ns=stamp, steer=d[0], longitudinal=m.Longitudinal.FORCE, drive=d[1],
+                                brake=d[2], velocity_limit=d[3] if len(d) > 3 else math.inf,
+                                autonomous=bool(d[4]) if len(d) > 4 else False)
+        self.bus.publish(topic("cmd", self.car), cmd)
+        self.commands += 1
+
+    def close(self) -> None:
+        """Stop publishing and taking commands."""
+        for s in self._subs:
+            s.close()
+        self._cmd_sub.unregister()
+        for p in self._pubs.values():
+            p.unregister()
+
+
+def init_node(name: str = "vilma_bridge") -> None:
+    """``rospy.init_node`` without rospy's signal handlers (vilma's programs handle SIGINT and SIGTERM)."""
+    import rospy
+
+    rospy.init_node(name, anonymous=False, disable_signals=True)

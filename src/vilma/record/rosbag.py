@@ -1,0 +1,176 @@
+"""``vilma export rosbag2 RUN.mcap OUTDIR``: a recording as a ROS 2 bag (MCAP storage) of standard types.
+
+Written with ``rosbags`` (no ROS install needed). Topics, as the original VILMA's where it had them:
+
+=============== ================================ =====================================================
+topic           type                             content
+=============== ================================ =====================================================
+``/pose``       geometry_msgs/msg/PoseStamped    frame ``map``; quaternion from roll, pitch, yaw
+``/velocity``   geometry_msgs/msg/TwistStamped   linear: **world-frame** velocity [m/s] (as the
+                                                 original's MORSE sensor); angular: body rates [rad/s]
+``/gps``        sensor_msgs/msg/NavSatFix        latitude, longitude [deg], altitude [m]
+``/imu``        sensor_msgs/msg/Imu              orientation, angular velocity, specific force
+``/wheelspeed`` std_msgs/msg/Float64MultiArray   ``[fl, fr, rl, rr]`` [rad/s]
+``/odom``       nav_msgs/msg/Odometry            frame ``odom``, child ``<car>``; x, y, yaw; speed
+                                                 and yaw rate in the twist
+``/actuators``  std_msgs/msg/Float64MultiArray   ``[steer rad, drive_force N, brake_force N]``
+``/cmd``        std_msgs/msg/Float64MultiArray   ``[steer rad, drive, brake, velocity_limit m/s,
+                                                 autonomous 0/1]``; the layout's label names the
+                                                 longitudinal mode (``drive[force|accel|power]``)
+``/tf``         tf2_msgs/msg/TFMessage           ``map`` -> ``<car>`` from the pose
+``/drive_log``  std_msgs/msg/Float64MultiArray   the runner's row (labels: the DriveLog columns)
+=============== ================================ =====================================================
+
+Each message's bag timestamp and header stamp are its sim time.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+from vilma.core import messages as m
+from vilma.core.geometry import quaternion_from_euler
+from vilma.record.reader import read_recording
+from vilma.scenario.drive_log import COLUMNS
+
+STORE = Stores.ROS2_HUMBLE
+"""The message definitions written (ROS 2 Humble's)."""
+
+
+class _Types:
+    def __init__(self) -> None:
+        self.store = get_typestore(STORE)
+        t = self.store.types
+        self.Time, self.Header = t["builtin_interfaces/msg/Time"], t["std_msgs/msg/Header"]
+        self.Point, self.Quat, self.Vec = t["geometry_msgs/msg/Point"], t["geometry_msgs/msg/Quaternion"], \
+            t["geometry_msgs/msg/Vector3"]
+        self.t = t
+
+    def header(self, stamp_ns: int, frame: str):
+        return self.Header(stamp=self.Time(sec=stamp_ns // 1_000_000_000, nanosec=stamp_ns % 1_000_000_000),
+                           frame_id=frame)
+
+    def quat(self, roll: float, pitch: float, yaw: float):
+        x, y, z, w = (float(q) for q in quaternion_from_euler(roll, pitch, yaw))
+        return self.Quat(x=x, y=y, z=z, w=w)
+
+    def array(self, values, labels: str):
+        t = self.t
+        dim = t["std_msgs/msg/MultiArrayDimension"](label=labels, size=len(values), stride=len(values))
+        return t["std_msgs/msg/Float64MultiArray"](layout=t["std_msgs/msg/MultiArrayLayout"](dim=[dim], data_offset=0),
+                                                   data=np.asarray(values, dtype=np.float64))
+
+
+def _pose(T: _Types, p: m.Pose, car: str):
+    t = T.t
+    return t["geometry_msgs/msg/PoseStamped"](header=T.header(p.stamp_ns, "map"), pose=t["geometry_msgs/msg/Pose"](
+        position=T.Point(x=p.x, y=p.y, z=p.z), orientation=T.quat(p.roll, p.pitch, p.yaw)))
+
+
+def _velocity(T: _Types, v: m.Velocity, car: str):
+    t = T.t
+    return t["geometry_msgs/msg/TwistStamped"](header=T.header(v.stamp_ns, car), twist=t["geometry_msgs/msg/Twist"](
+        linear=T.Vec(x=v.vx_world, y=v.vy_world, z=v.vz_world), angular=T.Vec(x=v.wx, y=v.wy, z=v.wz)))
+
+
+def _gps(T: _Types, g: m.GpsFix, car: str):
+    t = T.t
+    status = t["sensor_msgs/msg/NavSatStatus"](status=0, service=1)
+    return t["sensor_msgs/msg/NavSatFix"](header=T.header(g.stamp_ns, "gps"), status=status, latitude=g.latitude,
+                                          longitude=g.longitude, altitude=g.altitude,
+                                          position_covariance=np.zeros(9), position_covariance_type=0)
+
+
+def _imu(T: _Types, i: m.Imu, car: str):
+    return T.t["sensor_msgs/msg/Imu"](
+        header=T.header(i.stamp_ns, car), orientation=T.Quat(x=i.qx, y=i.qy, z=i.qz, w=i.qw),
+        orientation_covariance=np.zeros(9), angular_velocity=T.Vec(x=i.wx, y=i.wy, z=i.wz),
+        angular_velocity_covariance=np.zeros(9), linear_acceleration=T.Vec(x=i.ax, y=i.ay, z=i.az),
+        linear_acceleration_covariance=np.zeros(9))
+
+
+def _odometry(T: _Types, o: m.Odometry, car: str):
+    t = T.t
+    pose = t["geometry_msgs/msg/PoseWithCovariance"](
+        pose=t["geometry_msgs/msg/Pose"](position=T.Point(x=o.x, y=o.y, z=0.0), orientation=T.quat(0.0, 0.0, o.yaw)),
+        covariance=np.zeros(36))
+    twist = t["geometry_msgs/msg/TwistWithCovariance"](twist=t["geometry_msgs/msg/Twist"](
+        linear=T.Vec(x=o.speed, y=0.0, z=0.0), angular=T.Vec(x=0.0, y=0.0, z=o.yaw_rate)), covariance=np.zeros(36))
+    return t["nav_msgs/msg/Odometry"](header=T.header(o.stamp_ns, "odom"), child_frame_id=car, pose=pose, twist=twist)
+
+
+def _wheels(T: _Types, w: m.WheelSpeeds, car: str):
+    return T.array([w.fl, w.fr, w.rl, w.rr], "fl,fr,rl,rr [rad/s]")
+
+
+def _actuators(T: _Types, a: m.ActuatorState, car: str):
+    return T.array([a.steer, a.drive_force, a.brake_force], "steer [rad],drive_force [N],brake_force [N]")
+
+
+def _cmd(T: _Types, c: m.ActuatorCommand, car: str):
+    return T.array([c.steer, c.drive, c.brake, c.velocity_limit, float(c.autonomous)],
+                   f"steer [rad],drive[{c.longitudinal.value}],brake,velocity_limit [m/s],autonomous")
+
+
+def _tf(T: _Types, p: m.Pose, car: str):
+    t = T.t
+    tr = t["geometry_msgs/msg/Transform"](translation=T.Vec(x=p.x, y=p.y, z=p.z),
+                                          rotation=T.quat(p.roll, p.pitch, p.yaw))
+    ts = t["geometry_msgs/msg/TransformStamped"](header=T.header(p.stamp_ns, "map"), child_frame_id=car, transform=tr)
+    return t["tf2_msgs/msg/TFMessage"](transforms=[ts])
+
+
+TOPICS = {  # vilma topic -> (ROS topic, ROS type, converter)
+    "pose": ("/pose", "geometry_msgs/msg/PoseStamped", _pose),
+    "velocity": ("/velocity", "geometry_msgs/msg/TwistStamped", _velocity),
+    "gps": ("/gps", "sensor_msgs/msg/NavSatFix", _gps),
+    "imu": ("/imu", "sensor_msgs/msg/Imu", _imu),
+    "wheel_speed": ("/wheelspeed", "std_msgs/msg/Float64MultiArray", _wheels),
+    "odometry": ("/odom", "nav_msgs/msg/Odometry", _odometry),
+    "actuators": ("/actuators", "std_msgs/msg/Float64MultiArray", _actuators),
+    "cmd": ("/cmd", "std_msgs/msg/Float64MultiArray", _cmd),
+}
+"""What :func:`export_rosbag2` writes for each vilma topic (see the module docstring)."""
+
+
+def export_rosbag2(recording: Path, out_dir: Path) -> dict[str, int]:
+    """Write the recording ``recording`` as a rosbag2 in ``out_dir`` (which must not exist yet).
+
+    Returns the number of messages written per ROS topic.
+
+    Raises:
+        FileExistsError: ``out_dir`` exists (rosbags will not write into it).
+        RecordingError: the recording cannot be read.
+    """
+    rec = read_recording(recording)
+    out_dir = Path(out_dir)
+    if out_dir.exists():
+        raise FileExistsError(f"{out_dir} exists; give a new folder for the bag")
+    T = _Types()
+    counts: dict[str, int] = {}
+    with Writer(out_dir, version=8, storage_plugin=StoragePlugin.MCAP) as w:
+        def put(ros_topic: str, ros_type: str, items) -> None:
+            conn = None
+            for stamp, msg in items:
+                if conn is None:
+                    conn = w.add_connection(ros_topic, ros_type, typestore=T.store)
+                w.write(conn, stamp, T.store.serialize_cdr(msg, ros_type))
+                counts[ros_topic] = counts.get(ros_topic, 0) + 1
+
+        for name, (ros_topic, ros_type, convert) in TOPICS.items():
+            if rec.count(name):
+                put(ros_topic, ros_type, ((x.stamp_ns, convert(T, x, rec.car)) for x in rec.messages(name)))
+        if rec.count("pose"):
+            put("/tf", "tf2_msgs/msg/TFMessage",
+                ((p.stamp_ns, _tf(T, p, rec.car)) for p in rec.messages("pose")))
+        rows = rec.drive_log()
+        if len(rows):
+            labels = ",".join(COLUMNS)
+            put("/drive_log", "std_msgs/msg/Float64MultiArray",
+                ((round(r[0] * 1e9), T.array(r, labels)) for r in rows if math.isfinite(r[0])))
+    return counts

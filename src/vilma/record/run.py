@@ -1,0 +1,86 @@
+"""``run.mcap`` of a ``vilma run``: every sensor reading, the runner's row a control period, the scenario and
+the scorecard.
+
+The runner hands over each block of readings (the compiled loop's blocks, or
+the Python loop's periods, gathered ``BLOCK`` at a time) and its log grows in
+place; this module encodes both in bulk. ``run`` metadata and the
+``scenario.yaml``, ``path.csv`` and ``metrics.json`` attachments let
+``vilma report RUN.mcap`` score the run from the recording alone.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from vilma.record.recorder import Recorder
+from vilma.scenario.drive_log import DriveLog
+from vilma.scenario.spec import Scenario, to_yaml
+from vilma.sensors import Readings
+
+if TYPE_CHECKING:
+    from vilma.scenario.runner import RunResult
+
+RUN_FILE = "run.mcap"
+"""The recording's name in a run's output folder."""
+
+
+class RunRecorder:
+    """Records one run into ``path`` as it goes (see the module docstring)."""
+
+    BLOCK = 256
+    """Control periods gathered before they are encoded."""
+
+    def __init__(self, path: Path, scenario: Scenario, log: DriveLog) -> None:
+        self.log = log
+        self.recorder = Recorder(path, source="vilma run")
+        self.recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
+        self.recorder.add_metadata("scenario", {"name": scenario.name, "description": scenario.description})
+        self._written = 0
+        self._pending: list[dict[str, Readings]] = []
+
+    def add(self, readings: dict[str, Readings]) -> None:
+        """The readings of a block or period, after its rows went into the log."""
+        if not self.recorder.ok:
+            return
+        self._pending.append(readings)
+        if len(self.log) - self._written >= self.BLOCK:
+            self._flush()
+
+    def _flush(self) -> None:
+        if self._pending:
+            merged: dict[str, list[Readings]] = {}
+            for block in self._pending:
+                for name, r in block.items():
+                    if len(r):
+                        merged.setdefault(name, []).append(r)
+            self.recorder.add_readings({n: Readings.concat(p) for n, p in merged.items()})
+            self._pending.clear()
+        rows = self.log.rows[self._written:]
+        self.recorder.add_log_rows(rows)
+        self._written += len(rows)
+
+    def finish(self, result: RunResult) -> None:
+        """Write what is left, the run's facts, the path and the scorecard, and close the file."""
+        self._flush()
+        self.recorder.add_metadata("run", {"t_start": result.t_start, "completed": result.metrics.get("completed"),
+                                           "wall_time_s": result.metrics.get("wall_time_s"),
+                                           "failures": result.failures})
+        self.recorder.add_metadata("scorecard", result.metrics)
+        if result.path is not None:
+            buf = io.StringIO()
+            cols = [result.path.xy] + ([result.path.speed[:, None]] if result.path.speed is not None else [])
+            np.savetxt(buf, np.hstack(cols), delimiter=",", fmt="%.17g")
+            self.recorder.add_attachment("path.csv", "text/csv", buf.getvalue().encode())
+        self.recorder.add_attachment("metrics.json", "application/json",
+                                     (json.dumps(result.metrics, indent=2) + "\n").encode())
+        self.recorder.close()
+
+    def abort(self) -> None:
+        """The run failed: keep what was recorded and close the file."""
+        self._flush()
+        self.recorder.close()

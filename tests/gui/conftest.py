@@ -1,0 +1,54 @@
+"""GUI tests: offscreen Qt, an embedded simulator paced faster than real time, the main window on it."""
+
+from __future__ import annotations
+
+import os
+
+os.environ["QT_QPA_PLATFORM"] = "offscreen"  # before any Qt import creates the application
+
+import pytest
+
+from vilma.bus.base import BoundedQueue
+from vilma.bus.topics import topic
+
+SPEED = 4.0
+"""Embedded simulation speed in the tests (x real time)."""
+WAIT_MS = 60_000
+"""Longest wait for the simulated car [ms of wall time] (a slow, busy machine)."""
+
+
+@pytest.fixture
+def embedded():
+    """The default scenario embedded (simulator + driver on a local bus), not started."""
+    from vilma.gui.backend import Embedded
+
+    backend = Embedded(speed=SPEED)
+    yield backend
+    backend.close()
+
+
+@pytest.fixture
+def window(qtbot, embedded, tmp_path):
+    """The main window on the embedded simulator, shown and running; recordings go to ``tmp_path``."""
+    from vilma.gui.main_window import MainWindow
+
+    w = MainWindow(embedded, refresh_ms=100, record_dir=tmp_path)
+    qtbot.addWidget(w)
+    w.show()
+    embedded.start()
+    qtbot.waitUntil(lambda: w.bridge.connected and "driver/status" in w.bridge.latest, timeout=WAIT_MS)
+    yield w
+    w.close()
+
+
+@pytest.fixture
+def commands(embedded):
+    """Every actuator command published on the bus, in order."""
+    q = BoundedQueue(embedded.bus, topic("cmd"), maxsize=10_000)
+    yield q
+    q.close()
+
+
+def speed_of(window) -> float:
+    """The car's planar speed from the latest velocity message [m/s]."""
+    return window.bridge.latest["velocity"].speed

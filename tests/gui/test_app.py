@@ -1,0 +1,71 @@
+"""``vilma gui`` from the command line, and joining a simulator over Zenoh that goes away and comes back."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+
+import pytest
+
+from tests.gui.conftest import WAIT_MS
+from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
+from vilma.gui.backend import Remote
+from vilma.gui.main_window import MainWindow
+
+
+def test_vilma_gui_runs_embedded_and_quits_cleanly():
+    env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "--speed", "2", "--quit-after", "2"],
+                       capture_output=True, text=True, timeout=120, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_vilma_gui_refuses_bad_options_without_a_traceback():
+    env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "--speed", "-1"], capture_output=True, text=True,
+                       timeout=60, env=env)
+    assert r.returncode == 2 and "--speed" in r.stderr and "Traceback" not in r.stderr
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "no_such_scenario"], capture_output=True,
+                       text=True, timeout=60, env=env)
+    assert r.returncode == 2 and "no_such_scenario" in r.stderr and "Traceback" not in r.stderr
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _sim(endpoint: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "vilma.cli", "sim", "--listen", endpoint],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+def _stop(p: subprocess.Popen) -> None:
+    p.terminate()
+    p.communicate(timeout=30)
+
+
+@pytest.mark.slow
+def test_connect_shows_a_lost_simulator_and_reconnects_by_itself(qtbot):
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    sim = _sim(endpoint)
+    backend = Remote(ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,))), endpoint)
+    w = MainWindow(backend, refresh_ms=100)
+    qtbot.addWidget(w)
+    w.show()
+    try:
+        qtbot.waitUntil(lambda: w.link.text() == "connected", timeout=WAIT_MS)
+        assert not w.auto_dock.apply_button.parentWidget().isEnabled()  # controllers are fixed over Zenoh
+        _stop(sim)
+        qtbot.waitUntil(lambda: w.link.text().startswith("DISCONNECTED"), timeout=WAIT_MS)
+        sim = _sim(endpoint)
+        qtbot.waitUntil(lambda: w.link.text() == "connected", timeout=WAIT_MS)
+        assert "pose" in w.bridge.latest
+    finally:
+        w.close()
+        _stop(sim)
+        backend.close()

@@ -1,0 +1,121 @@
+"""Recordings made by the programs: ``vilma run`` writes run.mcap; ``vilma up`` / ``vilma sim`` with ``--record``
+survive SIGTERM (finished file) and SIGKILL (readable up to the last flushed chunk)."""
+
+from __future__ import annotations
+
+import csv
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from mcap.reader import make_reader
+
+from vilma import programs
+from vilma.bus.local import LocalBus
+from vilma.record.reader import read_recording
+from vilma.scenario import load_scenario, to_yaml
+from vilma.scenario.batch import BUNDLED
+from vilma.scenario.drive_log import COLUMNS
+from vilma.scenario.runner import run
+
+POSE_PERIOD_NS = 20_000_000
+"""The pose sensor's default period (50 Hz)."""
+
+
+def test_run_writes_run_mcap_equal_to_its_log_and_timeseries(tmp_path):
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    result = run(scenario, out_dir=tmp_path)
+    back = read_recording(tmp_path / "run.mcap")
+    assert back.complete
+    assert np.array_equal(back.drive_log(), result.log.rows, equal_nan=True)
+    with (tmp_path / "timeseries.csv").open() as f:
+        table = list(csv.DictReader(f))
+    pose = back.readings("pose")
+    logged = [(round(float(r["t_s"]) * 1e9), float(r["pose.x"]), float(r["pose.yaw"])) for r in table if r["pose.x"]]
+    assert [(int(t), x, yaw) for t, x, yaw in zip(pose.stamp_ns, pose.field("x"), pose.field("yaw"),
+                                                   strict=True)] == logged
+    assert np.all(np.diff(pose.stamp_ns) == POSE_PERIOD_NS)
+    for name in ("velocity", "gps", "imu", "wheel_speed", "odometry", "actuators"):
+        first = back.readings(name).message.__struct_fields__[1]
+        assert back.count(name) == sum(1 for r in table if r[f"{name}.{first}"])
+    assert back.meta("scorecard") == result.metrics
+    assert back.attachments["scenario.yaml"].decode() == to_yaml(scenario)
+    assert back.meta("run")["t_start"] == result.t_start
+    xy = np.loadtxt(back.attachments["path.csv"].decode().splitlines(), delimiter=",")
+    assert np.array_equal(xy[:, :2], result.path.xy)
+    with (tmp_path / "run.mcap").open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary.statistics.message_count == sum(back.count(t) for t in back.topics)
+    assert len(COLUMNS) == back.drive_log().shape[1]
+
+
+def test_up_records_every_topic_and_a_failing_path_does_not_stop_the_drive(tmp_path):
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    lines: list[str] = []
+    assert programs.up(scenario, 50.0, 2.0, lines.append, record=tmp_path / "up.mcap") == 0
+    back = read_recording(tmp_path / "up.mcap")
+    assert back.complete
+    assert {"pose", "tf", "velocity", "gps", "imu", "wheel_speed", "odometry", "actuators", "cmd", "driver/status",
+            "sim/status"} <= set(back.topics)
+    pose = back.readings("pose")
+    assert pose.stamp_ns[-1] == 2_000_000_000 and np.all(np.diff(pose.stamp_ns) == POSE_PERIOD_NS)
+    cmds = back.messages("cmd")
+    assert cmds and all(c.autonomous for c in cmds)
+    # the same drive without a usable file: it runs to its end all the same
+    again: list[str] = []
+    assert programs.up(scenario, 50.0, 2.0, again.append, record=tmp_path / "missing" / "up.mcap") == 0
+    assert len(again) == len(lines) == 2
+
+
+def test_sim_program_records_what_it_publishes(tmp_path):
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    bus = LocalBus()
+    assert programs.sim_program(scenario, bus, 50.0, 1.0, lambda _: None, morse=None,
+                                record=tmp_path / "sim.mcap") == 0
+    back = read_recording(tmp_path / "sim.mcap")
+    assert back.complete and back.count("pose") == 1_000_000_000 // POSE_PERIOD_NS
+    assert back.count("sim/status") == back.count("pose")  # a status a frame, a frame a pose period
+
+
+def _start_up(path: Path, speed: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "vilma.cli", "up", "course_30kmh_stanley", "--speed", speed,
+                             "--record", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_status(p: subprocess.Popen, t: float) -> None:
+    while True:
+        line = p.stdout.readline()
+        assert line, p.stderr.read()
+        if line.startswith("t ") and float(line.split()[1]) >= t:
+            return
+
+
+def test_sigterm_finishes_the_file(tmp_path):
+    p = _start_up(tmp_path / "a.mcap", "5")
+    _wait_for_status(p, 2.0)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=20)
+    assert p.returncode == 0 and "Traceback" not in err
+    back = read_recording(tmp_path / "a.mcap")
+    assert back.complete
+    with (tmp_path / "a.mcap").open("rb") as f:
+        stats = make_reader(f).get_summary().statistics
+    assert stats.message_count == sum(back.count(t) for t in back.topics)
+
+
+def test_sigkill_leaves_a_file_readable_up_to_the_last_flushed_chunk(tmp_path):
+    p = _start_up(tmp_path / "a.mcap", "1")
+    _wait_for_status(p, 4.0)  # 4 s of wall time: chunks flushed at least every second
+    p.kill()
+    p.communicate(timeout=20)
+    assert p.returncode == -signal.SIGKILL
+    back = read_recording(tmp_path / "a.mcap")
+    assert not back.complete
+    pose = back.readings("pose")
+    # no hole: every pose period from the first to the last flushed one, and at least 2 s of them
+    assert np.all(np.diff(pose.stamp_ns) == POSE_PERIOD_NS)
+    assert pose.stamp_ns[-1] - pose.stamp_ns[0] >= 2_000_000_000
+    assert np.all(np.isfinite(pose.values))
+    assert back.count("tf") == len(pose)

@@ -1,0 +1,109 @@
+"""``vilma report`` from a recording alone, and ``vilma export rosbag2`` read back with rosbags' reader."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore
+
+from vilma import programs
+from vilma.core.geometry import quaternion_from_euler
+from vilma.record.reader import read_recording
+from vilma.record.report import report
+from vilma.record.rosbag import STORE, export_rosbag2
+from vilma.scenario import load_scenario
+from vilma.scenario.batch import BUNDLED
+from vilma.scenario.report import PLOTS
+from vilma.scenario.runner import run
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    return run(load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"), out_dir=out), out
+
+
+def test_report_recomputes_the_runs_scorecard_and_plots(finished_run, tmp_path):
+    result, out = finished_run
+    again = report(out / "run.mcap", tmp_path / "rep")
+    assert again.metrics == result.metrics
+    assert json.loads((tmp_path / "rep" / "metrics.json").read_text()) == result.metrics
+    assert all((tmp_path / "rep" / p).stat().st_size > 0 for p in PLOTS)
+
+
+def test_report_of_a_live_recording_scores_the_poses(tmp_path):
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    programs.up(scenario, 50.0, 3.0, lambda _: None, record=tmp_path / "up.mcap")
+    pose = read_recording(tmp_path / "up.mcap").readings("pose")
+    got = report(tmp_path / "up.mcap", tmp_path / "rep").metrics
+    assert got["distance_m"] == pytest.approx(np.hypot(*np.diff(pose.values[:, :2], axis=0).T).sum(), rel=1e-12)
+    assert got["sim_time_s"] == pose.stamp_ns[-1] * 1e-9
+
+
+def test_report_cli_writes_beside_the_recording(finished_run):
+    _, out = finished_run
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "report", str(out / "run.mcap")], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert (out / "run-report" / "metrics.json").exists()
+
+
+def test_report_of_a_non_recording_is_one_line(tmp_path):
+    (tmp_path / "x.mcap").write_text("hello")
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "report", str(tmp_path / "x.mcap")], capture_output=True,
+                       text=True, timeout=60)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "not a readable MCAP recording" in r.stderr
+
+
+def _bag(path):
+    store = get_typestore(STORE)
+    out: dict[str, list] = {}
+    with Reader(path) as reader:
+        for conn, stamp, data in reader.messages():
+            out.setdefault(conn.topic, []).append((stamp, store.deserialize_cdr(data, conn.msgtype), conn.msgtype))
+    return out
+
+
+def test_rosbag2_export_reads_back_with_values_and_timestamps(finished_run, tmp_path):
+    _, out = finished_run
+    rec = read_recording(out / "run.mcap")
+    counts = export_rosbag2(out / "run.mcap", tmp_path / "bag")
+    bag = _bag(tmp_path / "bag")
+    assert {t: len(v) for t, v in bag.items()} == counts
+
+    pose = rec.readings("pose")
+    got = bag["/pose"]
+    assert {t for _, _, t in got} == {"geometry_msgs/msg/PoseStamped"}
+    assert [s for s, _, _ in got] == pose.stamp_ns.tolist()
+    assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m, _ in got] == pose.stamp_ns.tolist()
+    assert [(m.pose.position.x, m.pose.position.y) for _, m, _ in got] == [tuple(v) for v in pose.values[:, :2]]
+    q = np.column_stack(quaternion_from_euler(*pose.values[:, 3:6].T))
+    assert np.array_equal([[m.pose.orientation.x, m.pose.orientation.y, m.pose.orientation.z, m.pose.orientation.w]
+                           for _, m, _ in got], q)
+
+    vel = rec.readings("velocity")
+    assert [m.twist.linear.x for _, m, _ in bag["/velocity"]] == vel.field("vx_world").tolist()
+    assert [m.twist.angular.z for _, m, _ in bag["/velocity"]] == vel.field("wz").tolist()
+    gps = rec.readings("gps")
+    assert [(m.latitude, m.longitude, m.altitude) for _, m, _ in bag["/gps"]] == [tuple(v) for v in gps.values[:, :3]]
+    imu = rec.readings("imu")
+    assert [m.linear_acceleration.z for _, m, _ in bag["/imu"]] == imu.field("az").tolist()
+    wheels = rec.readings("wheel_speed")
+    assert np.array_equal([m.data for _, m, _ in bag["/wheelspeed"]], wheels.values)
+    assert bag["/wheelspeed"][0][1].layout.dim[0].label.startswith("fl,fr,rl,rr")
+    odo = rec.readings("odometry")
+    assert [m.twist.twist.linear.x for _, m, _ in bag["/odom"]] == odo.field("speed").tolist()
+    assert [m.transforms[0].child_frame_id for _, m, _ in bag["/tf"]] == ["vilma"] * len(pose)
+    assert np.array_equal([m.data for _, m, _ in bag["/drive_log"]], rec.drive_log(), equal_nan=True)
+
+
+def test_export_refuses_an_existing_folder(finished_run, tmp_path):
+    _, out = finished_run
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "export", "rosbag2", str(out / "run.mcap"),
+                        str(tmp_path)], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "exists" in r.stderr
