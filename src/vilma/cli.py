@@ -50,7 +50,17 @@ def _run(args: argparse.Namespace) -> int:
     _check_factor(args.realtime, "--realtime")
     jobs = batch.plan(args.scenarios, args.set)
     console = _console()
-    results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console)
+    live = None
+    if args.foxglove is not None:
+        from vilma.record.commands import foxglove_observer
+
+        live = foxglove_observer(args.foxglove, args.realtime, console.print)
+    try:
+        results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
+                                live.observe if live else None)
+    finally:
+        if live is not None:
+            live.close()
     if len(results) == 1:
         console.print(batch.scorecard_table(results[0]))
     console.print(batch.summary_table(jobs, results))
@@ -222,6 +232,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="override a scenario value (dotted key, YAML value); KEY=a,b,c sweeps over the values")
     r.add_argument("--realtime", type=float, default=None, metavar="K",
                    help="pace to K times real time (default: as fast as possible)")
+    r.add_argument("--foxglove", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+                   help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
     r.set_defaults(func=_run)
     for name, helptext in (("sim", "the simulator as a server on Zenoh, paced to real time"),
                            ("drive", "the self-driver as its own process on Zenoh"),
@@ -282,6 +294,17 @@ def _parser() -> argparse.ArgumentParser:
     rl.add_argument("--connect", action="append", metavar="ENDPOINT", help="Zenoh endpoint to connect to")
     rl.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
     rl.set_defaults(func=_record_command("replay_command"))
+    rb = sub.add_parser("ros1-bridge", help="the simulator's topics on a ROS 1 master (/pose, /velocity, /gps, /imu, "
+                        "/wheelspeed) and commands from /cmd; needs Debian's ROS 1")
+    rb.add_argument("scenario", nargs="?", metavar="SCENARIO", help="scenario file or bundled name (its car, sensors)")
+    rb.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
+    rb.add_argument("--duration", type=float, default=float("inf"), help="stop after this sim time [s]")
+    rb.add_argument("--cmd-topic", default="/cmd", help="ROS topic of actuator commands (default /cmd)")
+    rb.add_argument("--connect", action="append", metavar="ENDPOINT",
+                    help="bridge the Zenoh bus of a vilma sim at ENDPOINT instead of simulating here")
+    rb.add_argument("--listen", action="append", metavar="ENDPOINT", help=argparse.SUPPRESS)
+    rb.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
+    rb.set_defaults(func=_record_command("ros1_bridge_command"))
     t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
                        description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "
                                    "transform it and write it (.csv: CSV, else the original's format).")

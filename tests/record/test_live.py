@@ -82,3 +82,17 @@ def test_a_foxglove_client_gets_channels_messages_and_sim_time(live):
             frame = ws.recv(timeout=10)
             if isinstance(frame, bytes) and frame[0] == 0x02 and struct.unpack_from("<Q", frame, 1)[0] == 123 * 10**9:
                 break
+
+
+def test_up_serves_foxglove_and_run_needs_realtime():
+    from vilma import programs
+    from vilma.record.commands import foxglove_observer
+    from vilma.scenario import load_scenario
+    from vilma.scenario.batch import BUNDLED
+
+    lines: list[str] = []
+    assert programs.up(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"), 50.0, 0.5, lines.append,
+                       foxglove=_free_port()) == 0
+    assert lines[0].startswith("Foxglove: open connection ws://127.0.0.1:")
+    with pytest.raises(ValueError, match="--realtime"):
+        foxglove_observer(0, None, print)

@@ -55,3 +55,15 @@ def test_pause_stops_publishing_and_seek_jumps(recording):
 def test_bad_speed_is_refused(recording):
     with pytest.raises(ValueError, match="positive factor"):
         Replayer(recording, LocalBus(), speed=0.0)
+
+
+def test_replay_cli_plays_to_the_end_on_zenoh(recording):
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "replay", str(recording.path), "--speed", "50",
+                        "--listen", "tcp/127.0.0.1:0"], stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    played = sum(recording.count(n) for n in recording.topics if n not in ("tf", "drive_log"))
+    assert r.stdout.splitlines()[-1] == f"vilma replay: {played} messages published"

@@ -1,0 +1,10 @@
+"""Recording, replay and the robotics ecosystem.
+
+- :mod:`~vilma.record.mcap_file`, :mod:`~vilma.record.schemas`, :mod:`~vilma.record.jsonpack`: MCAP files of
+  JSON messages with Foxglove's well-known schemas where one fits, chunks flushed at least every second.
+- :mod:`~vilma.record.recorder` (live programs, ``--record``), :mod:`~vilma.record.run` (``run.mcap`` of
+  ``vilma run``), :mod:`~vilma.record.reader` (reading back, also files cut short).
+- :mod:`~vilma.record.report` (``vilma report``), :mod:`~vilma.record.rosbag` (``vilma export rosbag2``),
+  :mod:`~vilma.record.replay` (``vilma replay``), :mod:`~vilma.record.live` (``--foxglove``),
+  :mod:`~vilma.record.ros1` (``vilma ros1-bridge``).
+"""

@@ -76,3 +76,75 @@ def replay_command(args: argparse.Namespace) -> int:
         return 0
     finally:
         bus.close()
+
+
+def ros1_bridge_command(args: argparse.Namespace) -> int:
+    """``vilma ros1-bridge [SCENARIO]``: the simulator (in-process, paced) on a ROS 1 master; with ``--connect``,
+    the bus of a ``vilma sim`` elsewhere instead."""
+    from vilma.record.ros1 import Ros1Bridge, init_node, rospy_or_reason
+
+    rospy, why = rospy_or_reason()
+    if rospy is None:
+        raise ValueError(why)
+    init_node()
+    from vilma import programs
+    from vilma.bus.local import LocalBus
+    from vilma.cli import _check_factor, _scenario_or_default, _zenoh
+
+    if args.connect or args.zenoh_config:
+        bus, cfg = _zenoh(args, (), ())
+        bridge = Ros1Bridge(bus, cmd_topic=args.cmd_topic)
+        print(f"vilma ros1-bridge: Zenoh {', '.join(cfg.connect)} <-> ROS 1; commands on {args.cmd_topic}", flush=True)
+        try:
+            with programs.stop_on_signals() as stop:
+                while not stop.wait(1.0):
+                    pass
+        finally:
+            bridge.close()
+            bus.close()
+        return 0
+    _check_factor(args.speed, "--speed")
+    scenario = _scenario_or_default(args.scenario)
+    bus = LocalBus()
+    bridge = Ros1Bridge(bus, cmd_topic=args.cmd_topic)
+    print(f"vilma ros1-bridge: simulator ({scenario.name}) at {args.speed:g}x real time on ROS 1: /pose /velocity "
+          f"/gps /imu /wheelspeed; commands on {args.cmd_topic}", flush=True)
+    try:
+        return programs.sim_program(scenario, bus, args.speed, args.duration, lambda s: print(s, flush=True),
+                                    morse=None)
+    finally:
+        bridge.close()
+        bus.close()
+
+
+class _LiveRun:
+    """Readings of a paced run, put on a local bus that a Foxglove server serves."""
+
+    def __init__(self, port: int) -> None:
+        from vilma.bus.local import LocalBus
+        from vilma.bus.topics import SENSOR_TOPICS, topic
+        from vilma.record.live import FoxgloveLive
+
+        self.bus = LocalBus()
+        self.server = FoxgloveLive(self.bus, port=port)
+        self._keys = {name: topic(name) for name in SENSOR_TOPICS}
+
+    def observe(self, readings) -> None:
+        for name, r in readings.items():
+            key = self._keys.get(name)
+            if key is not None:
+                for msg in r.messages():
+                    self.bus.publish(key, msg)
+
+    def close(self) -> None:
+        self.server.close()
+        self.bus.close()
+
+
+def foxglove_observer(port: int, realtime: float | None, say) -> _LiveRun:
+    """``vilma run --realtime K --foxglove``: a Foxglove server fed with the run's readings."""
+    if realtime is None:
+        raise ValueError("--foxglove shows a run as it goes: give --realtime K too (e.g. --realtime 1)")
+    live = _LiveRun(port)
+    say(f"Foxglove: open connection ws://127.0.0.1:{live.server.port}")
+    return live

@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 _enc = msgspec.json.Encoder()
-COMMA = 44
+COMMA, OPEN, CLOSE = 44, 91, 93
 
 
 def column_text(kind: str, a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -30,6 +30,18 @@ def column_text(kind: str, a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     ends[:-1] = commas
     ends[-1] = len(buf)
     return buf, starts, ends - starts
+
+
+def table_text(kind: str, table: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The JSON text of a (k, n) table of numbers, row by row: the bytes, and where each of the k * n values
+    starts and how long it is (row-major), shapes (k * n,)."""
+    rows = table.astype(np.int64).tolist() if kind == "i" else table.tolist()
+    buf = np.frombuffer(_enc.encode(rows), np.uint8)
+    delim = np.flatnonzero((buf == COMMA) | (buf == OPEN) | (buf == CLOSE))
+    starts = delim[:-1] + 1
+    lens = delim[1:] - starts
+    keep = lens > 0  # between "]" and "[" of the next row, and the outer brackets, nothing is written
+    return buf, starts[keep], lens[keep]
 
 
 @njit(cache=True)
@@ -83,11 +95,20 @@ def message_records(template: bytes, columns: list[tuple[str, np.ndarray]], chan
     piece_starts = np.zeros(len(pieces_list) + 1, np.int64)
     piece_starts[1:] = np.cumsum([len(p) for p in pieces_list])
     pieces = np.frombuffer(b"".join(pieces_list), np.uint8)
-    parts = [column_text(kind, a) for kind, a in columns]
-    bases = np.cumsum([0] + [len(p[0]) for p in parts[:-1]]) if parts else np.zeros(0, np.int64)
-    texts = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.uint8)
-    vstart = np.array([p[1] + base for p, base in zip(parts, bases, strict=True)]).reshape(len(parts), n)
-    vlen = np.array([p[2] for p in parts]).reshape(len(parts), n)
+    k = len(columns)
+    vstart = np.empty((k, n), np.int64)
+    vlen = np.empty((k, n), np.int64)
+    texts_list, base = [], 0
+    for kind in ("i", "f"):  # every column of a kind in one encoding call
+        rows = [j for j, (c, _) in enumerate(columns) if c == kind]
+        if not rows or not n:
+            continue
+        buf, starts, lens = table_text(kind, np.array([columns[j][1] for j in rows]))
+        vstart[rows] = starts.reshape(len(rows), n) + base
+        vlen[rows] = lens.reshape(len(rows), n)
+        texts_list.append(buf)
+        base += len(buf)
+    texts = np.concatenate(texts_list) if texts_list else np.zeros(0, np.uint8)
     total = n * (31 + int(piece_starts[-1])) + int(vlen.sum())
     out = np.empty(total, np.uint8)
     rec_starts = np.empty(n, np.int64)

@@ -24,7 +24,9 @@ that folder on the path (see the README). ``rospy`` is imported only here.
 from __future__ import annotations
 
 import math
+import sys
 import threading
+from pathlib import Path
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import topic
@@ -35,8 +37,21 @@ CMD_TOPIC = "/cmd"
 """Where the bridge takes actuator commands."""
 
 
+DEBIAN_PACKAGES = "/usr/lib/python3/dist-packages"
+"""Where Debian's ROS 1 Python packages are."""
+
+
 def rospy_or_reason() -> tuple[object | None, str]:
-    """``rospy`` if it can be imported, else None and why not (one line)."""
+    """``rospy`` if it can be imported, else None and why not (one line).
+
+    If it is not on the path, Debian's packages folder is tried, appended last (so that the packages of
+    vilma's own environment still come first).
+    """
+    try:
+        import rospy
+    except ImportError:
+        if Path(DEBIAN_PACKAGES).is_dir() and DEBIAN_PACKAGES not in sys.path:
+            sys.path.append(DEBIAN_PACKAGES)
     try:
         import rospy
     except ImportError as e:

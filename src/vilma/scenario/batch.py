@@ -76,14 +76,18 @@ def find_scenario(name: str) -> Path:
     raise SpecError(f"{name}: no such scenario file, nor a bundled scenario (bundled: {known})")
 
 
-def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console) -> list[RunResult]:
-    """Run the jobs in order with a progress bar, writing each run's files; returns the results."""
+def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,
+            observe=None) -> list[RunResult]:
+    """Run the jobs in order with a progress bar, writing each run's files; returns the results.
+
+    ``observe`` gets each run's sensor readings as they are made (see :func:`~vilma.scenario.runner.run`).
+    """
     results = []
     with Progress(console=console, transient=True, disable=len(jobs) < 2) as bar:
         task = bar.add_task("running", total=len(jobs))
         for job in jobs:
             bar.update(task, description=job.scenario.name + (f" {job.label}" if job.label else ""))
-            result = run(job.scenario, realtime, _out_dir(job, out, len(jobs)))
+            result = run(job.scenario, realtime, _out_dir(job, out, len(jobs)), observe=observe)
             results.append(result)
             bar.advance(task)
     return results

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -61,14 +62,16 @@ def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
 
 
 def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None = None,
-        compiled: bool = True, record: bool = True) -> RunResult:
+        compiled: bool = True, record: bool = True,
+        observe: Callable[[dict[str, Readings]], None] | None = None) -> RunResult:
     """Drive ``scenario`` to its end; ``realtime`` paces it to that many times real time.
 
     Unpaced runs that qualify (:func:`~vilma.scenario.lockstep.compiled_ok`) run compiled, unless
     ``compiled`` is False; the drive is the same either way.
 
     With ``out_dir``, the run's files go there (:func:`write_outputs`), the timeseries and the recording
-    ``run.mcap`` (:mod:`vilma.record.run`, unless ``record`` is False) streamed as it runs.
+    ``run.mcap`` (:mod:`vilma.record.run`, unless ``record`` is False) streamed as it runs. ``observe`` gets
+    the sensor readings as they are made (a live view).
 
     Raises:
         SpecError: the scenario's files cannot be used (a bad trajectory file, an impossible order).
@@ -90,6 +93,10 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
             series.add(readings)
             if rec is not None:
                 rec.add(readings)
+            if observe is not None:
+                observe(readings)
+    elif observe is not None:
+        on_block = observe
 
     def step(readings: dict[str, Readings]) -> None:
         t0 = time.perf_counter()
