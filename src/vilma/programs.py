@@ -89,24 +89,25 @@ def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Sce
     return node
 
 
-def _recording(bus: Bus, record: Path | None, source: str):
-    """A :class:`~vilma.record.recorder.BusRecorder` of car ``vilma`` into ``record``, or None."""
-    if record is None:
-        return None
-    from vilma.record.recorder import BusRecorder, Recorder
+@contextlib.contextmanager
+def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str,
+          report: Callable[[str], None]) -> Iterator[Callable[[], None] | None]:
+    """While the block runs, car ``vilma``'s topics on ``bus`` are recorded to the MCAP file ``record`` and
+    served to Foxglove on 127.0.0.1:``foxglove`` (each only if given); both are finished when it ends, however
+    it ends. Yields the recorder's once-a-second ``tick`` (None when not recording)."""
+    with contextlib.ExitStack() as stack:
+        tick = None
+        if record is not None:
+            from vilma.record.recorder import BusRecorder, Recorder
 
-    return BusRecorder(bus, Recorder(record, source=source))
+            recording = stack.enter_context(contextlib.closing(BusRecorder(bus, Recorder(record, source=source))))
+            tick = recording.recorder.tick
+        if foxglove is not None:
+            from vilma.record.live import FoxgloveLive
 
-
-def _foxglove(bus: Bus, port: int | None, report: Callable[[str], None]):
-    """A Foxglove WebSocket server of car ``vilma``'s topics on 127.0.0.1:``port`` (0: any free), or None."""
-    if port is None:
-        return None
-    from vilma.record.live import FoxgloveLive
-
-    live = FoxgloveLive(bus, port=port)
-    report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
-    return live
+            live = stack.enter_context(contextlib.closing(FoxgloveLive(bus, port=foxglove)))
+            report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
+        yield tick
 
 
 def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str], None],
@@ -117,8 +118,6 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
     ``foxglove`` (a port), they are served live to Foxglove.
     """
     bus = LocalBus()
-    recording = _recording(bus, record, "vilma up")
-    live = _foxglove(bus, foxglove, report)
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, scenario.reference_path())
     sim.reset(start)
@@ -127,21 +126,17 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
     drv = serve_driver(driver, bus, "vilma", sim.clock.step_ns, scenario)
 
     def line() -> None:
-        if recording is not None:
-            recording.recorder.tick()
+        if tick is not None:
+            tick()
         st, s = driver.status, sim.state
         report(f"t {sim.clock.time_s:7.2f} s  x {s.x:8.2f} y {s.y:8.2f} m  speed {s.speed:5.2f} m/s  "
                f"{st.mode}{' arrived' if st.arrived else ''}  off path {st.cross_track:+.3f} m  "
                f"{sim_node.real_time_factor:.2f}x real time")
 
-    with stop_on_signals() as stop:
+    with _taps(bus, record, foxglove, "vilma up", report) as tick, stop_on_signals() as stop:
         run_paced(sim, sim_node, speed, duration, stop, line)
     drv.close()
     sim_node.close()
-    if recording is not None:
-        recording.close()
-    if live is not None:
-        live.close()
     bus.close()
     return 0
 
@@ -154,13 +149,11 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     on ``bus`` is recorded to that MCAP file; with ``foxglove`` (a port), served live to Foxglove."""
     from vilma.morse import MorseServer
 
-    recording = _recording(bus, record, "vilma sim")
-    live = _foxglove(bus, foxglove, report)
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, scenario.reference_path())
     sim.reset(start)
     node = SimNode(sim, bus, start=start)
-    with stop_on_signals() as stop:
+    with _taps(bus, record, foxglove, "vilma sim", report) as tick, stop_on_signals() as stop:
         server = None
         if morse is not None:
             server = MorseServer(host=morse.host, service_port=morse.service_port, stream_port=morse.stream_port,
@@ -174,15 +167,11 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
             report(f"vilma sim: MORSE services on {host}:{port}, datastreams {first}-{last} "
                    f"(robot vilma: {', '.join(f.split('.', 1)[1] for f in server.stream_ports)})")
         try:
-            run_paced(sim, node, speed, duration, stop, recording.recorder.tick if recording is not None else None)
+            run_paced(sim, node, speed, duration, stop, tick)
         finally:
             if server is not None:
                 server.stop()
     node.close()
-    if recording is not None:
-        recording.close()
-    if live is not None:
-        live.close()
     z = sim.state
     report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s, the car at x={z.x:.2f} y={z.y:.2f} m, "
            f"speed {z.speed:.2f} m/s; commands {node.on_time} on time (within a frame), {node.late} late")

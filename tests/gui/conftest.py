@@ -27,16 +27,22 @@ def embedded():
     backend.close()
 
 
+def shown_window(qtbot, backend, record_dir):
+    """The main window on ``backend``, shown, its backend started and the driver heard from."""
+    from vilma.gui.main_window import MainWindow
+
+    w = MainWindow(backend, refresh_ms=100, record_dir=record_dir)
+    qtbot.addWidget(w)
+    w.show()
+    backend.start()
+    qtbot.waitUntil(lambda: w.bridge.connected and "driver/status" in w.bridge.latest, timeout=WAIT_MS)
+    return w
+
+
 @pytest.fixture
 def window(qtbot, embedded, tmp_path):
     """The main window on the embedded simulator, shown and running; recordings go to ``tmp_path``."""
-    from vilma.gui.main_window import MainWindow
-
-    w = MainWindow(embedded, refresh_ms=100, record_dir=tmp_path)
-    qtbot.addWidget(w)
-    w.show()
-    embedded.start()
-    qtbot.waitUntil(lambda: w.bridge.connected and "driver/status" in w.bridge.latest, timeout=WAIT_MS)
+    w = shown_window(qtbot, embedded, tmp_path)
     yield w
     w.close()
 

@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 from PySide6.QtCore import Qt
 
-from tests.gui.conftest import WAIT_MS, speed_of
+from tests.gui.conftest import WAIT_MS, shown_window, speed_of
 from vilma.gui.backend import Embedded
-from vilma.gui.main_window import MainWindow
 from vilma.scenario.batch import find_scenario
 from vilma.scenario.spec import load_scenario
 from vilma.trajectory import Trajectory
@@ -89,11 +88,7 @@ def test_scenarios_open_into_the_table_and_save_back(window, tmp_path):
 @pytest.fixture
 def fig12(qtbot, tmp_path):
     backend = Embedded(load_scenario(find_scenario("paper_fig12_path")), speed=8.0)
-    w = MainWindow(backend, refresh_ms=100, record_dir=tmp_path)
-    qtbot.addWidget(w)
-    w.show()
-    backend.start()
-    qtbot.waitUntil(lambda: w.bridge.connected and "driver/status" in w.bridge.latest, timeout=WAIT_MS)
+    w = shown_window(qtbot, backend, tmp_path)
     yield w
     w.close()
     backend.close()

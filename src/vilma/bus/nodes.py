@@ -76,11 +76,7 @@ class SimNode:
     def frame(self, readings: dict[str, Readings], frame_ns: int = 0) -> None:
         """After the simulator advanced one frame (of ``frame_ns``): publish what it measured, then its status."""
         self.frame_ns = frame_ns
-        for name, r in readings.items():
-            key = self._keys.get(name)
-            if key is not None:
-                for msg in r.messages():
-                    self.bus.publish(key, msg)
+        publish_readings(self.bus, self._keys, readings)
         if self.on_frame is not None:
             self.on_frame(readings)
         self.bus.publish(topic("sim/status", self.car), self.sim.status(self.real_time_factor))
@@ -107,6 +103,15 @@ class SimNode:
     def close(self) -> None:
         for s in self._subs:
             s.close()
+
+
+def publish_readings(bus: Bus, keys: dict[str, str], readings: dict[str, Readings]) -> None:
+    """Every reading, oldest first, on its sensor's topic ``keys[name]`` (sensors without a key are skipped)."""
+    for name, r in readings.items():
+        key = keys.get(name)
+        if key is not None:
+            for msg in r.messages():
+                bus.publish(key, msg)
 
 
 def readings_of(name: str, messages: list[Message]) -> Readings:

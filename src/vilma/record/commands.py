@@ -130,11 +130,9 @@ class _LiveRun:
         self._keys = {name: topic(name) for name in SENSOR_TOPICS}
 
     def observe(self, readings) -> None:
-        for name, r in readings.items():
-            key = self._keys.get(name)
-            if key is not None:
-                for msg in r.messages():
-                    self.bus.publish(key, msg)
+        from vilma.bus.nodes import publish_readings
+
+        publish_readings(self.bus, self._keys, readings)
 
     def close(self) -> None:
         self.server.close()
