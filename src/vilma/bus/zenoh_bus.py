@@ -21,6 +21,7 @@ import zenoh
 from vilma.bus.codec import DecodeError, decode, encode
 from vilma.bus.topics import SENSOR_TOPICS, message_type
 from vilma.core.messages import Message, Reply
+from vilma.core.net import is_loopback
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +47,7 @@ class ZenohConfig:
 
     def exposed(self) -> list[str]:
         """Listen endpoints that are not on the loopback interface."""
-        return [e for e in self.listen if not any(h in e for h in ("/127.", "/localhost:", "/[::1]:"))]
+        return [e for e in self.listen if not is_loopback(e.split("/", 1)[-1].rsplit(":", 1)[0])]
 
     def to_zenoh(self) -> zenoh.Config:
         """The Zenoh configuration."""

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import ipaddress
 import logging
 import socket
 import threading
@@ -24,6 +23,7 @@ from collections.abc import Callable, Collection
 from typing import TYPE_CHECKING, Any
 
 from vilma.core.messages import ActuatorCommand
+from vilma.core.net import is_loopback
 from vilma.morse import protocol as p
 from vilma.morse.core import MorseCore
 from vilma.vehicle.params import VehicleParams
@@ -43,15 +43,6 @@ PUBLISH_BACKLOG = 256
 """Batches of readings waiting for the server thread; older ones are dropped beyond it."""
 TICK = 0.02
 """Period of the check for due ``time sleep`` requests when no readings arrive [s]."""
-
-
-def _is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def _listen(host: str, port: int) -> socket.socket:
@@ -254,7 +245,7 @@ class MorseServer:
         """
         if self._thread is not None:
             raise RuntimeError("MorseServer.start() was already called; make a new server to restart")
-        if not _is_loopback(self.host):
+        if not is_loopback(self.host):
             log.warning("MORSE interface bound to %s, not loopback: anyone who can reach it can drive the car "
                         "(restrict with allow_commands_from)", self.host or "all interfaces")
         socks = self._bind()

@@ -10,13 +10,17 @@ each ``sim/status`` (Foxglove's clock follows the simulation). Open Foxglove,
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.messages import Message
+from vilma.core.net import is_loopback
 from vilma.record.recorder import LIVE_TOPICS, msgspec_row
 from vilma.record.schemas import TF, encode_struct, numeric_layouts, struct_schema
+
+log = logging.getLogger(__name__)
 
 DEFAULT_PORT = 8765
 """Foxglove's usual WebSocket port."""
@@ -29,6 +33,8 @@ class FoxgloveLive:
         import foxglove
         from foxglove.websocket import Capability
 
+        if not is_loopback(host):
+            log.warning("Foxglove server on %s, beyond this machine: anyone who reaches it sees the car", host)
         self._fox = foxglove
         self.car = car
         self._context = foxglove.Context()
