@@ -75,7 +75,7 @@ def run_paced(sim: Simulator, node: SimNode, speed: float, duration: float, stop
     left = duration
     while left > 0 and not stop.is_set():
         chunk = min(left, 1.0)
-        pacer.run(chunk, on_period=frame, should_stop=stop.is_set)
+        pacer.run(chunk, on_period=frame, should_stop=stop.is_set, before_period=node.apply_pending)
         left -= chunk
         if every is not None:
             every()

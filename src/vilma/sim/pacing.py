@@ -64,8 +64,10 @@ class Pacer:
         self.stats = PaceStats()
 
     def run(self, seconds: float, on_period: Callable[[dict[str, Readings]], None] | None = None,
-            should_stop: Callable[[], bool] | None = None) -> PaceStats:
-        """Advance ``seconds`` of sim time paced, calling ``on_period(readings)`` after each period."""
+            should_stop: Callable[[], bool] | None = None,
+            before_period: Callable[[], None] | None = None) -> PaceStats:
+        """Advance ``seconds`` of sim time paced, calling ``before_period()`` before each period (after the
+        sleep: what arrived while sleeping still applies to it) and ``on_period(readings)`` after it."""
         n = round(seconds / self.period)
         start = anchor_wall = self.clock()
         anchor_sim = 0.0
@@ -73,6 +75,8 @@ class Pacer:
         for _ in range(n):
             if should_stop is not None and should_stop():
                 break
+            if before_period is not None:
+                before_period()
             readings = self.sim.advance(self.ticks)
             if on_period is not None:
                 on_period(readings)
