@@ -9,9 +9,8 @@ import pytest
 
 from tests.conftest import fit_circle, physics_only
 from vilma.core.messages import ActuatorCommand, Longitudinal
-from vilma.plant3d import MujocoPlant
 from vilma.plant3d.car_model import sprung_inertia
-from vilma.plant3d.plant import ackermann
+from vilma.plant3d.plant import MujocoPlant, ackermann
 from vilma.sim import Simulator
 from vilma.vehicle.params import GRAVITY, vilma
 from vilma.vehicle.state import VehicleState

@@ -12,13 +12,13 @@ from typing import Union
 
 import msgspec
 
-from vilma.bus.topics import TOPICS
+from vilma.bus.topics import TOPICS, WORLD_TOPICS
 from vilma.core.messages import Message, Reply
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 """Bumped whenever a message's fields change."""
 
-AnyMessage = Union[tuple(dict.fromkeys([*TOPICS.values(), Reply]))]  # noqa: UP007 (a union built at run time)
+AnyMessage = Union[tuple(dict.fromkeys([*TOPICS.values(), *WORLD_TOPICS.values(), Reply]))]  # noqa: UP007 (a union built at run time)
 
 _encoder = msgspec.msgpack.Encoder()
 _decoder = msgspec.msgpack.Decoder(tuple[int, AnyMessage])

@@ -3,7 +3,9 @@
 ``vilma/<car>/<name>``, for example ``vilma/vilma/pose``. Sensor topics carry
 what the simulator's sensors of the same name measure; ``cmd`` the actuator
 commands; ``driver/status`` and ``driver/cmd`` the self-driver's state and
-orders; ``sim/status`` and ``sim/cmd`` the simulator's.
+orders; ``sim/status`` and ``sim/cmd`` the simulator's. The 3D plant's world
+sensors add ``camera/<name>`` (and ``camera/<name>/depth``) images and the
+``laser`` point cloud.
 """
 
 from __future__ import annotations
@@ -30,14 +32,27 @@ TOPICS: dict[str, type[m.Message]] = {
     "sim/cmd": m.SimControl,
 }
 """Every topic of a car -> the message type it carries (requests on ``*/cmd`` are answered with a Reply)."""
+WORLD_TOPICS: dict[str, type[m.Message]] = {"camera": m.Image, "laser": m.PointCloud}
+"""World sensors of the 3D plant: ``laser``, and ``camera/<name>`` or ``camera/<name>/depth`` for each camera."""
 
 DEFAULT_CAR = "vilma"
 
 
+def _type_of(name: str) -> type[m.Message] | None:
+    if name in TOPICS:
+        return TOPICS[name]
+    if name == "laser":
+        return WORLD_TOPICS["laser"]
+    parts = name.split("/")
+    if parts[0] == "camera" and len(parts) in (2, 3) and parts[1] and parts[1] != "*" and parts[2:] in ([], ["depth"]):
+        return WORLD_TOPICS["camera"]
+    return None
+
+
 def topic(name: str, car: str = DEFAULT_CAR) -> str:
     """The full key of topic ``name`` of ``car``: ``vilma/<car>/<name>``."""
-    if name not in TOPICS:
-        raise ValueError(f"unknown topic {name!r}; known: {', '.join(TOPICS)}")
+    if _type_of(name) is None:
+        raise ValueError(f"unknown topic {name!r}; known: {', '.join(TOPICS)}, laser, camera/<name>[/depth]")
     if not car or "/" in car or "*" in car:
         raise ValueError(f"car name {car!r} must be a non-empty word without '/' or '*'")
     return f"vilma/{car}/{name}"
@@ -46,6 +61,7 @@ def topic(name: str, car: str = DEFAULT_CAR) -> str:
 def message_type(key: str) -> type[m.Message]:
     """The message type a full key carries (``vilma/<car>/<name>``)."""
     parts = key.split("/", 2)
-    if len(parts) != 3 or parts[0] != "vilma" or parts[2] not in TOPICS:
+    kind = _type_of(parts[2]) if len(parts) == 3 and parts[0] == "vilma" else None
+    if kind is None:
         raise ValueError(f"{key!r} is not a vilma topic (vilma/<car>/<name>)")
-    return TOPICS[parts[2]]
+    return kind

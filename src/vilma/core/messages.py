@@ -145,11 +145,14 @@ class ActuatorCommand(Message, frozen=True, kw_only=True):
 
 
 class SimStatus(Message, frozen=True, kw_only=True):
-    """Simulator status: real-time factor (sim s per wall s), autonomy and watchdog flags."""
+    """Simulator status: real-time factor (sim s per wall s), autonomy and watchdog flags, and the collisions
+    of the car's body with the world's obstacles since the last reset (count, and the last obstacle hit)."""
 
     real_time_factor: float = math.nan
     autonomous: bool = False
     watchdog_tripped: bool = False
+    collisions: int = 0
+    last_collision: str = ""
 
 
 class DriverStatus(Message, frozen=True):
@@ -215,3 +218,26 @@ class Reply(Message, frozen=True, kw_only=True):
     stamp_ns: int = 0
     ok: bool
     error: str = ""
+
+
+class Image(Message, frozen=True):
+    """A camera image (the fields of ``foxglove.RawImage``): ``height`` rows of ``step`` bytes from the
+    top-left pixel. ``encoding``: ``rgb8`` (3 bytes a pixel) or ``32FC1`` (depth along the optical axis [m],
+    float32 little-endian; inf where nothing is within range). ``frame_id``: the camera's frame."""
+
+    frame_id: str
+    width: int
+    height: int
+    encoding: str
+    step: int
+    data: bytes
+
+
+class PointCloud(Message, frozen=True):
+    """One laser scan in the laser's frame ``frame_id`` (x forward, y left, z up): ``points`` the hits as
+    float32 little-endian ``x, y, z`` [m] triples; ``ranges`` float32 [m] per ray in scan order (inf: no hit
+    within range), so the points are the finite ranges along their rays."""
+
+    frame_id: str
+    points: bytes
+    ranges: bytes

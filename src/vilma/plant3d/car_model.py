@@ -12,8 +12,7 @@ a camber stiffness no real suspension has), with the car's friction coefficient.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from vilma.plant3d.world import World, fmt, world_xml
 from vilma.vehicle.params import GRAVITY, VehicleParams
 
 CORNERS = ("fl", "fr", "rl", "rr")
@@ -24,28 +23,6 @@ BODY_HEIGHT = 1.4
 """Body height for the box estimate of its inertia [m]."""
 TIMESTEP = 0.002
 """MuJoCo step [s]: five per vilma physics step of 10 ms."""
-
-
-@dataclass(frozen=True, slots=True)
-class Box:
-    """An obstacle: centre ``(x, y, z)`` [m], half sizes ``(sx, sy, sz)`` [m], yaw [rad], colour RGBA 0..1."""
-
-    pos: tuple[float, float, float]
-    size: tuple[float, float, float]
-    yaw: float = 0.0
-    rgba: tuple[float, float, float, float] = (0.9, 0.5, 0.1, 1.0)
-
-
-@dataclass(frozen=True, slots=True)
-class World:
-    """Flat ground (friction coefficient ``ground_friction``) and obstacles."""
-
-    boxes: tuple[Box, ...] = ()
-    ground_friction: float = 1.0
-
-
-def _f(*v: float) -> str:
-    return " ".join(f"{x:.6g}" for x in v)
 
 
 def corner_positions(p: VehicleParams) -> dict[str, tuple[float, float]]:
@@ -77,34 +54,34 @@ def spring_preload(p: VehicleParams, corner: str) -> float:
     return ms * GRAVITY * share / p.wheelbase / 2
 
 
-def car_xml(p: VehicleParams, world: World = World(), cameras: str = "") -> str:
-    """The MJCF text of the car at the origin on ``world``; ``cameras``: extra MJCF inside the chassis body."""
+def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
+            imu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> str:
+    """The MJCF text of the car at the origin on ``world``; ``cameras``: extra MJCF inside the chassis body;
+    ``imu``: where the accelerometer and gyro sit in the body frame from the centre of mass [m]."""
     s = p.suspension
     r, hw = p.wheel_radius, s.wheel_width / 2
     ms, ixx, iyy, izz = sprung_inertia(p)
     mw = s.wheel_mass
-    wheel_inertia = _f(mw * (3 * r * r + 4 * hw * hw) / 12, mw * r * r / 2, mw * (3 * r * r + 4 * hw * hw) / 12)
+    wheel_inertia = fmt(mw * (3 * r * r + 4 * hw * hw) / 12, mw * r * r / 2, mw * (3 * r * r + 4 * hw * hw) / 12)
     lock = p.max_steer + 0.2
     corners = []
     for name, (x, y) in corner_positions(p).items():
         ref = -spring_preload(p, name) / s.stiffness
         wheel = (f'<body name="wheel_{name}"><joint name="spin_{name}" type="hinge" axis="0 1 0" damping="0.01"/>'
                  f'<inertial pos="0 0 0" mass="{mw:.6g}" diaginertia="{wheel_inertia}"/>'
-                 f'<geom name="tyre_{name}" type="ellipsoid" size="{_f(r, hw, r)}" class="tyre"/>'
-                 f'<geom type="box" size="{_f(r * 0.7, hw * 1.02, 0.03)}" class="mark"/></body>')
+                 f'<geom name="tyre_{name}" type="ellipsoid" size="{fmt(r, hw, r)}" class="tyre"/>'
+                 f'<geom type="box" size="{fmt(r * 0.7, hw * 1.02, 0.03)}" class="mark"/></body>')
         if name[0] == "f":
             wheel = (f'<body name="knuckle_{name}"><joint name="steer_{name}" type="hinge" axis="0 0 1" '
-                     f'range="{_f(-lock, lock)}" armature="0.5" damping="20"/>'
+                     f'range="{fmt(-lock, lock)}" armature="0.5" damping="20"/>'
                      f'<inertial pos="0 0 0" mass="1" diaginertia="0.05 0.05 0.05"/>{wheel}</body>')
-        corners.append(f'<body name="corner_{name}" pos="{_f(x, y, r - s.cg_height)}">'
-                       f'<joint name="susp_{name}" type="slide" axis="0 0 1" range="{_f(-s.travel, s.travel)}" '
+        corners.append(f'<body name="corner_{name}" pos="{fmt(x, y, r - s.cg_height)}">'
+                       f'<joint name="susp_{name}" type="slide" axis="0 0 1" range="{fmt(-s.travel, s.travel)}" '
                        f'stiffness="{s.stiffness:.6g}" springref="{ref:.6g}" damping="{s.damping:.6g}"/>'
                        f'<inertial pos="0 0 0" mass="1" diaginertia="0.05 0.05 0.05"/>{wheel}</body>')
     body_len, body_w = p.wheelbase + BODY_LENGTH_OVERHANG, p.track + s.wheel_width
     centre_x = (p.cg_to_front - p.cg_to_rear) / 2
-    boxes = "".join(
-        f'<geom name="box{i}" type="box" pos="{_f(*b.pos)}" size="{_f(*b.size)}" euler="0 0 {b.yaw:.6g}" '
-        f'rgba="{_f(*b.rgba)}" class="obstacle"/>' for i, b in enumerate(world.boxes))
+    assets, things = world_xml(world)
     motors = "".join(f'<motor name="drive_{c}" joint="spin_{c}"/>' for c in CORNERS)
     steering = "".join(f'<position name="steer_{c}" joint="steer_{c}" kp="300000" kv="3000"/>' for c in ("fl", "fr"))
     return f"""<mujoco model="vilma_{p.name}">
@@ -116,20 +93,25 @@ def car_xml(p: VehicleParams, world: World = World(), cameras: str = "") -> str:
       rgba="0.1 0.1 0.1 1"/></default>
     <default class="mark"><geom contype="0" conaffinity="0" mass="0" rgba="0.8 0.8 0.8 1"/></default>
     <default class="obstacle"><geom contype="3" conaffinity="3" condim="3"/></default>
+    <default class="terrain"><geom contype="1" conaffinity="1" condim="3" rgba="0.55 0.55 0.5 1"
+      friction="{world.ground_friction:.6g} 0.005 0.0001"/></default>
   </default>
+  <asset>{assets}</asset>
   <worldbody>
     <light pos="0 0 50" dir="0 0 -1" directional="true"/>
     <geom name="ground" type="plane" size="0 0 1" rgba="0.45 0.5 0.45 1" contype="1" conaffinity="1"
       friction="{world.ground_friction:.6g} 0.005 0.0001"/>
-    {boxes}
     <body name="chassis" pos="0 0 {s.cg_height:.6g}">
       <freejoint name="chassis"/>
-      <inertial pos="0 0 0" mass="{ms:.6g}" diaginertia="{_f(ixx, iyy, izz)}"/>
-      <geom name="body" type="box" pos="{_f(centre_x, 0, 0.15)}" size="{_f(body_len / 2, body_w / 2 - 0.12, 0.3)}"
+      <inertial pos="0 0 0" mass="{ms:.6g}" diaginertia="{fmt(ixx, iyy, izz)}"/>
+      <geom name="body" type="box" pos="{fmt(centre_x, 0, 0.15)}" size="{fmt(body_len / 2, body_w / 2 - 0.12, 0.3)}"
         contype="2" conaffinity="2" mass="0" rgba="0.15 0.35 0.8 1"/>
+      <site name="imu" pos="{fmt(*imu)}" size="0.02"/>
       {cameras}
       {"".join(corners)}
     </body>
+    {things}
   </worldbody>
   <actuator>{motors}{steering}</actuator>
+  <sensor><accelerometer name="imu_accel" site="imu"/><gyro name="imu_gyro" site="imu"/></sensor>
 </mujoco>"""

@@ -7,11 +7,15 @@ import math
 import mujoco
 import numpy as np
 
-from vilma.plant3d.car_model import CORNERS, TIMESTEP, World, car_xml
+from vilma.plant3d.car_model import CORNERS, TIMESTEP, car_xml
+from vilma.plant3d.world import World
 from vilma.vehicle.actuators import actuator_step, targets
 from vilma.vehicle.models.common import V_SIGN
 from vilma.vehicle.params import VehicleParams, plant_consts
-from vilma.vehicle.state import NX, VehicleState
+from vilma.vehicle.state import N3, NX, VehicleState
+
+COLLISION_GAP = 0.5
+"""A touch of an obstacle is a new collision if the car was off it this long [s] (a bounce is the same one)."""
 
 
 def ackermann(steer: float, wheelbase: float, track: float) -> tuple[float, float]:
@@ -27,15 +31,26 @@ class MujocoPlant:
 
     :meth:`step` holds the actuator outputs ``steer`` [rad, bicycle front angle], ``drive`` [N at the
     wheels] and ``brake`` [N, >= 0] for a while, limited and split between the axles as the planar
-    models do; drag and rolling resistance act on the chassis.
+    models do; drag and rolling resistance act on the chassis. Each step checks the contacts: a car part
+    that starts touching an obstacle of ``world`` is a collision (:data:`COLLISION_GAP`;
+    :attr:`collisions`, :attr:`last_collision`).
+    ``cameras``: MJCF of the world sensors inside the chassis; ``imu``: the IMU's place in the body [m].
     """
 
-    def __init__(self, params: VehicleParams, world: World = World(), cameras: str = "") -> None:
-        self.params = params
-        self.model = mujoco.MjModel.from_xml_string(car_xml(params, world, cameras))
+    def __init__(self, params: VehicleParams, world: World = World(), cameras: str = "",
+                 imu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        self.params, self.world = params, world
+        self.model = mujoco.MjModel.from_xml_string(car_xml(params, world, cameras, imu))
         self.data = mujoco.MjData(self.model)
         m = self.model
+        self._obstacles = {m.geom(f"obstacle:{n}").id: n for n in world.obstacle_names()}
+        self._obstacle_ids = np.array(sorted(self._obstacles), dtype=np.int32)
         self._chassis = m.body("chassis").id
+        self._car_geoms = np.flatnonzero(m.body_rootid[m.geom_bodyid] == self._chassis)
+        self._accel = m.sensor("imu_accel").adr[0]
+        self._gyro = m.sensor("imu_gyro").adr[0]
+        # the chassis's free joint comes first: qpos[0:7] its position and orientation, qvel[0:6] its velocities
+        assert m.joint("chassis").qposadr[0] == 0 and m.joint("chassis").dofadr[0] == 0
         self._spin_dof = np.array([m.joint(f"spin_{c}").dofadr[0] for c in CORNERS])
         self._drive = np.array([m.actuator(f"drive_{c}").id for c in CORNERS])
         self._steer = np.array([m.actuator(f"steer_{c}").id for c in ("fl", "fr")])
@@ -59,6 +74,9 @@ class MujocoPlant:
         self.set_controls(state.steer, 0.0, 0.0)
         d.qpos[self._steer_q] = ackermann(state.steer, self.params.wheelbase, self.params.track)
         mujoco.mj_forward(m, d)
+        self.collisions, self.last_collision = 0, ""
+        self._touched: dict[int, float] = {}
+        """Obstacle geom id -> MuJoCo time it was last touched [s]."""
 
     @property
     def time(self) -> float:
@@ -87,12 +105,26 @@ class MujocoPlant:
         """Advance ``dt`` [s] (a whole number of MuJoCo steps) with these actuator outputs."""
         self.set_controls(steer, drive, brake)
         mujoco.mj_step(self.model, self.data, nstep=max(1, round(dt / TIMESTEP)))
+        if len(self._obstacle_ids):
+            self._check_contacts()
+
+    def _check_contacts(self) -> None:
+        d = self.data
+        pairs = d.contact.geom[:d.ncon]
+        pairs = pairs[np.isin(pairs, self._car_geoms).any(axis=1)]  # a cone on the ground is no collision
+        for g in set(pairs[np.isin(pairs, self._obstacle_ids)].tolist()):
+            if d.time - self._touched.get(g, -math.inf) > COLLISION_GAP:
+                self.collisions += 1
+                self.last_collision = self._obstacles[g]
+            self._touched[g] = d.time
 
     def advance(self, z: np.ndarray, mode: int, cmd: np.ndarray, dt: float, n: int, tick: int,
-                periods: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray, out_tick: np.ndarray) -> int:
+                periods: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray, out_tick: np.ndarray,
+                out_3d: np.ndarray | None = None) -> int:
         """:func:`vilma.vehicle.integrate.advance` on this plant: ``n`` steps of ``dt`` [s] with the command
         ``(mode, cmd)`` through vilma's actuators; ``z`` (planar state and actuator outputs) is updated in
-        place and the sensors' sample ticks are recorded. Returns the number of rows written."""
+        place and the sensors' sample ticks are recorded, with :meth:`extras` in ``out_3d`` when given.
+        Returns the number of rows written."""
         u = z[NX:].copy()
         x = self.planar_state()
         j = 0
@@ -104,10 +136,24 @@ class MujocoPlant:
             if ((tick + i) % periods == 0).any():
                 out_z[j, :NX], out_z[j, NX:] = x, u
                 out_dx[j] = self.derivative()
+                if out_3d is not None:
+                    out_3d[j] = self.extras()
                 out_tick[j] = tick + i
                 j += 1
         z[:NX], z[NX:] = x, u
         return j
+
+    def extras(self) -> np.ndarray:
+        """What only the 3D plant has, in the layout of :data:`vilma.vehicle.state.N3` (height above rest, roll,
+        pitch, vertical velocity, body angular velocity, specific force at the IMU)."""
+        d = self.data
+        out = np.empty(N3)
+        out[0:3] = self.attitude()
+        out[0] -= self.params.suspension.cg_height
+        out[3] = d.qvel[2]
+        out[4:7] = d.sensordata[self._gyro:self._gyro + 3]
+        out[7:10] = d.sensordata[self._accel:self._accel + 3]
+        return out
 
     def derivative(self) -> tuple[float, float, float, float, float, float]:
         """Time derivative of :meth:`planar_state` now (as the planar models' ``derivative``)."""
@@ -140,7 +186,8 @@ class MujocoPlant:
                 float(omega_world[2]))
 
     def attitude(self) -> tuple[float, float, float]:
-        """``(z [m] of the centre of mass, roll, pitch [rad])`` (ZYX Euler angles, roll about body x)."""
+        """``(z [m] of the centre of mass, roll, pitch [rad])`` (ZYX Euler angles, roll about body x, pitch
+        about body y: positive nose down)."""
         w, x, y, z = self.data.qpos[3:7]
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))

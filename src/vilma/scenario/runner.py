@@ -159,6 +159,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
     healthy = bool(np.isfinite(rows[:, 1:1 + len(PLANT_COLUMNS)]).all()) and not sim.watchdog_tripped
     completed = healthy and (finished() if follows else True)
     metrics = scorecard(log, scenario, path, t_start, completed, wall)
+    metrics["collisions"] = sim.collisions[0]
     failures = check_expectations(metrics, {"completed": True, **scenario.expect})
     if not completed and scenario.expect.get("completed") is not False:
         failures[0] = (f"completed: the task did not finish within {scenario.duration:g} s" if healthy

@@ -14,8 +14,9 @@ Top-level keys (all optional but ``task``):
 - ``vehicle``: a preset name (``vilma``, ``bmw_320i``), a parameter file (``*.yaml``, relative to the
   scenario), or a mapping of :class:`~vilma.vehicle.params.VehicleParams` fields with an optional
   ``preset`` to start from. ``actuators``: :class:`~vilma.vehicle.params.ActuatorParams` fields.
-- ``plant`` (``kinematic`` | ``single_track``), ``integrator`` (``rk4`` | ``euler``), ``step`` [s],
-  ``seed``, ``watchdog_timeout`` [s].
+- ``plant`` (``kinematic`` | ``single_track`` | ``mujoco``), ``integrator`` (``rk4`` | ``euler``), ``step``
+  [s], ``seed``, ``watchdog_timeout`` [s]. ``world`` (``plant: mujoco`` only): ``boxes``, ``cones``, ``ramps``,
+  ``bumps`` and ``ground_friction``, fields of :mod:`vilma.plant3d.world`.
 - ``sensors``: per sensor its parameter fields (``gps: {horizontal_noise: 0.5, rate_hz: 10}``), or
   ``false`` to remove it; ``origin``: the geodetic origin of the local frame.
 - ``pose``: ``truth`` or ``ekf``. ``speed_controller`` / ``path_controller``: a name, or a mapping with
@@ -40,6 +41,7 @@ import yaml
 from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, DriverParams
 from vilma.core.clock import Clock, RateError, seconds_to_ns
 from vilma.localization import SOURCES
+from vilma.plant3d.world import World
 from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_yaml, read_yaml
 from vilma.sensors import SensorSuite
 from vilma.sensors.gps import GeodeticOrigin
@@ -56,7 +58,7 @@ SCORECARD_KEYS = (
     "lateral_error_rms_m", "lateral_error_max_m", "lateral_error_p95_m", "heading_error_rms_rad",
     "speed_rise_time_90_s", "speed_overshoot_pct", "speed_settling_time_2pct_s", "speed_steady_state_error_mps",
     "speed_error_rms_mps", "steering_rate_rms_radps", "lateral_accel_max_mps2", "longitudinal_jerk_rms_mps3",
-    "pose_error_rms_m", "controller_time_per_step_us",
+    "pose_error_rms_m", "controller_time_per_step_us", "collisions",
 )
 """The scorecard's keys, in order (``metrics.json``)."""
 
@@ -220,7 +222,7 @@ def beside(file: Path | None, name: str) -> Path:
     return p if p.is_absolute() or file is None else file.parent / p
 
 
-TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "integrator", "step", "seed",
+TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "integrator", "step", "seed",
             "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
             "task", "initial", "duration", "metrics", "expect", "speed_log")
 
@@ -263,13 +265,15 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     model = get("plant", str, "single_track")
     if model not in (*models.MODELS, MUJOCO):
         raise src.error(("plant",), f"unknown plant {model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
+    world = build(World, data.get("world"), src, ("world",), World())
     try:
         sim = SimConfig(vehicle=vehicle, model=model, integrator=get("integrator", str, "rk4"),
                         step=get("step", float, 0.01), sensors=sensors, seed=get("seed", int, 0),
-                        watchdog_timeout=get("watchdog_timeout", float, 0.5))
+                        watchdog_timeout=get("watchdog_timeout", float, 0.5), world=world)
     except ValueError as e:
         culprit = next((k for k, word in (("step", "step"), ("integrator", "integrator"),
-                                          ("watchdog_timeout", "watchdog")) if word in str(e)), None)
+                                          ("watchdog_timeout", "watchdog"), ("world", "world")) if word in str(e)),
+                       None)
         raise src.error((culprit,) if culprit else (), str(e)) from None
     driver = _driver(data, src)
     _check_periods(sim, driver, src)
@@ -433,6 +437,7 @@ def to_yaml(scenario: Scenario) -> str:
         task["follow"] = str(s.trajectory_file().resolve())
     out = {
         "name": s.name, "description": s.description, "vehicle": plain(s.sim.vehicle), "plant": s.sim.model,
+        **({"world": plain(s.sim.world)} if not s.sim.world.empty else {}),
         "integrator": s.sim.integrator, "step": s.sim.step, "seed": s.sim.seed,
         "watchdog_timeout": s.sim.watchdog_timeout,
         "sensors": {k: (plain(v) if v is not None else False) for k, v in

@@ -20,11 +20,14 @@ class Samples:
         rows: indices of this sensor's samples in ``z`` and ``dx``, shape (n,).
         z: recorded plant vectors (layout of :mod:`vilma.vehicle.state`), shape (m, NZ), m >= n.
         dx: recorded vehicle state derivatives, shape (m, NX).
+        extra: what only the 3D plant records (layout :data:`~vilma.vehicle.state.N3`), shape (m, N3), or
+            None for a planar plant (flat ground: no height, roll or pitch).
     """
 
     rows: np.ndarray
     z: np.ndarray
     dx: np.ndarray
+    extra: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.rows)

@@ -18,7 +18,7 @@ from numba import njit
 from vilma.core.messages import GpsFix
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import GaussMarkovBias, gauss_markov_step, standard_normals
-from vilma.vehicle.state import YAW, X, Y
+from vilma.vehicle.state import HEIGHT, YAW, X, Y
 
 WGS84_A = 6378137.0
 """Semi-major axis [m]."""
@@ -140,5 +140,10 @@ class GpsSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         b = self.bias
-        return _measure(s.rows, s.z, standard_normals(self.rng, len(s), 6), self._offset, self._sigma, b.b, b.phi,
-                        b.step_sigma, self.frame.ecef0, self.frame.axes)
+        out = _measure(s.rows, s.z, standard_normals(self.rng, len(s), 6), self._offset, self._sigma, b.b, b.phi,
+                       b.step_sigma, self.frame.ecef0, self.frame.axes)
+        if s.extra is not None:  # the 3D plant's climb (altitude to well under a millimetre within kilometres)
+            h = s.extra[s.rows, HEIGHT]
+            out[:, 2] += h
+            out[:, 5] += h
+        return out

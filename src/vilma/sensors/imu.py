@@ -7,7 +7,8 @@ yaw rate ``w`` and yaw acceleration ``dw``::
     a_y = dvy/dt + w vx + dw r_x - w^2 r_y
     a_z = +g      (at rest an accelerometer reads +g upward)
 
-Each channel gets white noise and a Gauss-Markov bias.
+On the 3D plant the accelerometer and gyro are MuJoCo's, at the mounting point: they see the
+suspension's motion, roll, pitch and slopes. Each channel gets white noise and a Gauss-Markov bias.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from vilma.core.messages import Imu
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import GaussMarkovBias, gauss_markov_step, standard_normals
 from vilma.vehicle.params import GRAVITY
-from vilma.vehicle.state import VX, VY, YAW, YAW_RATE
+from vilma.vehicle.state import FX, FZ, PITCH, ROLL, VX, VY, WX, WZ, YAW, YAW_RATE
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -49,22 +50,36 @@ class ImuParams:
 
 
 @njit(cache=True)
-def _measure(rows, z, dx, noise, offset, sigma_a, sigma_w, sigma_yaw, bias_a, bias_w, phi, step_a, step_w):
-    out = np.zeros((rows.shape[0], 10))
+def _planar(rows, z, dx, offset):
+    """Ideal ``fx, fy, fz, wx, wy, wz, roll, pitch, yaw`` of the planar plant (module docstring)."""
+    out = np.zeros((rows.shape[0], 9))
     rx, ry = offset[0], offset[1]
     for k in range(rows.shape[0]):
         i = rows[k]
         w, dw = z[i, YAW_RATE], dx[i, YAW_RATE]
+        out[k, 0] = dx[i, VX] - w * z[i, VY] - dw * ry - w * w * rx
+        out[k, 1] = dx[i, VY] + w * z[i, VX] + dw * rx - w * w * ry
+        out[k, 2] = GRAVITY
+        out[k, 5] = w
+        out[k, 8] = z[i, YAW]
+    return out
+
+
+@njit(cache=True)
+def _measure(ideal, noise, sigma_a, sigma_w, sigma_yaw, bias_a, bias_w, phi, step_a, step_w):
+    out = np.zeros((ideal.shape[0], 10))
+    for k in range(ideal.shape[0]):
         ba = gauss_markov_step(bias_a, phi, step_a, noise[k, 6:9])
         bw = gauss_markov_step(bias_w, phi, step_w, noise[k, 9:12])
-        out[k, 0] = dx[i, VX] - w * z[i, VY] - dw * ry - w * w * rx + sigma_a * noise[k, 0] + ba[0]
-        out[k, 1] = dx[i, VY] + w * z[i, VX] + dw * rx - w * w * ry + sigma_a * noise[k, 1] + ba[1]
-        out[k, 2] = GRAVITY + sigma_a * noise[k, 2] + ba[2]
-        out[k, 3] = sigma_w * noise[k, 3] + bw[0]
-        out[k, 4] = sigma_w * noise[k, 4] + bw[1]
-        out[k, 5] = w + sigma_w * noise[k, 5] + bw[2]
-        half = 0.5 * wrap(z[i, YAW] + sigma_yaw * noise[k, 12])
-        out[k, 8], out[k, 9] = math.sin(half), math.cos(half)
+        for j in range(3):
+            out[k, j] = ideal[k, j] + sigma_a * noise[k, j] + ba[j]
+            out[k, 3 + j] = ideal[k, 3 + j] + sigma_w * noise[k, 3 + j] + bw[j]
+        r, p, y = 0.5 * ideal[k, 6], 0.5 * ideal[k, 7], 0.5 * wrap(ideal[k, 8] + sigma_yaw * noise[k, 12])
+        cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+        out[k, 6] = sr * cp * cy - cr * sp * sy
+        out[k, 7] = cr * sp * cy + sr * cp * sy
+        out[k, 8] = cr * cp * sy - sr * sp * cy
+        out[k, 9] = cr * cp * cy + sr * sp * sy
     return out
 
 
@@ -88,5 +103,10 @@ class ImuSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p, a, g = self.params, self.accel_bias, self.gyro_bias
-        return _measure(s.rows, s.z, s.dx, standard_normals(self.rng, len(s), 13), self._offset, p.accel_noise,
-                        p.gyro_noise, p.orientation_noise, a.b, g.b, a.phi, a.step_sigma, g.step_sigma)
+        if s.extra is None:
+            ideal = _planar(s.rows, s.z, s.dx, self._offset)
+        else:  # the 3D plant's accelerometer and gyro sit at the offset already
+            e = s.extra[s.rows]
+            ideal = np.column_stack((e[:, FX:FZ + 1], e[:, WX:WZ + 1], e[:, ROLL], e[:, PITCH], s.z[s.rows, YAW]))
+        return _measure(ideal, standard_normals(self.rng, len(s), 13), p.accel_noise, p.gyro_noise,
+                        p.orientation_noise, a.b, g.b, a.phi, a.step_sigma, g.step_sigma)

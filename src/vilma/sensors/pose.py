@@ -11,7 +11,7 @@ from vilma.core.geometry import wrap
 from vilma.core.messages import Pose
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
-from vilma.vehicle.state import YAW, X, Y
+from vilma.vehicle.state import HEIGHT, PITCH, ROLL, YAW, X, Y
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -38,7 +38,8 @@ def _measure(rows, z, noise, sigma_xy, sigma_yaw):
 
 
 class PoseSensor:
-    """Position [m] and ZYX Euler angles [rad]; the planar plant has z = roll = pitch = 0."""
+    """Position [m] and ZYX Euler angles [rad]; the planar plant has z = roll = pitch = 0, the 3D plant's z is
+    the centre of mass's height above where it rests on flat ground (so 0 on flat ground in both)."""
 
     name = "pose"
     message = Pose
@@ -51,4 +52,7 @@ class PoseSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p = self.params
-        return _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.position_noise, p.yaw_noise)
+        out = _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.position_noise, p.yaw_noise)
+        if s.extra is not None:
+            out[:, 2:5] = s.extra[s.rows][:, [HEIGHT, ROLL, PITCH]]
+        return out

@@ -11,7 +11,7 @@ from numba import njit
 from vilma.core.messages import Velocity
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
-from vilma.vehicle.state import VX, VY, YAW, YAW_RATE
+from vilma.vehicle.state import PITCH, ROLL, VX, VY, VZ, WX, WY, YAW, YAW_RATE
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -23,7 +23,7 @@ class VelocityParams:
     linear_noise: float = 0.0
     """Standard deviation of each body linear component [m/s]."""
     angular_noise: float = 0.0
-    """Standard deviation of the yaw rate [rad/s]."""
+    """Standard deviation of each body angular rate [rad/s] (the planar plant has only the yaw rate)."""
 
 
 @njit(cache=True)
@@ -54,4 +54,10 @@ class VelocitySensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p = self.params
-        return _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.linear_noise, p.angular_noise)
+        out = _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.linear_noise, p.angular_noise)
+        if s.extra is not None:  # vertical motion, roll and pitch rates; body vz to first order in the angles
+            e = s.extra[s.rows]
+            out[:, 5] = e[:, VZ]
+            out[:, 2] = e[:, VZ] + out[:, 0] * np.sin(e[:, PITCH]) - out[:, 1] * np.sin(e[:, ROLL])
+            out[:, 6:8] = e[:, WX:WY + 1] + p.angular_noise * standard_normals(self.rng, len(s), 2)
+        return out

@@ -18,14 +18,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vilma.core.clock import Clock, seconds_to_ns
-from vilma.core.messages import ActuatorCommand, SimStatus
+from vilma.core.messages import ActuatorCommand, Message, SimStatus
+from vilma.plant3d.world import World
 from vilma.sensors import Readings, Samples, SensorSuite, build_sensors
 from vilma.sensors.base import rows_of, sensor_rng
 from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, validate_command
 from vilma.vehicle.integrate import INTEGRATORS, advance, constrain, empty_records
 from vilma.vehicle.params import VehicleParams, plant_consts, vilma
-from vilma.vehicle.state import NX, VehicleState
+from vilma.vehicle.state import N3, NX, VehicleState
 
 log = logging.getLogger(__name__)
 
@@ -51,10 +52,15 @@ class SimConfig:
     seed: int = 0
     """Seed of every noise generator."""
     initial: VehicleState = VehicleState()
+    world: World = World()
+    """Ramps, bumps and obstacles (the 3D plant only)."""
 
     def __post_init__(self) -> None:
         if self.model not in (*models.MODELS, MUJOCO):
             raise ValueError(f"unknown model {self.model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
+        if self.model != MUJOCO and not self.world.empty:
+            raise ValueError(f"a world with ramps, bumps or obstacles needs the 3D plant (model {MUJOCO}), "
+                             f"not {self.model}")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {self.integrator!r}; use one of {', '.join(INTEGRATORS)}")
         if not 0 < self.step <= 0.01:
@@ -76,10 +82,18 @@ class Simulator:
         self.clock = Clock(seconds_to_ns(c.step))
         self._consts = plant_consts(c.vehicle)
         self._plant3d = None
+        self._world_sensors: list = []
         if c.model == MUJOCO:
-            from vilma.plant3d import MujocoPlant  # imports MuJoCo only when asked for
+            from vilma.plant3d.plant import MujocoPlant  # imports MuJoCo only when asked for
 
-            self._plant3d = MujocoPlant(c.vehicle)
+            imu = c.sensors.imu.offset if c.sensors.imu is not None else (0.0, 0.0, 0.0)
+            self._plant3d = MujocoPlant(c.vehicle, c.world, "".join(s.mjcf() for s in self._world_sensors), imu)
+            for s in self._world_sensors:
+                s.attach(self._plant3d)
+        self._capture_periods = np.array(
+            [self.clock.period_ticks(s.rate_hz, f"world sensor '{s.name}'") for s in self._world_sensors],
+            dtype=np.int64)
+        self._captures: list[tuple[str, Message]] = []
         self._model = models.MODELS.index(c.model) if c.model in models.MODELS else -1
         self._integrator = INTEGRATORS.index(c.integrator)
         self.sensors = build_sensors(c.sensors, c.vehicle)
@@ -111,6 +125,7 @@ class Simulator:
         self._autonomous = False
         self._last_command_tick = 0
         self.watchdog_tripped = False
+        self._captures = []
 
     @property
     def state(self) -> VehicleState:
@@ -127,10 +142,23 @@ class Simulator:
         """Sim time [ns]."""
         return self.clock.time_ns
 
+    @property
+    def collisions(self) -> tuple[int, str]:
+        """Collisions with the world's obstacles since the last reset, and the last obstacle hit ("" if none)."""
+        p = self._plant3d
+        return (p.collisions, p.last_collision) if p is not None else (0, "")
+
     def status(self, real_time_factor: float = float("nan")) -> SimStatus:
         """Status message at the current time (the real-time factor is known only to the pacing layer)."""
-        return SimStatus(stamp_ns=self.time_ns, real_time_factor=real_time_factor,
-                         autonomous=self._autonomous, watchdog_tripped=self.watchdog_tripped)
+        count, last = self.collisions
+        return SimStatus(stamp_ns=self.time_ns, real_time_factor=real_time_factor, autonomous=self._autonomous,
+                         watchdog_tripped=self.watchdog_tripped, collisions=count, last_collision=last)
+
+    def take_captures(self) -> list[tuple[str, Message]]:
+        """The world sensors' messages (camera images, laser scans) made since the last call, in time order,
+        with their topic names."""
+        out, self._captures = self._captures, []
+        return out
 
     # -- commands ----------------------------------------------------------------------------------------
 
@@ -187,8 +215,12 @@ class Simulator:
             deadline = self._watchdog_deadline()
             if deadline is not None:
                 stop = min(stop, max(deadline, self.clock.tick))
+            if self._world_sensors:
+                periods = self._capture_periods
+                stop = min(stop, int(((self.clock.tick // periods + 1) * periods).min()))
             if stop > self.clock.tick:
                 self._run_chunk(stop - self.clock.tick, parts)
+                self._capture()
             while self._pending and self._pending[0][0] <= self.clock.tick:
                 self._apply(self._pending.popleft()[1])
             if deadline is not None and self.clock.tick >= deadline:
@@ -197,19 +229,28 @@ class Simulator:
                             self.config.watchdog_timeout, self.clock.time_s)
         return {name: Readings.concat(p) for name, p in parts.items() if p}
 
+    def _capture(self) -> None:
+        """What the world sensors due at this tick see."""
+        tick = self.clock.tick
+        for sensor, period in zip(self._world_sensors, self._capture_periods.tolist(), strict=True):
+            if tick % period == 0:
+                self._captures.extend(sensor.capture(self.clock.time_ns).items())
+
     def _run_chunk(self, n: int, parts: dict[str, list[Readings]]) -> None:
         t0, periods = self.clock.tick, self._periods
         capacity = min(n, int(np.sum(n // periods + 1))) if len(periods) else 0
         out_z, out_dx, out_tick = empty_records(capacity)
         mode = STOP if self.watchdog_tripped else self._mode
+        extra = None
         if self._plant3d is not None:
+            extra = np.empty((capacity, N3))
             m = self._plant3d.advance(self._z, mode, self._cmd, self.clock.step_s, n, t0, periods, out_z, out_dx,
-                                      out_tick)
+                                      out_tick, extra)
         else:
             m = advance(self._model, self._integrator, self._z, mode, self._cmd, self._consts, self.clock.step_s, n,
                         t0, periods, out_z, out_dx, out_tick)
         self.clock.tick = t0 + n
-        self._measure(t0, n, out_tick[:m], out_z, out_dx, parts)
+        self._measure(t0, n, out_tick[:m], out_z, out_dx, parts, extra)
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
 
@@ -246,12 +287,13 @@ class Simulator:
         return {name: Readings.concat(p) for name, p in parts.items() if p}
 
     def _measure(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
-                 parts: dict[str, list[Readings]]) -> None:
-        """The sensors' readings of the steps ``t0 + 1 .. t0 + n`` from the plant recorded at ``ticks``."""
+                 parts: dict[str, list[Readings]], extra: np.ndarray | None = None) -> None:
+        """The sensors' readings of the steps ``t0 + 1 .. t0 + n`` from the plant recorded at ``ticks`` (with
+        the 3D plant's ``extra``)."""
         step_ns = self.clock.step_ns
         for sensor, period in zip(self.sensors, self._periods.tolist(), strict=True):
             first, count = (t0 // period + 1) * period, (t0 + n) // period - t0 // period
             if count:
-                s = Samples(rows_of(ticks, period, count), out_z, out_dx)
+                s = Samples(rows_of(ticks, period, count), out_z, out_dx, extra)
                 stamps = np.arange(first, first + count * period, period, dtype=np.int64) * step_ns
                 parts[sensor.name].append(Readings(sensor.name, sensor.message, stamps, sensor.measure(s)))

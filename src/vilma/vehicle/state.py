@@ -12,6 +12,14 @@ Layout of the plant vector ``z`` (float64, length :data:`NZ`)::
 
 The first :data:`NX` entries are the vehicle state ``x``; the rest, ``u``,
 are the actuators' outputs, held constant over one physics step.
+
+The 3D plant also records, beside ``z``, what only it has (float64, length :data:`N3`)::
+
+    HEIGHT       height of the centre of mass above its rest height on flat ground [m]
+    ROLL, PITCH  ZYX Euler angles of the body [rad] (roll about body x, pitch positive nose down)
+    VZ           vertical velocity, world [m/s]
+    WX, WY, WZ   angular velocity, body frame [rad/s]
+    FX, FY, FZ   specific force at the IMU, body frame [m/s^2] (+g upward at rest)
 """
 
 from __future__ import annotations
@@ -26,6 +34,8 @@ X, Y, YAW, VX, VY, YAW_RATE = 0, 1, 2, 3, 4, 5
 STEER, DRIVE, BRAKE = 6, 7, 8
 NX = 6
 NZ = 9
+HEIGHT, ROLL, PITCH, VZ, WX, WY, WZ, FX, FY, FZ = range(10)
+N3 = 10
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -1,0 +1,153 @@
+"""The 3D world: ramps and bumps under the tyres, obstacles that count as collisions, and the sensors that see
+height, roll and pitch."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.plant3d.test_plant import hold_speed
+from vilma.core.messages import ActuatorCommand, Longitudinal
+from vilma.plant3d.plant import MujocoPlant
+from vilma.plant3d.world import Box, Bump, Cone, Ramp, World
+from vilma.scenario import SpecError, load_scenario, to_yaml
+from vilma.scenario.runner import run
+from vilma.sensors import SensorSuite
+from vilma.sensors.imu import ImuParams
+from vilma.sim import SimConfig, Simulator
+from vilma.vehicle.params import GRAVITY, vilma
+from vilma.vehicle.state import VehicleState
+
+CAR = vilma()
+EXACT_IMU = ImuParams(accel_noise=0.0, gyro_noise=0.0, accel_bias=0.0, gyro_bias=0.0, orientation_noise=0.0)
+
+
+def _sim(world: World = World()) -> Simulator:
+    return Simulator(SimConfig(model="mujoco", world=world, sensors=SensorSuite(imu=EXACT_IMU)))
+
+
+def _cruise(sim: Simulator, speed: float, seconds: float) -> list[dict]:
+    """Hold ``speed`` [m/s] with a proportional acceleration request; the readings of every 20 ms."""
+    out = []
+    for _ in range(round(seconds / 0.02)):
+        sim.command(ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=2.0 * (speed - sim.state.vx)))
+        out.append(sim.advance(2))
+    return out
+
+
+def _series(frames: list[dict], sensor: str, name: str) -> np.ndarray:
+    return np.concatenate([f[sensor].field(name) for f in frames if sensor in f])
+
+
+def test_at_rest_on_flat_ground_the_sensors_read_the_planar_plant_values():
+    sim = _sim()
+    r = sim.run_for(1.0)
+    pose, imu = r["pose"].latest(), r["imu"].latest()
+    assert abs(pose.z) < 0.005 and abs(pose.roll) < 1e-3 and abs(pose.pitch) < 1e-3  # z: above the rest height
+    assert imu.az == pytest.approx(GRAVITY, abs=0.02) and abs(imu.ax) < 0.02 and abs(imu.ay) < 0.02
+    assert sim.status().collisions == 0 and sim.status().last_collision == ""
+
+
+def test_climbing_a_ramp_pitches_the_nose_up_and_the_accelerometer_feels_the_slope():
+    ramp = Ramp(start=(10.0, -2.0), length=10.0, height=0.5, top=20.0, width=8.0)
+    sim = _sim(World(ramps=(ramp,)))
+    sim.reset(VehicleState(vx=3.0))
+    frames = _cruise(sim, 3.0, 16.0)
+    x, z = _series(frames, "pose", "x"), _series(frames, "pose", "z")
+    pitch = _series(frames, "pose", "pitch")
+    # the whole car on the slope: rear axle past its foot, front axle before its top
+    on_slope = (x - CAR.cg_to_rear > 11.0) & (x + CAR.cg_to_front < 19.0)
+    assert on_slope.sum() > 20
+    # pitch is positive nose down, so climbing reads -atan(height / length)
+    assert pitch[on_slope] == pytest.approx(-ramp.slope, abs=math.radians(0.3))
+    ax = _series(frames, "imu", "ax")
+    imu_x = np.interp(np.arange(len(ax)) * 0.01, np.arange(len(x)) * 0.02, x)
+    climbing = (imu_x - CAR.cg_to_rear > 11.5) & (imu_x + CAR.cg_to_front < 18.5)
+    # at constant speed the specific force along the body is the slope's share of gravity
+    assert np.median(ax[climbing]) == pytest.approx(GRAVITY * math.sin(ramp.slope), abs=0.08)
+    on_top = (x - CAR.cg_to_rear > 21.0) & (x + CAR.cg_to_front < 39.0)
+    assert z[on_top] == pytest.approx(ramp.height, abs=0.02)  # the centre of mass rose by the ramp's height
+    gps = frames[-1]["gps"].latest()
+    assert gps is not None
+
+
+def test_a_bump_lifts_the_car_no_higher_than_itself_and_the_suspension_settles():
+    bump = Bump(pos=(8.0, 0.0), height=0.08, length=0.6)
+    sim = _sim(World(bumps=(bump,)))
+    sim.reset(VehicleState(vx=3.0))
+    frames = _cruise(sim, 3.0, 8.0)
+    z, pitch = _series(frames, "pose", "z"), _series(frames, "pose", "pitch")
+    assert 0.01 < z.max() < bump.height  # the springs take part of the wheel's rise
+    # front wheel up first: nose up (negative pitch) before nose down
+    assert np.argmin(pitch) < np.argmax(pitch)
+    assert abs(pitch[-25:]).max() < 2e-3  # two seconds after the rear wheel crossed, the body is level again
+
+
+def test_driving_into_a_box_is_one_collision_named_on_the_status():
+    wall = Box(pos=(12.0, 0.0, 0.75), size=(0.5, 3.0, 0.75), name="wall")
+    cone = Cone(pos=(6.0, 4.0))  # beside the path: never touched
+    sim = _sim(World(boxes=(wall,), cones=(cone,)))
+    sim.reset(VehicleState(vx=3.0))
+    _cruise(sim, 3.0, 6.0)
+    status = sim.status()
+    assert (status.collisions, status.last_collision) == (1, "wall")  # one touch, held: counted once
+    assert sim.state.x + CAR.cg_to_front < wall.pos[0] - wall.size[0] + 1.0  # stopped at the wall
+    sim.reset(VehicleState())
+    assert sim.collisions == (0, "")
+
+
+def test_hitting_a_cone_counts_it_by_name():
+    sim = _sim(World(cones=(Cone(pos=(8.0, 0.0), name="c1"), Cone(pos=(12.0, 0.5)))))
+    sim.reset(VehicleState(vx=4.0))
+    _cruise(sim, 4.0, 2.5)  # the bumper reaches the first cone, not the second
+    assert sim.collisions == (1, "c1")
+
+
+def test_a_world_needs_the_3d_plant_and_valid_elements():
+    with pytest.raises(ValueError, match="needs the 3D plant"):
+        SimConfig(world=World(cones=(Cone(pos=(1.0, 1.0)),)))
+    with pytest.raises(ValueError, match="box size must be > 0"):
+        Box(pos=(0.0, 0.0, 0.0), size=(1.0, -1.0, 1.0))
+    with pytest.raises(ValueError, match="ramp height must be finite"):
+        Ramp(start=(0.0, 0.0), height=math.nan)
+    with pytest.raises(ValueError, match="below half its length"):
+        Bump(pos=(0.0, 0.0), height=0.4, length=0.6)
+    with pytest.raises(ValueError, match="obstacle names must differ"):
+        World(boxes=(Box(pos=(0, 0, 0), size=(1, 1, 1), name="a"),), cones=(Cone(pos=(3, 3), name="a"),))
+
+
+def test_the_plant_counts_each_new_touch():
+    plant = MujocoPlant(CAR, World(boxes=(Box(pos=(6.0, 0.0, 0.5), size=(0.3, 2.0, 0.5)),)))
+    plant.reset(VehicleState(vx=2.0))
+    hold_speed(plant, 0.0, 2.0, 3.0)
+    assert (plant.collisions, plant.last_collision) == (1, "box0")
+    plant.reset(VehicleState(x=-20.0, vx=2.0))
+    assert plant.collisions == 0
+
+
+def test_a_scenario_places_the_world_and_scores_collisions(tmp_path):
+    f = tmp_path / "cone.yaml"
+    f.write_text("plant: mujoco\nworld:\n  cones: [{pos: [12, 0], name: c}]\n"
+                 "  ramps: [{start: [30, -3], height: 0.2}]\n"
+                 "task: {course: [[0, 0], [25, 0]], speed: 3}\nduration: 20\nexpect: {collisions: {max: 0}}\n",
+                 encoding="utf-8")
+    scenario = load_scenario(f)
+    assert scenario.sim.world.cones[0].name == "c" and scenario.sim.world.ramps[0].height == 0.2
+    again = tmp_path / "again.yaml"
+    again.write_text(to_yaml(scenario), encoding="utf-8")
+    assert load_scenario(again).sim.world == scenario.sim.world
+    result = run(scenario)
+    assert result.metrics["collisions"] == 1  # the cone stands on the course
+    assert result.failures == ["collisions: 1 is outside max 0"]
+
+
+def test_a_world_on_the_planar_plant_is_refused_at_its_line(tmp_path):
+    f = tmp_path / "flat.yaml"
+    f.write_text("task: {speed: 3}\nworld:\n  cones: [{pos: [12, 0]}]\n", encoding="utf-8")
+    with pytest.raises(SpecError, match=r"flat.yaml:2: world: .*needs the 3D plant"):
+        load_scenario(f)
+    f.write_text("plant: mujoco\ntask: {speed: 3}\nworld:\n  cones: [{pos: [12, 0], radius: -1}]\n", encoding="utf-8")
+    with pytest.raises(SpecError, match=r"flat.yaml:4: world.cones\[0\]: cone radius must be > 0"):
+        load_scenario(f)
