@@ -48,7 +48,7 @@ def _run(args: argparse.Namespace) -> int:
     from vilma.scenario import batch
 
     _check_factor(args.realtime, "--realtime")
-    jobs = batch.plan(args.scenarios, args.set)
+    jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
     console = _console()
     live = None
     if args.foxglove is not None:
@@ -112,16 +112,17 @@ def _trajectory(args: argparse.Namespace) -> int:
     return 0
 
 
-def _scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}"):
-    """The scenario named (file or bundled), else the defaults with an idle task."""
+def _scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", plant: str | None = None):
+    """The scenario named (file or bundled), else the defaults with an idle task; ``plant`` overrides its plant."""
     from vilma.scenario import batch
     from vilma.scenario.fields import load_yaml
     from vilma.scenario.spec import load_scenario, parse_scenario
 
+    overrides = {"plant": plant} if plant else None
     if name:
-        return load_scenario(batch.find_scenario(name))
+        return load_scenario(batch.find_scenario(name), overrides)
     data, src = load_yaml(task, "defaults")
-    return parse_scenario(data, src, name="defaults")
+    return parse_scenario(data, src, name="defaults", overrides=overrides)
 
 
 def _zenoh(args: argparse.Namespace, listen_default: tuple[str, ...], connect_default: tuple[str, ...]):
@@ -147,7 +148,7 @@ def _sim(args: argparse.Namespace) -> int:
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 
     _check_factor(args.speed, "--speed")
-    scenario = _scenario_or_default(args.scenario)
+    scenario = _scenario_or_default(args.scenario, plant=args.plant)
     morse = None if args.no_morse else programs.MorseOptions(
         args.morse_host, args.morse_port, args.morse_stream_port,
         tuple(args.allow_commands_from) if args.allow_commands_from else None)
@@ -180,7 +181,7 @@ def _up(args: argparse.Namespace) -> int:
 
     _check_factor(args.speed, "--speed")
     scenario = _scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
-                                                     "[60, 0]], speed: 8.33}")
+                                                     "[60, 0]], speed: 8.33}", args.plant)
     print(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)",
           flush=True)
     return programs.up(scenario, args.speed, args.duration, lambda line: print(line, flush=True), _record_path(args),
@@ -201,7 +202,7 @@ def _gui(args: argparse.Namespace) -> int:
         from vilma.bus.zenoh_bus import LOOPBACK_ANY_PORT
 
         return main(args, bus=_zenoh(args, (LOOPBACK_ANY_PORT,), ())[0])
-    return main(args, scenario=_scenario_or_default(args.scenario))
+    return main(args, scenario=_scenario_or_default(args.scenario, plant=args.plant))
 
 
 def _record_command(name: str):
@@ -211,6 +212,18 @@ def _record_command(name: str):
 
         return getattr(commands, name)(args)
     return handler
+
+
+PLANT_HELP = "the car's model instead of the scenario's: kinematic, single_track or mujoco (the 3D plant)"
+
+
+def _plant(name: str) -> str:
+    from vilma.sim.simulator import MUJOCO
+    from vilma.vehicle.models import MODELS
+
+    if name not in (*MODELS, MUJOCO):
+        raise argparse.ArgumentTypeError(f"unknown plant {name!r}; use one of {', '.join(MODELS)}, {MUJOCO}")
+    return name
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -230,6 +243,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--out", metavar="DIR", help="where the files go (default runs/<name>-<timestamp>/)")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, YAML value); KEY=a,b,c sweeps over the values")
+    r.add_argument("--plant", type=_plant, metavar="MODEL", help=PLANT_HELP)
     r.add_argument("--realtime", type=float, default=None, metavar="K",
                    help="pace to K times real time (default: as fast as possible)")
     r.add_argument("--foxglove", nargs="?", type=int, const=8765, default=None, metavar="PORT",
@@ -242,6 +256,7 @@ def _parser() -> argparse.ArgumentParser:
         q.add_argument("scenario", nargs="?", metavar="SCENARIO", help="scenario file or bundled name (its car, "
                        "sensors, controllers and task)")
         if name != "drive":
+            q.add_argument("--plant", type=_plant, metavar="MODEL", help=PLANT_HELP)
             q.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
             q.add_argument("--duration", type=float, default=float("inf"), help="stop after this sim time [s]")
             q.add_argument("--record", metavar="FILE", help="record every topic to this MCAP file (sim time)")
@@ -272,6 +287,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="join `vilma sim` / `vilma drive` over Zenoh at ENDPOINT, e.g. tcp/127.0.0.1:7447")
     g.add_argument("--listen", action="append", metavar="ENDPOINT", help="with --connect: Zenoh endpoint to listen on")
     g.add_argument("--zenoh-config", metavar="FILE", help="with --connect: YAML file with listen, connect")
+    g.add_argument("--plant", type=_plant, metavar="MODEL", help="embedded: " + PLANT_HELP)
     g.add_argument("--speed", type=float, default=1.0, metavar="K", help="embedded: K times real time (default 1)")
     g.add_argument("--refresh", type=int, default=250, metavar="MS", help="Car Status refresh [ms] (default 250)")
     g.add_argument("--record-dir", metavar="DIR", help="where Record Trajectory / Speed write (default .)")

@@ -44,6 +44,8 @@ class SimNode:
         self.sim, self.bus, self.car = sim, bus, car
         self.start = start or sim.config.initial
         self.on_frame = on_frame
+        self.on_captures: Callable[[list[tuple[str, Message]]], None] | None = None
+        """Also gets each frame's world-sensor captures (topic name, message), when there are any."""
         self._pending: list[ActuatorCommand] = []
         self._lock = threading.Lock()
         self._reset = False
@@ -74,11 +76,17 @@ class SimNode:
         return Reply(ok=False, error=f"unknown simulator order {order.action!r}; use reset or status")
 
     def frame(self, readings: dict[str, Readings], frame_ns: int = 0) -> None:
-        """After the simulator advanced one frame (of ``frame_ns``): publish what it measured, then its status."""
+        """After the simulator advanced one frame (of ``frame_ns``): publish what it measured (the world
+        sensors' captures too), then its status."""
         self.frame_ns = frame_ns
         publish_readings(self.bus, self._keys, readings)
+        captures = self.sim.take_captures()
+        for name, msg in captures:
+            self.bus.publish(topic(name, self.car), msg)
         if self.on_frame is not None:
             self.on_frame(readings)
+        if captures and self.on_captures is not None:
+            self.on_captures(captures)
         self.bus.publish(topic("sim/status", self.car), self.sim.status(self.real_time_factor))
         self.apply_pending()
 

@@ -21,8 +21,8 @@ BODY_LENGTH_OVERHANG = 1.5
 """Front plus rear overhang of the body beyond the axles, for the box estimate of its inertia [m]."""
 BODY_HEIGHT = 1.4
 """Body height for the box estimate of its inertia [m]."""
-TIMESTEP = 0.002
-"""MuJoCo step [s]: five per vilma physics step of 10 ms."""
+TIMESTEP = 0.005
+"""MuJoCo step [s]: two per vilma physics step of 10 ms."""
 
 
 def corner_positions(p: VehicleParams) -> dict[str, tuple[float, float]]:
@@ -83,15 +83,15 @@ def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
     centre_x = (p.cg_to_front - p.cg_to_rear) / 2
     assets, things = world_xml(world)
     motors = "".join(f'<motor name="drive_{c}" joint="spin_{c}"/>' for c in CORNERS)
-    steering = "".join(f'<position name="steer_{c}" joint="steer_{c}" kp="300000" kv="3000"/>' for c in ("fl", "fr"))
+    steering = "".join(f'<position name="steer_{c}" joint="steer_{c}" kp="20000" kv="200"/>' for c in ("fl", "fr"))
     return f"""<mujoco model="vilma_{p.name}">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{TIMESTEP}" integrator="implicitfast" gravity="0 0 {-GRAVITY}" cone="elliptic"/>
   <visual><global offwidth="1280" offheight="960"/><quality shadowsize="0"/></visual>
   <default>
     <default class="tyre"><geom contype="1" conaffinity="1" condim="3" friction="{p.friction:.6g} 0.005 0.0001"
-      rgba="0.1 0.1 0.1 1"/></default>
-    <default class="mark"><geom contype="0" conaffinity="0" mass="0" rgba="0.8 0.8 0.8 1"/></default>
+      rgba="0.1 0.1 0.1 1" group="1"/></default>
+    <default class="mark"><geom contype="0" conaffinity="0" mass="0" rgba="0.8 0.8 0.8 1" group="1"/></default>
     <default class="obstacle"><geom contype="3" conaffinity="3" condim="3"/></default>
     <default class="terrain"><geom contype="1" conaffinity="1" condim="3" rgba="0.55 0.55 0.5 1"
       friction="{world.ground_friction:.6g} 0.005 0.0001"/></default>
@@ -105,7 +105,7 @@ def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
       <freejoint name="chassis"/>
       <inertial pos="0 0 0" mass="{ms:.6g}" diaginertia="{fmt(ixx, iyy, izz)}"/>
       <geom name="body" type="box" pos="{fmt(centre_x, 0, 0.15)}" size="{fmt(body_len / 2, body_w / 2 - 0.12, 0.3)}"
-        contype="2" conaffinity="2" mass="0" rgba="0.15 0.35 0.8 1"/>
+        contype="2" conaffinity="2" mass="0" rgba="0.15 0.35 0.8 1" group="1"/>
       <site name="imu" pos="{fmt(*imu)}" size="0.02"/>
       {cameras}
       {"".join(corners)}

@@ -49,11 +49,12 @@ class MujocoPlant:
         self._car_geoms = np.flatnonzero(m.body_rootid[m.geom_bodyid] == self._chassis)
         self._accel = m.sensor("imu_accel").adr[0]
         self._gyro = m.sensor("imu_gyro").adr[0]
-        # the chassis's free joint comes first: qpos[0:7] its position and orientation, qvel[0:6] its velocities
+        # the chassis's free joint comes first (qpos[0:7], qvel[0:6]), the drive motors then the steering servos
         assert m.joint("chassis").qposadr[0] == 0 and m.joint("chassis").dofadr[0] == 0
+        assert [m.actuator(i).name for i in range(6)] == [*(f"drive_{c}" for c in CORNERS), "steer_fl", "steer_fr"]
+        self._xmat = self.data.xmat[self._chassis]
+        self._force = self.data.xfrc_applied[self._chassis]
         self._spin_dof = np.array([m.joint(f"spin_{c}").dofadr[0] for c in CORNERS])
-        self._drive = np.array([m.actuator(f"drive_{c}").id for c in CORNERS])
-        self._steer = np.array([m.actuator(f"steer_{c}").id for c in ("fl", "fr")])
         self._susp_q = np.array([m.joint(f"susp_{c}").qposadr[0] for c in CORNERS])
         self._steer_q = np.array([m.joint(f"steer_{c}").qposadr[0] for c in ("fl", "fr")])
         self._k_drag = 0.5 * params.air_density * params.drag_area
@@ -65,6 +66,7 @@ class MujocoPlant:
         """Put the car at ``state`` (position, heading, body velocities), settled on its springs."""
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
+        self._brake = math.nan
         d.qpos[0:3] = (state.x, state.y, self.params.suspension.cg_height)
         d.qpos[3:7] = (math.cos(state.yaw / 2), 0.0, 0.0, math.sin(state.yaw / 2))
         c, s = math.cos(state.yaw), math.sin(state.yaw)
@@ -86,25 +88,29 @@ class MujocoPlant:
     def set_controls(self, steer: float, drive: float, brake: float) -> None:
         """Hold ``steer`` [rad], ``drive`` [N] and ``brake`` [N] from now on."""
         p, d = self.params, self.data
-        d.ctrl[self._steer] = ackermann(steer, p.wheelbase, p.track)
-        vx = self.body_velocity()[0]
+        xm, (vx_w, vy_w, vz_w) = self._xmat.tolist(), d.qvel[0:3].tolist()
+        vx = xm[0] * vx_w + xm[3] * vy_w + xm[6] * vz_w  # along body x
+        d.ctrl[4:6] = ackermann(steer, p.wheelbase, p.track)
         f = min(max(drive, -p.max_drive_force), p.max_drive_force)
         f_power = p.max_power / max(abs(vx), 1e-3)
         f = min(max(f, -f_power), f_power)
         r = p.wheel_radius
         front, rear = p.drive_split_front * f / 2 * r, (1 - p.drive_split_front) * f / 2 * r
-        d.ctrl[self._drive] = (front, front, rear, rear)
-        b = min(max(brake, 0.0), p.max_brake_force)
-        bf, br = p.brake_split_front * b / 2 * r, (1 - p.brake_split_front) * b / 2 * r
-        self.model.dof_frictionloss[self._spin_dof] = (bf, bf, br, br)
+        d.ctrl[0:4] = (front, front, rear, rear)
+        if brake != self._brake:
+            self._brake = brake
+            b = min(max(brake, 0.0), p.max_brake_force)
+            bf, br = p.brake_split_front * b / 2 * r, (1 - p.brake_split_front) * b / 2 * r
+            self.model.dof_frictionloss[self._spin_dof] = (bf, bf, br, br)
         resist = self._k_drag * vx * abs(vx) + self._f_roll * math.tanh(vx / V_SIGN)
-        c, s = self._heading()
-        d.xfrc_applied[self._chassis, 0:2] = (-resist * c, -resist * s)
+        n = math.hypot(xm[0], xm[3]) or 1.0
+        self._force[0:2] = (-resist * xm[0] / n, -resist * xm[3] / n)
 
     def step(self, steer: float, drive: float, brake: float, dt: float) -> None:
         """Advance ``dt`` [s] (a whole number of MuJoCo steps) with these actuator outputs."""
         self.set_controls(steer, drive, brake)
         mujoco.mj_step(self.model, self.data, nstep=max(1, round(dt / TIMESTEP)))
+        mujoco.mj_kinematics(self.model, self.data)  # body poses at the step's end, as qpos (cameras see them)
         if len(self._obstacle_ids):
             self._check_contacts()
 
@@ -128,12 +134,13 @@ class MujocoPlant:
         u = z[NX:].copy()
         x = self.planar_state()
         j = 0
+        periods = periods.tolist()
         for i in range(1, n + 1):
             steer, drive, brake = targets(mode, cmd, x, u, self._consts)
             actuator_step(u, steer, drive, brake, self._consts, dt)
             self.step(u[0], u[1], u[2], dt)
             x = self.planar_state()
-            if ((tick + i) % periods == 0).any():
+            if any((tick + i) % p == 0 for p in periods):
                 out_z[j, :NX], out_z[j, NX:] = x, u
                 out_dx[j] = self.derivative()
                 if out_3d is not None:
@@ -160,15 +167,16 @@ class MujocoPlant:
         d = self.data
         _, _, _, vx, vy, r = self.planar_state()
         c, s = self._heading()
-        ax_w, ay_w = d.qacc[0], d.qacc[1]
-        dr = (self.data.xmat[self._chassis].reshape(3, 3) @ d.qacc[3:6])[2]
-        return (float(d.qvel[0]), float(d.qvel[1]), r, c * ax_w + s * ay_w + vy * r, -s * ax_w + c * ay_w - vx * r,
-                float(dr))
+        xm = self._xmat.tolist()
+        ax_w, ay_w, _, a0, a1, a2 = d.qacc[0:6].tolist()
+        vx_w, vy_w = d.qvel[0:2].tolist()
+        return vx_w, vy_w, r, c * ax_w + s * ay_w + vy * r, -s * ax_w + c * ay_w - vx * r, \
+            xm[6] * a0 + xm[7] * a1 + xm[8] * a2
 
     def _heading(self) -> tuple[float, float]:
-        xmat = self.data.xmat[self._chassis]
-        n = math.hypot(xmat[0], xmat[3]) or 1.0
-        return xmat[0] / n, xmat[3] / n
+        xm = self._xmat.tolist()
+        n = math.hypot(xm[0], xm[3]) or 1.0
+        return xm[0] / n, xm[3] / n
 
     def body_velocity(self) -> np.ndarray:
         """Velocity of the centre of mass in the body frame ``(vx, vy, vz)`` [m/s]."""
@@ -179,11 +187,12 @@ class MujocoPlant:
         """``(x, y, yaw, vx, vy, yaw_rate)`` as vilma's planar models hold them (yaw from the heading of
         body x in the ground plane, velocities of the centre of mass in the heading frame)."""
         d = self.data
-        c, s = self._heading()
-        vx_w, vy_w = d.qvel[0], d.qvel[1]
-        omega_world = self.data.xmat[self._chassis].reshape(3, 3) @ d.qvel[3:6]
-        return (float(d.qpos[0]), float(d.qpos[1]), math.atan2(s, c), c * vx_w + s * vy_w, -s * vx_w + c * vy_w,
-                float(omega_world[2]))
+        xm = self._xmat.tolist()
+        vx_w, vy_w, _, w0, w1, w2 = d.qvel[0:6].tolist()  # world linear, body angular
+        n = math.hypot(xm[0], xm[3]) or 1.0
+        c, s = xm[0] / n, xm[3] / n
+        x, y = d.qpos[0:2].tolist()
+        return x, y, math.atan2(s, c), c * vx_w + s * vy_w, -s * vx_w + c * vy_w, xm[6] * w0 + xm[7] * w1 + xm[8] * w2
 
     def attitude(self) -> tuple[float, float, float]:
         """``(z [m] of the centre of mass, roll, pitch [rad])`` (ZYX Euler angles, roll about body x, pitch

@@ -15,8 +15,10 @@ Top-level keys (all optional but ``task``):
   scenario), or a mapping of :class:`~vilma.vehicle.params.VehicleParams` fields with an optional
   ``preset`` to start from. ``actuators``: :class:`~vilma.vehicle.params.ActuatorParams` fields.
 - ``plant`` (``kinematic`` | ``single_track`` | ``mujoco``), ``integrator`` (``rk4`` | ``euler``), ``step``
-  [s], ``seed``, ``watchdog_timeout`` [s]. ``world`` (``plant: mujoco`` only): ``boxes``, ``cones``, ``ramps``,
-  ``bumps`` and ``ground_friction``, fields of :mod:`vilma.plant3d.world`.
+  [s], ``seed``, ``watchdog_timeout`` [s]. With ``plant: mujoco`` only: ``world`` (``boxes``, ``cones``,
+  ``ramps``, ``bumps``, ``ground_friction``: :mod:`vilma.plant3d.world`), ``cameras`` (a list of
+  :class:`~vilma.plant3d.camera.CameraParams` fields, or ``{stereo: {baseline: 0.3, ...}}`` for the front
+  pair) and ``laser`` (``true`` or :class:`~vilma.plant3d.laser.LaserParams` fields).
 - ``sensors``: per sensor its parameter fields (``gps: {horizontal_noise: 0.5, rate_hz: 10}``), or
   ``false`` to remove it; ``origin``: the geodetic origin of the local frame.
 - ``pose``: ``truth`` or ``ekf``. ``speed_controller`` / ``path_controller``: a name, or a mapping with
@@ -41,6 +43,8 @@ import yaml
 from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, DriverParams
 from vilma.core.clock import Clock, RateError, seconds_to_ns
 from vilma.localization import SOURCES
+from vilma.plant3d.camera import CameraParams, stereo_pair
+from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
 from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_yaml, read_yaml
 from vilma.sensors import SensorSuite
@@ -222,7 +226,8 @@ def beside(file: Path | None, name: str) -> Path:
     return p if p.is_absolute() or file is None else file.parent / p
 
 
-TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "integrator", "step", "seed",
+TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "cameras", "laser", "integrator",
+            "step", "seed",
             "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
             "task", "initial", "duration", "metrics", "expect", "speed_log")
 
@@ -266,14 +271,18 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     if model not in (*models.MODELS, MUJOCO):
         raise src.error(("plant",), f"unknown plant {model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
     world = build(World, data.get("world"), src, ("world",), World())
+    laser = data.get("laser")
+    laser = build(LaserParams, {} if laser is True else laser, src, ("laser",)) if laser not in (None, False) else None
+    cameras = _cameras(data.get("cameras"), src)
     try:
         sim = SimConfig(vehicle=vehicle, model=model, integrator=get("integrator", str, "rk4"),
                         step=get("step", float, 0.01), sensors=sensors, seed=get("seed", int, 0),
-                        watchdog_timeout=get("watchdog_timeout", float, 0.5), world=world)
+                        watchdog_timeout=get("watchdog_timeout", float, 0.5), world=world,
+                        cameras=cameras, laser=laser)
     except ValueError as e:
         culprit = next((k for k, word in (("step", "step"), ("integrator", "integrator"),
-                                          ("watchdog_timeout", "watchdog"), ("world", "world")) if word in str(e)),
-                       None)
+                                          ("watchdog_timeout", "watchdog"), ("world", "world"),
+                                          ("cameras", "camera"), ("laser", "laser")) if word in str(e)), None)
         raise src.error((culprit,) if culprit else (), str(e)) from None
     driver = _driver(data, src)
     _check_periods(sim, driver, src)
@@ -291,6 +300,25 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     return scenario
 
 
+def _cameras(raw: Any, src: Source) -> tuple[CameraParams, ...]:
+    """``cameras``: a list of camera mappings, or ``{stereo: {baseline, <camera fields>}}``."""
+    if raw is None:
+        return ()
+    if isinstance(raw, list):
+        return tuple(build(CameraParams, c, src, ("cameras", i)) for i, c in enumerate(raw))
+    if isinstance(raw, dict) and list(raw) == ["stereo"]:
+        key = ("cameras", "stereo")
+        common = dict(raw["stereo"] or {})
+        baseline = convert(float, common.pop("baseline"), src, (*key, "baseline")) if "baseline" in common else 0.3
+        centre = build(CameraParams, common, src, key)
+        try:
+            return stereo_pair(baseline, **{f.name: getattr(centre, f.name) for f in dataclasses.fields(centre)
+                                            if f.name != "name"})
+        except ValueError as e:
+            raise src.error((*key, "baseline"), str(e)) from None
+    raise src.error(("cameras",), "expected a list of cameras, or {stereo: {baseline: 0.3}} for the front pair")
+
+
 def _check_periods(sim: SimConfig, driver: DriverParams, src: Source) -> None:
     """Every sensor rate and controller period must be a whole number of physics steps."""
     clock = Clock(seconds_to_ns(sim.step))
@@ -301,6 +329,12 @@ def _check_periods(sim: SimConfig, driver: DriverParams, src: Source) -> None:
                 clock.period_ticks(sensor.rate_hz, f"sensor {f.name}")
             except RateError as e:
                 raise src.error(("sensors", f.name, "rate_hz"), str(e)) from None
+    for key, sensor in [*((("cameras", i), c) for i, c in enumerate(sim.cameras)), (("laser",), sim.laser)]:
+        if sensor is not None:
+            try:
+                clock.period_ticks(sensor.rate_hz, f"{sensor.name}")
+            except RateError as e:
+                raise src.error((*key, "rate_hz"), str(e)) from None
     for key in ("speed_controller", "path_controller"):
         name = getattr(driver, key)
         try:
@@ -438,6 +472,8 @@ def to_yaml(scenario: Scenario) -> str:
     out = {
         "name": s.name, "description": s.description, "vehicle": plain(s.sim.vehicle), "plant": s.sim.model,
         **({"world": plain(s.sim.world)} if not s.sim.world.empty else {}),
+        **({"cameras": plain(s.sim.cameras)} if s.sim.cameras else {}),
+        **({"laser": plain(s.sim.laser)} if s.sim.laser is not None else {}),
         "integrator": s.sim.integrator, "step": s.sim.step, "seed": s.sim.seed,
         "watchdog_timeout": s.sim.watchdog_timeout,
         "sensors": {k: (plain(v) if v is not None else False) for k, v in

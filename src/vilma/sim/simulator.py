@@ -19,6 +19,9 @@ import numpy as np
 
 from vilma.core.clock import Clock, seconds_to_ns
 from vilma.core.messages import ActuatorCommand, Message, SimStatus
+from vilma.plant3d.camera import CameraParams
+from vilma.plant3d.capture import WorldSensor
+from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
 from vilma.sensors import Readings, Samples, SensorSuite, build_sensors
 from vilma.sensors.base import rows_of, sensor_rng
@@ -54,19 +57,35 @@ class SimConfig:
     initial: VehicleState = VehicleState()
     world: World = World()
     """Ramps, bumps and obstacles (the 3D plant only)."""
+    cameras: tuple[CameraParams, ...] = ()
+    """Cameras on the car (the 3D plant only), e.g. :func:`~vilma.plant3d.camera.stereo_pair`."""
+    laser: LaserParams | None = None
+    """A laser scanner on the car (the 3D plant only)."""
 
     def __post_init__(self) -> None:
         if self.model not in (*models.MODELS, MUJOCO):
             raise ValueError(f"unknown model {self.model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
-        if self.model != MUJOCO and not self.world.empty:
-            raise ValueError(f"a world with ramps, bumps or obstacles needs the 3D plant (model {MUJOCO}), "
-                             f"not {self.model}")
+        for what, present in (("a world with ramps, bumps or obstacles needs", not self.world.empty),
+                              ("cameras need", bool(self.cameras)), ("a laser needs", self.laser is not None)):
+            if present and self.model != MUJOCO:
+                raise ValueError(f"{what} the 3D plant (model {MUJOCO}), not {self.model}")
+        names = [c.name for c in self.cameras] + ([self.laser.name] if self.laser is not None else [])
+        if len(set(names)) != len(names):
+            raise ValueError(f"camera and laser names must differ, got {', '.join(names)}")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {self.integrator!r}; use one of {', '.join(INTEGRATORS)}")
         if not 0 < self.step <= 0.01:
             raise ValueError(f"physics step must be in (0, 0.01] s, got {self.step!r}")
         if not self.watchdog_timeout >= 0:
             raise ValueError(f"watchdog_timeout must be >= 0 s, got {self.watchdog_timeout!r}")
+
+    @property
+    def world_topics(self) -> tuple[str, ...]:
+        """Topic names of the world sensors (``camera/<name>``, ``camera/<name>/depth``, ``laser``)."""
+        out = []
+        for c in self.cameras:
+            out += [f"camera/{c.name}", *([f"camera/{c.name}/depth"] if c.depth else [])]
+        return (*out, *(["laser"] if self.laser is not None else []))
 
 
 class Simulator:
@@ -82,9 +101,15 @@ class Simulator:
         self.clock = Clock(seconds_to_ns(c.step))
         self._consts = plant_consts(c.vehicle)
         self._plant3d = None
-        self._world_sensors: list = []
+        self._world_sensors: list[WorldSensor] = []
         if c.model == MUJOCO:
-            from vilma.plant3d.plant import MujocoPlant  # imports MuJoCo only when asked for
+            from vilma.plant3d.camera import CameraSensor  # imports MuJoCo only when asked for
+            from vilma.plant3d.laser import LaserSensor
+            from vilma.plant3d.plant import MujocoPlant
+
+            self._world_sensors = [CameraSensor(p) for p in c.cameras]
+            if c.laser is not None:
+                self._world_sensors.append(LaserSensor(c.laser))
 
             imu = c.sensors.imu.offset if c.sensors.imu is not None else (0.0, 0.0, 0.0)
             self._plant3d = MujocoPlant(c.vehicle, c.world, "".join(s.mjcf() for s in self._world_sensors), imu)
@@ -153,6 +178,11 @@ class Simulator:
         count, last = self.collisions
         return SimStatus(stamp_ns=self.time_ns, real_time_factor=real_time_factor, autonomous=self._autonomous,
                          watchdog_tripped=self.watchdog_tripped, collisions=count, last_collision=last)
+
+    def close(self) -> None:
+        """Free the world sensors' renderers (the simulator is not used after)."""
+        for sensor in self._world_sensors:
+            sensor.close()
 
     def take_captures(self) -> list[tuple[str, Message]]:
         """The world sensors' messages (camera images, laser scans) made since the last call, in time order,

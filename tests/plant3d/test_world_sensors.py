@@ -1,0 +1,73 @@
+"""Cameras and the laser in the simulator: captured at their rates where the car is at their stamps, and
+published on the bus beside the other sensors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vilma.bus import LocalBus
+from vilma.bus.nodes import SimNode
+from vilma.bus.topics import topic
+from vilma.core.messages import ActuatorCommand, Image, PointCloud
+from vilma.plant3d.camera import stereo_pair
+from vilma.plant3d.laser import LaserParams
+from vilma.plant3d.world import Box, World
+from vilma.sim import SimConfig, Simulator
+from vilma.vehicle.state import VehicleState
+
+WALL = Box(pos=(25.0, 0.0, 1.0), size=(0.5, 5.0, 1.0), name="wall")
+LASER = LaserParams(rate_hz=25.0)  # every 40 ms: at the stamps of the 50 Hz pose
+
+
+def _config() -> SimConfig:
+    return SimConfig(model="mujoco", world=World(boxes=(WALL,)), laser=LASER,
+                     cameras=stereo_pair(baseline=0.3, width=160, height=120, rate_hz=10.0, depth=True))
+
+
+def test_captures_come_at_their_rates_and_see_the_car_where_it_is_at_their_stamp():
+    sim = Simulator(_config())
+    sim.reset(VehicleState(vx=10.0))
+    poses = {}
+    scans, images = [], []
+    for _ in range(50):  # one second of 20 ms frames, coasting at about 10 m/s
+        sim.command(ActuatorCommand(drive=200.0))
+        r = sim.advance(2)
+        poses.update(zip(r["pose"].stamp_ns.tolist(), r["pose"].field("x").tolist(), strict=True))
+        for name, msg in sim.take_captures():
+            (scans if name == "laser" else images).append((name, msg))
+    sim.close()
+    assert [m.stamp_ns for _, m in scans] == [k * 40_000_000 for k in range(1, 26)]
+    names = [n for n, _ in images]
+    assert names == ["camera/front_left", "camera/front_left/depth", "camera/front_right",
+                     "camera/front_right/depth"] * 10
+    assert all(m.stamp_ns % 100_000_000 == 0 for _, m in images)
+    mid = len(LASER.bearings) // 2  # the ray straight ahead
+    for _, scan in scans:
+        ahead = np.frombuffer(scan.ranges, dtype="<f4")[mid]
+        # the wall's near face, from the laser's mount on the car where the pose sensor put it at that stamp
+        expected = WALL.pos[0] - WALL.size[0] - (poses[scan.stamp_ns] + LASER.position[0])
+        assert ahead == pytest.approx(expected, abs=0.01)
+
+
+def test_the_sim_node_publishes_images_and_scans_on_their_topics():
+    sim = Simulator(_config())
+    bus = LocalBus()
+    node = SimNode(sim, bus)
+    got: dict[str, list] = {"camera/front_left": [], "camera/front_right/depth": [], "laser": []}
+    subs = [bus.subscribe(topic(name), got[name].append) for name in got]
+    handed = []
+    node.on_captures = handed.extend
+    for _ in range(10):
+        node.frame(sim.advance(2), 20_000_000)
+    assert len(got["camera/front_left"]) == 2 and len(got["laser"]) == 5
+    left = got["camera/front_left"][0]
+    assert isinstance(left, Image) and (left.width, left.height, left.encoding) == (160, 120, "rgb8")
+    assert len(left.data) == left.height * left.step
+    depth = got["camera/front_right/depth"][0]
+    assert depth.encoding == "32FC1" and len(depth.data) == 160 * 120 * 4
+    assert isinstance(got["laser"][0], PointCloud)
+    assert len(handed) == 2 * 4 + 5  # the same captures, handed on to the MORSE interface
+    for s in subs:
+        s.close()
+    sim.close()
