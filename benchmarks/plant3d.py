@@ -23,6 +23,7 @@ from vilma.scenario import load_scenario
 from vilma.scenario.batch import find_scenario
 from vilma.scenario.runner import run
 from vilma.sim import SimConfig, Simulator
+from vilma.vehicle.state import VX
 
 REPEAT = 3
 SECONDS = 60.0
@@ -35,7 +36,7 @@ def _plant(config: SimConfig, seconds: float) -> float:
     t0 = time.perf_counter()
     for i in range(frames):
         steer = 0.05 if (i // 250) % 2 else -0.05
-        sim.command(ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=0.5 * (8.0 - sim.state.vx), steer=steer))
+        sim.command(ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=0.5 * (8.0 - sim.plant[VX]), steer=steer))
         sim.advance(2)
         sim.take_captures()
     return seconds / (time.perf_counter() - t0)

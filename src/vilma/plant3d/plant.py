@@ -142,7 +142,7 @@ class MujocoPlant:
             x = self.planar_state()
             if any((tick + i) % p == 0 for p in periods):
                 out_z[j, :NX], out_z[j, NX:] = x, u
-                out_dx[j] = self.derivative()
+                out_dx[j] = self.derivative(x)
                 if out_3d is not None:
                     out_3d[j] = self.extras()
                 out_tick[j] = tick + i
@@ -162,21 +162,17 @@ class MujocoPlant:
         out[7:10] = d.sensordata[self._accel:self._accel + 3]
         return out
 
-    def derivative(self) -> tuple[float, float, float, float, float, float]:
-        """Time derivative of :meth:`planar_state` now (as the planar models' ``derivative``)."""
+    def derivative(self, state: tuple[float, ...] | None = None) -> tuple[float, float, float, float, float, float]:
+        """Time derivative of :meth:`planar_state` now (as the planar models' ``derivative``); ``state``: the
+        planar state now, if known."""
         d = self.data
-        _, _, _, vx, vy, r = self.planar_state()
-        c, s = self._heading()
+        _, _, yaw, vx, vy, r = state or self.planar_state()
+        c, s = math.cos(yaw), math.sin(yaw)
         xm = self._xmat.tolist()
         ax_w, ay_w, _, a0, a1, a2 = d.qacc[0:6].tolist()
         vx_w, vy_w = d.qvel[0:2].tolist()
         return vx_w, vy_w, r, c * ax_w + s * ay_w + vy * r, -s * ax_w + c * ay_w - vx * r, \
             xm[6] * a0 + xm[7] * a1 + xm[8] * a2
-
-    def _heading(self) -> tuple[float, float]:
-        xm = self._xmat.tolist()
-        n = math.hypot(xm[0], xm[3]) or 1.0
-        return xm[0] / n, xm[3] / n
 
     def body_velocity(self) -> np.ndarray:
         """Velocity of the centre of mass in the body frame ``(vx, vy, vz)`` [m/s]."""

@@ -106,7 +106,10 @@ class ImuSensor:
         if s.extra is None:
             ideal = _planar(s.rows, s.z, s.dx, self._offset)
         else:  # the 3D plant's accelerometer and gyro sit at the offset already
+            ideal = np.empty((len(s), 9))
             e = s.extra[s.rows]
-            ideal = np.column_stack((e[:, FX:FZ + 1], e[:, WX:WZ + 1], e[:, ROLL], e[:, PITCH], s.z[s.rows, YAW]))
+            ideal[:, 0:3], ideal[:, 3:6], ideal[:, 6], ideal[:, 7] = e[:, FX:FZ + 1], e[:, WX:WZ + 1], e[:, ROLL], \
+                e[:, PITCH]
+            ideal[:, 8] = s.z[s.rows, YAW]
         return _measure(ideal, standard_normals(self.rng, len(s), 13), p.accel_noise, p.gyro_noise,
                         p.orientation_noise, a.b, g.b, a.phi, a.step_sigma, g.step_sigma)
