@@ -6,9 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vilma.bus import LocalBus
+from tests.bus.test_zenoh import _free_port, _stop, _vilma, _wait
+from vilma.bus import Latest, LocalBus
 from vilma.bus.nodes import SimNode
 from vilma.bus.topics import topic
+from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
 from vilma.core.messages import ActuatorCommand, Image, PointCloud
 from vilma.plant3d.camera import stereo_pair
 from vilma.plant3d.laser import LaserParams
@@ -71,3 +73,21 @@ def test_the_sim_node_publishes_images_and_scans_on_their_topics():
     for s in subs:
         s.close()
     sim.close()
+
+
+def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path):
+    scenario = tmp_path / "eyes.yaml"
+    scenario.write_text("plant: mujoco\ncameras: {stereo: {width: 160, height: 120, rate_hz: 10}}\nlaser: true\n"
+                        "task: {speed: 3}\n", encoding="utf-8")
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    sim = _vilma("sim", str(scenario), "--speed", "2", "--listen", endpoint, "--no-morse")
+    watcher = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
+    right, scan = Latest(watcher, topic("camera/front_right")), Latest(watcher, topic("laser"))
+    try:
+        _wait(lambda: right.value is not None and scan.value is not None, 30, "an image and a scan")
+        assert (right.value.width, right.value.height, len(right.value.data)) == (160, 120, 160 * 120 * 3)
+        assert right.value.frame_id == "front_right"
+        assert len(scan.value.ranges) == 4 * len(LaserParams().bearings)
+    finally:
+        watcher.close()
+        assert _stop(sim) < 1.5

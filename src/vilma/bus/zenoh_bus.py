@@ -3,13 +3,13 @@
 Out of the box Zenoh listens on every interface and scouts by multicast; vilma
 does neither unless told: it listens and connects only on the endpoints given
 (default: loopback), and multicast scouting is off. Commands and orders are
-sent reliably with congestion control that blocks; sensor feeds may drop
-under congestion (a display wants the latest value, not a backlog). Every
-message goes on one priority, so a frame's readings stay ahead of its
-``sim/status``, and none is express: Zenoh batches only what is already
-queued (no wait for a batch to fill), so latency is that of express (p50
-0.54 ms at 100 Hz on loopback) while a flood goes four times faster than
-one write per message (220 000 against 54 000 messages/s).
+sent reliably with congestion control that blocks; sensor feeds (images and
+scans too) may drop under congestion (a display wants the latest value, not a
+backlog). Every message goes on one priority, so a frame's readings stay ahead
+of its ``sim/status``, and none is express: Zenoh batches only what is already
+queued (no wait for a batch to fill), so latency is that of express (p50 0.54
+ms at 100 Hz on loopback) while a flood goes four times faster than one write
+per message (220 000 against 54 000 messages/s).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import zenoh
 
 from vilma.bus.codec import DecodeError, decode, encode
-from vilma.bus.topics import SENSOR_TOPICS, message_type
+from vilma.bus.topics import SENSOR_TOPICS, WORLD_TOPICS, message_type
 from vilma.core.messages import Message, Reply
 from vilma.core.net import is_loopback
 
@@ -90,7 +90,7 @@ class ZenohBus:
                 return
             pub = self._publishers.get(key)
             if pub is None:
-                sensor = key.rsplit("/", 1)[-1] in SENSOR_TOPICS
+                sensor = key.rsplit("/", 1)[-1] in SENSOR_TOPICS or message_type(key) in WORLD_TOPICS.values()
                 pub = self.session.declare_publisher(
                     key, reliability=zenoh.Reliability.RELIABLE,
                     congestion_control=zenoh.CongestionControl.DROP if sensor else zenoh.CongestionControl.BLOCK)
