@@ -201,7 +201,8 @@ def _gui(args: argparse.Namespace) -> int:
     if args.connect:
         from vilma.bus.zenoh_bus import LOOPBACK_ANY_PORT
 
-        return main(args, bus=_zenoh(args, (LOOPBACK_ANY_PORT,), ())[0])
+        scenario = _scenario_or_default(args.scenario, plant=args.plant) if args.scenario else None
+        return main(args, scenario=scenario, bus=_zenoh(args, (LOOPBACK_ANY_PORT,), ())[0])
     return main(args, scenario=_scenario_or_default(args.scenario, plant=args.plant))
 
 

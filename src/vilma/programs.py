@@ -90,22 +90,24 @@ def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Sce
 
 
 @contextlib.contextmanager
-def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str,
-          report: Callable[[str], None]) -> Iterator[Callable[[], None] | None]:
-    """While the block runs, car ``vilma``'s topics on ``bus`` are recorded to the MCAP file ``record`` and
-    served to Foxglove on 127.0.0.1:``foxglove`` (each only if given); both are finished when it ends, however
-    it ends. Yields the recorder's once-a-second ``tick`` (None when not recording)."""
+def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, report: Callable[[str], None],
+          world_topics: tuple[str, ...] = ()) -> Iterator[Callable[[], None] | None]:
+    """While the block runs, car ``vilma``'s topics on ``bus`` (with the cameras' and laser's ``world_topics``)
+    are recorded to the MCAP file ``record`` and served to Foxglove on 127.0.0.1:``foxglove`` (each only if
+    given); both are finished when it ends, however it ends. Yields the recorder's once-a-second ``tick``
+    (None when not recording)."""
     with contextlib.ExitStack() as stack:
         tick = None
         if record is not None:
             from vilma.record.recorder import BusRecorder, Recorder
 
-            recording = stack.enter_context(contextlib.closing(BusRecorder(bus, Recorder(record, source=source))))
+            recording = stack.enter_context(contextlib.closing(
+                BusRecorder(bus, Recorder(record, source=source), world_topics=world_topics)))
             tick = recording.recorder.tick
         if foxglove is not None:
             from vilma.record.live import FoxgloveLive
 
-            live = stack.enter_context(contextlib.closing(FoxgloveLive(bus, port=foxglove)))
+            live = stack.enter_context(contextlib.closing(FoxgloveLive(bus, port=foxglove, world_topics=world_topics)))
             report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
         yield tick
 
@@ -133,10 +135,12 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
                f"{st.mode}{' arrived' if st.arrived else ''}  off path {st.cross_track:+.3f} m  "
                f"{sim_node.real_time_factor:.2f}x real time")
 
-    with _taps(bus, record, foxglove, "vilma up", report) as tick, stop_on_signals() as stop:
+    with _taps(bus, record, foxglove, "vilma up", report, scenario.sim.world_topics) as tick, \
+            stop_on_signals() as stop:
         run_paced(sim, sim_node, speed, duration, stop, line)
     drv.close()
     sim_node.close()
+    sim.close()
     bus.close()
     return 0
 
@@ -148,20 +152,24 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     until ``duration`` [s], a signal or MORSE's ``simulation quit``. With ``record``, every topic of the car
     on ``bus`` is recorded to that MCAP file; with ``foxglove`` (a port), served live to Foxglove."""
     from vilma.morse import MorseServer
+    from vilma.morse.components import LASER_RANGE
 
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, scenario.reference_path())
     sim.reset(start)
     node = SimNode(sim, bus, start=start)
-    with _taps(bus, record, foxglove, "vilma sim", report) as tick, stop_on_signals() as stop:
+    world = scenario.sim.world_topics
+    with _taps(bus, record, foxglove, "vilma sim", report, world) as tick, stop_on_signals() as stop:
         server = None
         if morse is not None:
+            laser = scenario.sim.laser
             server = MorseServer(host=morse.host, service_port=morse.service_port, stream_port=morse.stream_port,
                                  on_command=node.command, on_reset=node.reset, on_quit=stop.set,
                                  time_ns=lambda: sim.time_ns, allow_commands_from=morse.allow_commands_from,
-                                 vehicle=sim.config.vehicle)
+                                 vehicle=sim.config.vehicle, world_topics=world,
+                                 laser_range=laser.max_range if laser is not None else LASER_RANGE)
             server.start()
-            node.on_frame = server.publish
+            node.on_frame, node.on_captures = server.publish, server.publish_captures
             host, port = server.service_address
             first, last = min(server.stream_ports.values()), max(server.stream_ports.values())
             report(f"vilma sim: MORSE services on {host}:{port}, datastreams {first}-{last} "
@@ -172,6 +180,7 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
             if server is not None:
                 server.stop()
     node.close()
+    sim.close()
     z = sim.state
     report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s, the car at x={z.x:.2f} y={z.y:.2f} m, "
            f"speed {z.speed:.2f} m/s; commands {node.on_time} on time (within a frame), {node.late} late")

@@ -7,14 +7,20 @@ import math
 import numpy as np
 import pytest
 
-from vilma.core.messages import Imu, Longitudinal, Odometry
+from tests.record.world_messages import WALL, wall_rays, wall_scan
+from vilma.core.messages import Imu, Longitudinal, Odometry, PointCloud, Pose
 from vilma.morse.components import (
+    COMPONENTS,
     EARTH_FIELD_ENU,
+    LASER_RANGE,
     STEER_BRAKE_UNIT,
     STEER_FORCE_UNIT,
+    WORLD_COMPONENTS,
     CommandValueError,
     OriginalCar,
     SensorMapper,
+    components,
+    laser_dict,
     motion_command,
     steer_force_command,
 )
@@ -101,3 +107,34 @@ def test_original_services_hold_what_bullet_holds():
         car.steer(2, 0.1)
     with pytest.raises(CommandValueError, match="finite"):
         car.brake(1, float("inf"))
+
+
+def test_a_scan_is_morses_laser_scanner_one_entry_a_ray():
+    angles, ranges = wall_rays()
+    d = laser_dict(wall_scan(stamp_ns=1_500_000_000), laser_range=20.0)
+    assert list(d) == ["timestamp", "point_list", "range_list"] and d["timestamp"] == 1.5
+    assert len(d["point_list"]) == len(d["range_list"]) == len(angles)
+    hit = np.isfinite(ranges)
+    pts = np.array(d["point_list"])
+    # a hit: the point on the wall along its ray, at the float32 range; no hit: [0, 0, 0] and the laser's reach
+    assert np.allclose(pts[hit, 0], WALL, atol=1e-5)
+    assert np.allclose(pts[hit, 1], WALL * np.tan(angles[hit]), atol=1e-5)
+    assert np.array(d["range_list"])[hit].tolist() == ranges[hit].astype(float).tolist()
+    assert np.all(pts[~hit] == 0) and set(np.array(d["range_list"])[~hit]) == {20.0}
+    assert laser_dict(wall_scan())["range_list"][0] == LASER_RANGE == 30.0
+
+
+def test_a_malformed_scan_is_refused():
+    scan = wall_scan()
+    with pytest.raises(ValueError, match="78 points for 79 finite ranges"):
+        laser_dict(PointCloud(1, "laser", scan.points[:-12], scan.ranges))
+    with pytest.raises(ValueError, match="not whole float32"):
+        laser_dict(PointCloud(1, "laser", scan.points, scan.ranges[:-1]))
+    with pytest.raises(ValueError, match="a Pose, not a PointCloud"):
+        laser_dict(Pose(1, 0, 0, 0, 0, 0, 0))
+
+
+def test_the_laser_is_a_component_only_with_a_laser_and_comes_last():
+    assert components() == COMPONENTS == components(("camera/front",))
+    assert components(("camera/front", "laser")) == (*COMPONENTS, *WORLD_COMPONENTS)
+    assert WORLD_COMPONENTS[0].name == "laser" and WORLD_COMPONENTS[0].direction == "OUT"

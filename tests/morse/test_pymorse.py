@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import threading
 
+import numpy as np
 import pymorse
 import pytest
 
 from tests.morse.conftest import serve
+from tests.record.world_messages import WALL, wall_rays, wall_scan
 
 
 @pytest.fixture
@@ -105,6 +107,41 @@ def test_reset_then_quit_ends_the_simulator(served, fixed_close):
     assert served.stop.wait(2.0)
 
 
+def test_pymorse_reads_the_laser_stream(fixed_close):
+    # before test_a_second_server_for_a_second_client: its unfixed close() leaves a pymorse poll thread behind
+    s = serve(world_topics=("laser",), laser_range=25.0)
+    stop = threading.Event()
+
+    def scans() -> None:  # pymorse's get() waits for the next line: keep scanning, at 20 Hz of wall time
+        k = 0
+        while not stop.wait(0.05):
+            k += 1
+            s.server.publish_captures({"laser": wall_scan(stamp_ns=k * 50_000_000)})
+
+    feeder = threading.Thread(target=scans, daemon=True)
+    feeder.start()
+    try:
+        with pymorse.Morse("127.0.0.1", s.port) as m:
+            assert "vilma.laser" in m.streams()
+            scan = m.vilma.laser.get(timeout=5)
+            later = m.vilma.laser.get(timeout=5)
+            assert later["timestamp"] > scan["timestamp"] > 0
+            angles, ranges = wall_rays()
+            hit = np.isfinite(ranges)
+            points = np.array(scan["point_list"])
+            assert points.shape == (len(angles), 3)
+            assert np.allclose(points[hit, 0], WALL, atol=1e-5)
+            assert np.allclose(points[hit, 1], WALL * np.tan(angles[hit]), atol=1e-5)
+            assert np.all(points[~hit] == 0) and set(np.array(scan["range_list"])[~hit]) == {25.0}
+            assert m.vilma.laser.get_local_data().result()["timestamp"] >= later["timestamp"]
+            m.quit()
+    finally:
+        stop.set()
+        feeder.join(2)
+        s.stop.set()
+        s.server.stop()
+
+
 def test_a_second_server_for_a_second_client():
     s = serve()
     try:
@@ -116,3 +153,4 @@ def test_a_second_server_for_a_second_client():
     finally:
         s.stop.set()
         s.server.stop()
+

@@ -4,6 +4,7 @@ bad input, slow and vanishing clients, many clients, command permissions."""
 from __future__ import annotations
 
 import json
+import logging
 import socket
 import threading
 import time
@@ -14,7 +15,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.morse.conftest import LineClient, serve
-from vilma.core.messages import ActuatorCommand, Longitudinal, Pose
+from tests.record.world_messages import WALL, red_square, wall_rays, wall_scan
+from vilma.core.messages import ActuatorCommand, Longitudinal, PointCloud, Pose
 from vilma.morse import COMPONENTS, MorseServer
 from vilma.morse.server import SERVICE_PORT_TRIES
 from vilma.sensors.base import Readings
@@ -313,3 +315,77 @@ def test_any_request_line_gets_one_reply_or_none_and_the_server_lives(served, cl
     for r in replies[:-1]:
         status = r.split(b" ", 2)[1]
         assert status.rstrip(b"\n") in (b"SUCCESS", b"FAILED", b"PREEMPTED")
+
+
+@pytest.fixture
+def laser_server():
+    probe = socket.socket()
+    probe.bind(("127.0.0.1", 0))
+    base = probe.getsockname()[1]
+    probe.close()
+    server = MorseServer(service_port=0, stream_port=base, on_command=lambda c: None, time_ns=lambda: 0,
+                         world_topics=("camera/front", "laser"), laser_range=20.0)
+    try:
+        server.start()
+    except OSError:
+        pytest.skip(f"no free ports from {base}")
+    yield server
+    server.stop()
+
+
+def test_the_laser_is_the_next_stream_in_scene_order_and_carries_morse_scans(laser_server, caplog):
+    server = laser_server
+    names = [f"vilma.{c.name}" for c in COMPONENTS]
+    assert list(server.stream_ports) == [*names, "vilma.laser"]
+    ports = list(server.stream_ports.values())
+    assert ports == sorted(set(ports)) and ports[-1] > server.stream_ports["vilma.motion"]
+    c = LineClient(server.service_address[1])
+    details = json.loads(c.ask(b"0 simulation details []\n")[len(b"0 SUCCESS "):])
+    assert details["robots"][0]["components"]["vilma.laser"] == {
+        "type": "LaserScanner", "services": ["get_local_data"],
+        "service_interfaces": ["morse.middleware.socket_request_manager.SocketRequestManager"],
+        "stream_interfaces": [["morse.middleware.socket_datastream.SocketDatastreamManager", "OUT"]]}
+    assert c.ask(b"1 simulation list_streams\n") == ("1 SUCCESS " + json.dumps([*names, "vilma.laser"]) + "\n").encode()
+    assert c.ask(b'2 simulation get_stream_port ["vilma.laser"]\n') == f"2 SUCCESS {ports[-1]}\n".encode()
+    assert c.ask(b"3 vilma.laser get_local_data\n").startswith(b'3 FAILED "no vilma.laser reading yet')
+
+    laser = LineClient(ports[-1])
+    wait_for(lambda: server.stats()["vilma.laser"]["clients"] == 1)
+    server.publish_captures({"laser": wall_scan(stamp_ns=2_500_000_000), "camera/front": red_square()})
+    line = laser.line()
+    scan = json.loads(line)
+    angles, ranges = wall_rays()
+    hit = np.isfinite(ranges)
+    assert list(scan) == ["timestamp", "point_list", "range_list"] and scan["timestamp"] == 2.5
+    assert np.allclose(np.array(scan["point_list"])[hit], np.column_stack(
+        [np.full(hit.sum(), WALL), WALL * np.tan(angles[hit]), np.zeros(hit.sum())]), atol=1e-5)
+    assert np.array(scan["range_list"])[~hit].tolist() == [20.0] * int((~hit).sum())
+    assert np.array(scan["point_list"])[~hit].tolist() == [[0.0, 0.0, 0.0]] * int((~hit).sum())
+    assert c.ask(b"4 vilma.laser get_local_data\n") == b"4 SUCCESS " + line
+
+    good = wall_scan()
+    torn = PointCloud(3_000_000_000, "laser", good.points[:-12], good.ranges)
+    with caplog.at_level(logging.WARNING, logger="vilma.morse"):  # pairs in time order, as take_captures gives
+        server.publish_captures([("laser", torn), ("laser", wall_scan(stamp_ns=3_500_000_000)),
+                                 ("laser", wall_scan(stamp_ns=3_600_000_000))])
+        assert [json.loads(laser.line())["timestamp"] for _ in range(2)] == [3.5, 3.6]  # the torn one never went out
+    assert [r.getMessage() for r in caplog.records] == [
+        "MORSE vilma.laser: 78 points for 79 finite ranges; scan dropped"]
+    assert server.core.dropped == {"vilma.laser": 1}
+    for x in (laser, c):
+        x.close()
+
+
+def test_without_a_laser_there_is_no_laser_component(served, client):
+    assert "vilma.laser" not in served.server.stream_ports
+    assert client.ask(b'1 simulation get_stream_port ["vilma.laser"]\n') == \
+        b'1 FAILED "Stream unavailable for component vilma.laser"\n'
+    served.server.publish_captures({"laser": wall_scan()})  # ignored
+    assert client.ask(b"2 simulation list_robots\n") == b'2 SUCCESS ["vilma"]\n'
+
+
+def test_a_laser_range_must_be_positive_metres():
+    for bad in (0.0, -1.0, float("inf"), float("nan")):
+        with pytest.raises(ValueError, match="laser_range must be a positive number of metres"):
+            MorseServer(service_port=0, stream_port=0, on_command=lambda c: None, time_ns=lambda: 0,
+                        world_topics=("laser",), laser_range=bad)

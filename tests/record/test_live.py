@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import socket
 import struct
@@ -10,6 +11,7 @@ import time
 import pytest
 from websockets.sync.client import connect
 
+from tests.record.world_messages import PERIOD_NS, WORLD_TOPICS, depth_image, red_square, wall_scan, world_at
 from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
 from vilma.core import messages as m
@@ -96,3 +98,44 @@ def test_up_serves_foxglove_and_run_needs_realtime():
     assert lines[0].startswith("Foxglove: open connection ws://127.0.0.1:")
     with pytest.raises(ValueError, match="--realtime"):
         foxglove_observer(0, None, print)
+
+
+
+def test_world_sensors_are_served_in_foxglove_schemas():
+    bus = LocalBus()
+    server = FoxgloveLive(bus, port=_free_port(), world_topics=WORLD_TOPICS)
+    keys = [f"vilma/vilma/{n}" for n in WORLD_TOPICS]
+    got: dict[int, dict] = {}
+    try:
+        with connect(f"ws://127.0.0.1:{server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
+            _json_until(ws, "serverInfo")
+            channels: dict = {}
+            while not set(keys) <= set(channels):
+                channels.update({c["topic"]: c for c in _json_until(ws, "advertise")["channels"]})
+            assert [channels[k]["schemaName"] for k in keys] == [
+                "foxglove.CompressedImage", "foxglove.RawImage", "foxglove.PointCloud"]
+            assert {channels[k]["schemaEncoding"] for k in keys} == {"jsonschema"}
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": i, "channelId": channels[k]["id"]} for i, k in enumerate(keys)]}))
+            deadline = time.monotonic() + 10
+            k = 0
+            while len(got) < len(keys) and time.monotonic() < deadline:  # subscriptions take effect asynchronously
+                k += 1
+                for name, msg in world_at(k * PERIOD_NS):
+                    bus.publish(topic(name), msg)
+                try:
+                    while True:
+                        frame = ws.recv(timeout=0.05)
+                        if isinstance(frame, bytes) and frame[0] == 0x01:
+                            got[struct.unpack_from("<I", frame, 1)[0]] = json.loads(frame[13:])
+                except TimeoutError:
+                    pass
+            good = red_square()
+            bus.publish(topic("camera/front_left"), m.Image(1, "c", 2, 2, "rgb8", 6, good.data))  # torn: dropped
+    finally:
+        server.close()
+    assert server.dropped == {"camera/front_left": 1}
+    jpeg, depth, laser = got[0], got[1], got[2]
+    assert jpeg["format"] == "jpeg" and base64.b64decode(jpeg["data"])[:2] == b"\xff\xd8"
+    assert base64.b64decode(depth["data"]) == depth_image().data and depth["encoding"] == "32FC1"
+    assert base64.b64decode(laser["data"]) == wall_scan().points and laser["point_stride"] == 12

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from tests.record.world_messages import PERIOD_NS, WORLD_TOPICS, write_world_recording
 from vilma import programs
 from vilma.bus.base import BoundedQueue
 from vilma.bus.local import LocalBus
@@ -67,3 +68,28 @@ def test_replay_cli_plays_to_the_end_on_zenoh(recording):
     assert r.returncode == 0, r.stderr
     played = sum(recording.count(n) for n in recording.topics if n not in ("tf", "drive_log"))
     assert r.stdout.splitlines()[-1] == f"vilma replay: {played} messages published"
+
+
+def test_replay_republishes_camera_images_and_laser_scans(tmp_path):
+    sent = write_world_recording(tmp_path / "w.mcap", jpeg_quality=None)
+    bus = LocalBus()
+    queues = {name: BoundedQueue(bus, topic(name), maxsize=100) for name in WORLD_TOPICS}
+    player = Replayer(tmp_path / "w.mcap", bus, speed=50.0).start()
+    assert player.wait(timeout=30)
+    player.close()
+    for name, q in queues.items():
+        assert q.drain() == [msg for n, msg in sent if n == name]
+    assert player.published == 25 + len(sent)  # and the poses
+
+
+def test_a_corrupt_image_is_skipped_with_a_warning(tmp_path, caplog):
+    write_world_recording(tmp_path / "w.mcap", n=2)
+    rec = read_recording(tmp_path / "w.mcap")
+    rec.raw["camera/front_left"][1][0] = b'{"data": 1}'
+    bus = LocalBus()
+    images = BoundedQueue(bus, topic("camera/front_left"), maxsize=100)
+    player = Replayer(rec, bus, speed=50.0).start()
+    assert player.wait(timeout=30)
+    player.close()
+    assert [i.stamp_ns for i in images.drain()] == [2 * PERIOD_NS]
+    assert any("does not decode" in r.getMessage() and "skipped" in r.getMessage() for r in caplog.records)

@@ -11,11 +11,13 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore
 
+from tests.record.world_messages import PERIOD_NS, write_world_recording
 from vilma import programs
 from vilma.core.geometry import quaternion_from_euler
 from vilma.record.reader import read_recording
-from vilma.record.report import report
+from vilma.record.report import report, world_counts
 from vilma.record.rosbag import STORE, export_rosbag2
+from vilma.record.world_schemas import compressed_image
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.report import PLOTS
@@ -107,3 +109,55 @@ def test_export_refuses_an_existing_folder(finished_run, tmp_path):
     r = subprocess.run([sys.executable, "-m", "vilma.cli", "export", "rosbag2", str(out / "run.mcap"),
                         str(tmp_path)], capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "exists" in r.stderr
+
+
+def test_world_sensors_export_as_ros2_images_and_point_clouds(tmp_path):
+    sent = write_world_recording(tmp_path / "w.mcap")
+    counts = export_rosbag2(tmp_path / "w.mcap", tmp_path / "bag")
+    assert {t: counts[t] for t in ("/camera/front_left/compressed", "/camera/front_left/depth", "/laser")} == {
+        "/camera/front_left/compressed": 5, "/camera/front_left/depth": 5, "/laser": 5}
+    bag = _bag(tmp_path / "bag")
+    stamps = [k * PERIOD_NS for k in range(1, 6)]
+    rec = read_recording(tmp_path / "w.mcap")
+
+    jpegs = bag["/camera/front_left/compressed"]
+    assert {t for _, _, t in jpegs} == {"sensor_msgs/msg/CompressedImage"} and [s for s, _, _ in jpegs] == stamps
+    assert [m.data.tobytes() for _, m, _ in jpegs] == [compressed_image(p)[3] for p in rec.payloads(
+        "camera/front_left")]  # the recorded JPEG, not compressed twice
+    assert {(m.format, m.header.frame_id) for _, m, _ in jpegs} == {("jpeg", "front_left")}
+
+    depth = bag["/camera/front_left/depth"]
+    want = [msg for n, msg in sent if n == "camera/front_left/depth"]
+    assert {t for _, _, t in depth} == {"sensor_msgs/msg/Image"}
+    assert [(m.encoding, m.width, m.height, m.step, m.is_bigendian) for _, m, _ in depth] == [
+        ("32FC1", i.width, i.height, i.step, 0) for i in want]
+    assert [m.data.tobytes() for _, m, _ in depth] == [i.data for i in want]
+    assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m, _ in depth] == stamps
+
+    scans = bag["/laser"]
+    want = [msg for n, msg in sent if n == "laser"]
+    assert {t for _, _, t in scans} == {"sensor_msgs/msg/PointCloud2"}
+    cloud = scans[0][1]
+    assert [(f.name, f.offset, f.datatype, f.count) for f in cloud.fields] == [
+        ("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1)]
+    assert (cloud.height, cloud.width, cloud.point_step, cloud.row_step) == (1, 79, 12, 79 * 12)
+    assert not cloud.is_bigendian and cloud.header.frame_id == "laser"
+    assert [m.data.tobytes() for _, m, _ in scans] == [c.points for c in want]
+
+
+def test_raw_colour_images_export_as_ros2_rgb8_images(tmp_path):
+    sent = write_world_recording(tmp_path / "w.mcap", n=2, jpeg_quality=None)
+    export_rosbag2(tmp_path / "w.mcap", tmp_path / "bag")
+    images = _bag(tmp_path / "bag")["/camera/front_left"]
+    want = [msg for n, msg in sent if n == "camera/front_left"]
+    assert [(m.encoding, m.step, m.data.tobytes()) for _, m, _ in images] == [("rgb8", i.step, i.data) for i in want]
+
+
+def test_report_counts_the_world_sensors(tmp_path):
+    write_world_recording(tmp_path / "w.mcap")
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "report", str(tmp_path / "w.mcap")], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "world sensors: camera/front_left 5, camera/front_left/depth 5, laser 5" in r.stdout.splitlines()
+    assert world_counts(read_recording(tmp_path / "w.mcap")) == {
+        "camera/front_left": 5, "camera/front_left/depth": 5, "laser": 5}

@@ -16,8 +16,9 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
     """Run the GUI until its window closes; returns the exit code.
 
     With ``bus`` (a Zenoh bus from ``--connect``) it joins the simulator and
-    driver on it; otherwise it runs ``scenario`` (or the defaults) embedded,
-    paced to ``args.speed`` x real time.
+    driver on it (a ``scenario`` then names that simulator's cameras); otherwise
+    it runs ``scenario`` (or the defaults) embedded, paced to ``args.speed`` x
+    real time.
     """
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
@@ -29,7 +30,8 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
     if not 10 <= refresh <= 60_000:
         raise ValueError(f"--refresh must be 10..60000 ms, got {refresh}")
     if bus is not None:
-        backend = Remote(bus, "Zenoh " + ", ".join(getattr(args, "connect", None) or ["peers"]))
+        world = scenario.sim.world_topics if scenario is not None else ()
+        backend = Remote(bus, "Zenoh " + ", ".join(getattr(args, "connect", None) or ["peers"]), world_topics=world)
     else:
         backend = Embedded(scenario, speed=getattr(args, "speed", 1.0))
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY") \

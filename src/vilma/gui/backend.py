@@ -39,7 +39,8 @@ class Embedded:
     """Simulator and driver in this process on a local bus, paced to ``speed`` x real time.
 
     The scenario gives the car, sensors, start pose and driver parameters; its
-    task is not started (the GUI gives the orders).
+    task is not started (the GUI gives the orders). :attr:`world_topics` are the
+    3D plant's camera and laser topics, from the scenario's simulator.
     """
 
     embedded = True
@@ -49,6 +50,7 @@ class Embedded:
             raise ValueError(f"--speed must be a positive factor, got {speed!r}")
         self.scenario = scenario or default_scenario()
         self.speed, self.car = speed, car
+        self.world_topics: tuple[str, ...] = self.scenario.sim.world_topics
         self.bus: Bus = LocalBus()
         self.sim = Simulator(self.scenario.sim)
         self.start_state = initial_state(self.scenario, self.scenario.reference_path())
@@ -124,12 +126,14 @@ class Embedded:
 
 
 class Remote:
-    """A bus that reaches a simulator and a driver in other processes (``vilma sim`` / ``vilma drive``)."""
+    """A bus that reaches a simulator and a driver in other processes (``vilma sim`` / ``vilma drive``);
+    ``world_topics``: that simulator's camera and laser topics (its scenario's)."""
 
     embedded = False
 
-    def __init__(self, bus: Bus, where: str = "Zenoh", car: str = "vilma") -> None:
+    def __init__(self, bus: Bus, where: str = "Zenoh", car: str = "vilma", world_topics: tuple[str, ...] = ()) -> None:
         self.bus, self.where, self.car = bus, where, car
+        self.world_topics = tuple(world_topics)
         self.vehicle = vilma()
         self.driver_params = DriverParams()
         self.scenario: Scenario | None = None

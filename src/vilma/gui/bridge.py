@@ -61,6 +61,7 @@ class BusBridge(QObject):
         car: the car's name in topic keys.
         history_seconds: plot history kept [s] at ``history_rate`` [Hz] (the fastest sensor's rate).
         stale_after: without a simulator status for this long [s] the link is shown as lost.
+        world_topics: the 3D plant's camera and laser topics to watch too (their latest message only).
     """
 
     updated = Signal(str)
@@ -71,7 +72,7 @@ class BusBridge(QObject):
     """The answer to an order: what was ordered, and the :class:`Reply`."""
 
     def __init__(self, bus: Bus, car: str = "vilma", history_seconds: float = 3600.0, history_rate: float = 100.0,
-                 stale_after: float = 1.0, parent: QObject | None = None) -> None:
+                 stale_after: float = 1.0, world_topics: tuple[str, ...] = (), parent: QObject | None = None) -> None:
         super().__init__(parent)
         self.bus, self.car, self.stale_after = bus, car, stale_after
         self.latest: dict[str, Message] = {}
@@ -87,7 +88,7 @@ class BusBridge(QObject):
         self._last_stamp = -1
         self._worker = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="vilma-gui-send")
         self._closed = False
-        self._subs = [bus.subscribe(topic(name, car), self._handler(name)) for name in WATCHED]
+        self._subs = [bus.subscribe(topic(name, car), self._handler(name)) for name in (*WATCHED, *world_topics)]
         self._timer = QTimer(self)
         self._timer.timeout.connect(self.check_connection)
         self._timer.start(100)

@@ -1,5 +1,5 @@
-"""The main window ("Vilma Driver"): waypoint table in the centre, Car Status, Manual Controls and Automatic
-Driving docks, menus, the link state in the status bar, keyboard driving."""
+"""The main window ("Vilma Driver"): waypoint table in the centre, Car Status, Manual Controls, Automatic
+Driving and Camera docks, menus, the link state in the status bar, keyboard driving."""
 
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ from vilma.core.messages import DriverOrder
 from vilma.gui.auto_dock import AutoDock
 from vilma.gui.backend import default_scenario
 from vilma.gui.bridge import BusBridge
+from vilma.gui.camera_dock import CameraDock
 from vilma.gui.manual_dock import ManualDock
 from vilma.gui.plots import PlotWindow
 from vilma.gui.status_dock import StatusDock
@@ -53,7 +54,9 @@ class MainWindow(QMainWindow):
         super().__init__()
         self.backend = backend
         self.setWindowTitle(f"Vilma Driver: {backend.describe()}")
-        self.bridge = BusBridge(backend.bus, backend.car, history_seconds=history_seconds, parent=self)
+        world = backend.world_topics
+        self.bridge = BusBridge(backend.bus, backend.car, history_seconds=history_seconds, world_topics=world,
+                                parent=self)
         self.table = WaypointTable(parent=self)
         self.setCentralWidget(self.table)
         self.status_dock = StatusDock(self.bridge, refresh_ms, self)
@@ -62,6 +65,9 @@ class MainWindow(QMainWindow):
         self.addDockWidget(Qt.DockWidgetArea.LeftDockWidgetArea, self.status_dock)
         self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.manual_dock)
         self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.auto_dock)
+        self.camera_dock = CameraDock(self.bridge, world, parent=self)
+        self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.camera_dock)
+        self.camera_dock.setVisible(bool(self.camera_dock.topics))
         self.plots = PlotWindow(self.bridge, self.table.model, plot_ms)
         self.last_message = ""
         self.link = QLabel(self)
@@ -104,7 +110,7 @@ class MainWindow(QMainWindow):
         action(s, "Stop the car", self.auto_dock.stop_car)
         v = self.menuBar().addMenu("&View")
         action(v, "Plots", self.show_plots)
-        for dock in (self.status_dock, self.manual_dock, self.auto_dock):
+        for dock in (self.status_dock, self.manual_dock, self.auto_dock, self.camera_dock):
             v.addAction(dock.toggleViewAction())
         h = self.menuBar().addMenu("&Help")
         action(h, "About", self.about)

@@ -23,6 +23,12 @@ odometry     ``odometry``       MORSE ``integrated`` level: ``x, y, z, yaw, pitc
                                 the pose at the first reading (MORSE: the start pose), and ``vx, vy, vz``
                                 [m/s] in that start frame, ``wz, wy, wx`` [rad/s]; re-based when the
                                 sim time goes back (a reset)
+laser        ``laser`` (3D      MORSE ``LaserScanner`` (``Sick``), ``raw`` level: ``point_list`` [[x, y, z],
+             plant's scans)     ...] [m] in the laser frame (x forward, y left, z up) and ``range_list``
+                                [m], one entry a ray in vilma's scan order. As MORSE: a ray without a
+                                hit has the point [0, 0, 0] and the range ``laser_range`` (the laser's
+                                reach), not vilma's inf: MORSE clients written for its scanner test
+                                ``range < laser_range``. Only when the simulator has a laser.
 ============ ================== ====================================================================
 
 Actuators (IN datastreams, sticky: the last command holds until the next):
@@ -49,13 +55,23 @@ see :class:`OriginalCar`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from vilma.core.messages import ActuatorCommand, GpsFix, Imu, Longitudinal, Odometry, Pose, Velocity, WheelSpeeds
+from vilma.core.messages import (
+    ActuatorCommand,
+    GpsFix,
+    Imu,
+    Longitudinal,
+    Odometry,
+    PointCloud,
+    Pose,
+    Velocity,
+    WheelSpeeds,
+)
 from vilma.sensors.base import Readings
 from vilma.vehicle.params import VehicleParams
 
@@ -102,6 +118,19 @@ COMPONENTS: tuple[ComponentSpec, ...] = (
     ComponentSpec("motion", "MotionVW", "IN", None, ("set_speed", "stop")),
 )
 """The components in registration order: stream ports are given in this order (60000, 60001, ...)."""
+WORLD_COMPONENTS: tuple[ComponentSpec, ...] = (
+    ComponentSpec("laser", "LaserScanner", "OUT", "laser", ("get_local_data",)),
+)
+"""Components of the 3D plant's world sensors (``reading``: the topic they stream), registered after
+:data:`COMPONENTS` when the simulator has that sensor."""
+LASER_RANGE = 30.0
+"""Default reach of the laser [m] (MORSE's ``Sick``): the range of a ray without a hit."""
+
+
+def components(world_topics: Collection[str] = ()) -> tuple[ComponentSpec, ...]:
+    """The robot's components in registration order: :data:`COMPONENTS`, then those of
+    :data:`WORLD_COMPONENTS` whose topic is in ``world_topics`` (other world topics, cameras, are not served)."""
+    return COMPONENTS + tuple(c for c in WORLD_COMPONENTS if c.reading in world_topics)
 
 ROBOT_TYPE = "VilmaClass"
 """The robot's MORSE type (the original's ``classpath="VilmaClass.VilmaClass"``)."""
@@ -208,6 +237,28 @@ class SensorMapper:
                 "yaw": rel_yaw, "pitch": 0.0, "roll": 0.0,
                 "vx": speed * math.cos(rel_yaw), "vy": speed * math.sin(rel_yaw), "vz": 0.0,
                 "wz": r[i["yaw_rate"]], "wy": 0.0, "wx": 0.0}
+
+
+def laser_dict(scan: PointCloud, laser_range: float = LASER_RANGE) -> dict[str, Any]:
+    """MORSE ``LaserScanner`` local data of a vilma scan: ``timestamp`` [s], ``point_list`` and ``range_list``,
+    one entry a ray (see the module docstring: [0, 0, 0] and ``laser_range`` [m] for a ray without a hit).
+
+    Raises:
+        ValueError: a malformed scan (not whole float32 triples, or not one point a finite range).
+    """
+    if not isinstance(scan, PointCloud):
+        raise ValueError(f"a {type(scan).__name__}, not a PointCloud")
+    if len(scan.points) % 12 or len(scan.ranges) % 4:
+        raise ValueError(f"{len(scan.points)} bytes of points and {len(scan.ranges)} of ranges are not whole "
+                         f"float32 xyz triples and float32 ranges")
+    ranges = np.frombuffer(scan.ranges, "<f4").astype(float)
+    hit = np.isfinite(ranges)
+    points = np.zeros((len(ranges), 3))
+    if int(hit.sum()) != len(scan.points) // 12:
+        raise ValueError(f"{len(scan.points) // 12} points for {int(hit.sum())} finite ranges")
+    points[hit] = np.frombuffer(scan.points, "<f4").reshape(-1, 3)
+    return {"timestamp": scan.stamp_ns / 1e9, "point_list": points.tolist(),
+            "range_list": np.where(hit, ranges, laser_range).tolist()}
 
 
 # -- actuators ------------------------------------------------------------------------------------------------

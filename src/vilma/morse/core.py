@@ -3,7 +3,7 @@
 :class:`MorseCore` answers request lines (``simulation``, ``time``, the robot's
 original services, component services), turns actuator datastream lines and
 service calls into :class:`~vilma.core.messages.ActuatorCommand` and sensor
-readings into MORSE dicts. :class:`~vilma.morse.server.MorseServer` runs it on
+readings and laser scans into MORSE dicts. :class:`~vilma.morse.server.MorseServer` runs it on
 sockets; everything here runs on the server's one event-loop thread.
 """
 
@@ -13,14 +13,14 @@ import ipaddress
 import json
 import logging
 import math
-from collections.abc import Callable, Collection, Container
+from collections.abc import Callable, Collection, Container, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from vilma.core.messages import ActuatorCommand
+from vilma.core.messages import ActuatorCommand, Message
 from vilma.morse import protocol as p
 from vilma.morse.components import (
-    COMPONENTS,
+    LASER_RANGE,
     ROBOT_SERVICES,
     ROBOT_TYPE,
     SERVICE_MANAGER,
@@ -29,7 +29,9 @@ from vilma.morse.components import (
     ComponentSpec,
     OriginalCar,
     SensorMapper,
+    components,
     finite,
+    laser_dict,
     motion_command,
     motion_target,
     steer_force_command,
@@ -108,12 +110,15 @@ class MorseCore:
         allow_commands_from: peers (addresses or networks) whose commands are taken; None: everyone.
         vehicle: the car (wheelbase, limits for MotionVW); default the ``vilma`` preset.
         shutdown: called after ``quit`` has been answered, before ``on_quit`` (the server closes its sockets).
+        world_topics: the simulator's world sensor topics; ``laser`` adds the ``laser`` component.
+        laser_range: the laser's reach [m], reported for a ray without a hit (as MORSE).
     """
 
     def __init__(self, *, robot: str = "vilma", on_command: Callable[[ActuatorCommand], None],
                  on_reset: Callable[[], None] | None = None, on_quit: Callable[[], None] | None = None,
                  time_ns: Callable[[], int], allow_commands_from: Collection[str] | None = None,
-                 vehicle: VehicleParams | None = None, shutdown: Callable[[], None] | None = None) -> None:
+                 vehicle: VehicleParams | None = None, shutdown: Callable[[], None] | None = None,
+                 world_topics: Collection[str] = (), laser_range: float = LASER_RANGE) -> None:
         if not robot or not robot.replace("_", "").isalnum() or not robot.isascii():
             raise ValueError(f"robot name {robot!r} must be letters, digits and '_' (it prefixes 'robot.pose')")
         self.robot = robot
@@ -122,11 +127,16 @@ class MorseCore:
         self._allow = parse_networks(allow_commands_from)
         self.vehicle = vehicle or vilma()
         self._shutdown = shutdown
-        self.specs: dict[str, ComponentSpec] = {f"{robot}.{c.name}": c for c in COMPONENTS}
+        if not 0 < laser_range < math.inf:
+            raise ValueError(f"laser_range must be a positive number of metres, got {laser_range!r}")
+        self.laser_range = laser_range
+        self.specs: dict[str, ComponentSpec] = {f"{robot}.{c.name}": c for c in components(world_topics)}
         self.by_reading = {c.reading: fqn for fqn, c in self.specs.items() if c.reading}
         self.stream_ports: dict[str, int] = {}
         self.active = dict.fromkeys(self.specs, True)
         self.latest: dict[str, dict[str, Any]] = {}
+        self.dropped: dict[str, int] = {}
+        """Malformed world-sensor messages dropped, by component."""
         self.car = OriginalCar()
         self.mapper = SensorMapper()
         self._motion: tuple[float, float] | None = None
@@ -435,3 +445,25 @@ class MorseCore:
         self._drive_motion()
         self.check_pending()
         return out
+
+    def captures(self, captures: Mapping[str, Message] | Iterable[tuple[str, Message]],
+                 wanted: Container[str]) -> dict[str, bytes]:
+        """Take world-sensor messages (topic name -> message, or (topic, message) pairs in time order, as
+        ``Simulator.take_captures`` gives them; ``laser`` -> a scan): MORSE JSON lines by component, for the
+        components in ``wanted`` (the others only update their latest data). A malformed message is dropped (a
+        one-line warning, the first of each component)."""
+        lines: dict[str, list[str]] = {}
+        for name, msg in (captures.items() if isinstance(captures, Mapping) else captures):
+            fqn = self.by_reading.get(name)
+            if fqn is None or self.specs[fqn].type != "LaserScanner" or not self.active[fqn]:
+                continue
+            try:
+                data = laser_dict(msg, self.laser_range)
+            except ValueError as e:
+                n = self.dropped[fqn] = self.dropped.get(fqn, 0) + 1
+                log.log(logging.WARNING if n == 1 else logging.DEBUG, "MORSE %s: %s; scan dropped", fqn, e)
+                continue
+            self.latest[fqn] = data
+            if fqn in wanted:
+                lines.setdefault(fqn, []).append(json.dumps(data) + "\n")
+        return {fqn: "".join(parts).encode() for fqn, parts in lines.items()}

@@ -1,7 +1,8 @@
 """MORSE-compatible socket server: the service port and one datastream port per component.
 
 Runs an asyncio loop in a daemon thread. The simulator calls :meth:`MorseServer.publish`
-with its readings (any thread, never blocks); actuator streams and the robot's services
+with its readings and :meth:`MorseServer.publish_captures` with its laser scans (any thread,
+never blocks); actuator streams and the robot's services
 call ``on_command`` (on the server thread). Topology and lines: ``reference/morse-protocol.md``;
 component fields and units: :mod:`vilma.morse.components`.
 
@@ -19,12 +20,13 @@ import logging
 import socket
 import threading
 from collections import deque
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
-from vilma.core.messages import ActuatorCommand
+from vilma.core.messages import ActuatorCommand, Message
 from vilma.core.net import is_loopback
 from vilma.morse import protocol as p
+from vilma.morse.components import LASER_RANGE
 from vilma.morse.core import MorseCore
 from vilma.vehicle.params import VehicleParams
 
@@ -40,7 +42,7 @@ STREAM_PORT_TRIES = 100
 SERVICE_HIGH_WATER = 256 * 1024
 """Replies queued to one service client [bytes] above which the server stops reading its requests."""
 PUBLISH_BACKLOG = 256
-"""Batches of readings waiting for the server thread; older ones are dropped beyond it."""
+"""Batches of readings or captures waiting for the server thread; older ones are dropped beyond it."""
 TICK = 0.02
 """Period of the check for due ``time sleep`` requests when no readings arrive [s]."""
 
@@ -187,7 +189,7 @@ class MorseServer:
             the network: see ``allow_commands_from``).
         service_port: first service port tried (the first free of ``service_port .. +9``); 0: any free.
         stream_port: first datastream port; components get consecutive free ports in
-            :data:`~vilma.morse.components.COMPONENTS` order; 0: any free.
+            :data:`~vilma.morse.components.COMPONENTS` order, then ``laser`` if there is one; 0: any free.
         robot: the robot's name; components are ``<robot>.pose`` ...
         on_command: gets every actuator command, on the server thread (queue it; keep it cheap).
         on_reset: called by ``simulation reset_objects`` (None: that service answers FAILED).
@@ -197,13 +199,18 @@ class MorseServer:
             services, motion services, reset, quit, (de)activate) are taken; None: all.
         vehicle: the car, for MotionVW (wheelbase, limits); default the ``vilma`` preset.
         stream_buffer_limit: bytes queued to one datastream reader above which its frames are dropped.
+        world_topics: the simulator's world sensor topics (``("camera/front", "laser")``...): with
+            ``laser``, the robot has a ``laser`` component (MORSE's ``LaserScanner``) fed by
+            :meth:`publish_captures`; cameras are not served.
+        laser_range: the laser's reach [m]: the range of a ray without a hit (MORSE's, not inf).
     """
 
     def __init__(self, *, host: str = "127.0.0.1", service_port: int = 4000, stream_port: int = 60000,
                  robot: str = "vilma", on_command: Callable[[ActuatorCommand], None],
                  on_reset: Callable[[], None] | None = None, on_quit: Callable[[], None] | None = None,
                  time_ns: Callable[[], int], allow_commands_from: Collection[str] | None = None,
-                 vehicle: VehicleParams | None = None, stream_buffer_limit: int = 64 * 1024) -> None:
+                 vehicle: VehicleParams | None = None, stream_buffer_limit: int = 64 * 1024,
+                 world_topics: Collection[str] = (), laser_range: float = LASER_RANGE) -> None:
         for name, port in (("service_port", service_port), ("stream_port", stream_port)):
             if not 0 <= port <= 65535:
                 raise ValueError(f"{name} must be in 0..65535 (0: any free port), got {port}")
@@ -211,7 +218,7 @@ class MorseServer:
         self.stream_buffer_limit = stream_buffer_limit
         self.core = MorseCore(robot=robot, on_command=on_command, on_reset=on_reset, on_quit=on_quit,
                               time_ns=time_ns, allow_commands_from=allow_commands_from, vehicle=vehicle,
-                              shutdown=self._close_sockets)
+                              shutdown=self._close_sockets, world_topics=world_topics, laser_range=laser_range)
         self.stream_ports: dict[str, int] = {}
         self._address: tuple[str, int] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -222,11 +229,11 @@ class MorseServer:
         self._out: dict[str, set[_OutConn]] = {f: set() for f, s in self.core.specs.items() if s.direction == "OUT"}
         self._stats = {f: {"sent": 0, "dropped": 0, "max_buffered": 0} for f in self._out}
         self._lock = threading.Lock()
-        self._queue: deque[dict[str, Readings]] = deque()
+        self._queue: deque[tuple[Callable[[Any, set[str]], dict[str, bytes]], Any]] = deque()
         self._scheduled = False
         self._open = False
         self.publish_dropped = 0
-        """Batches of readings dropped because the server thread fell behind."""
+        """Batches of readings or captures dropped because the server thread fell behind."""
 
     # -- life cycle --------------------------------------------------------------------------------------
 
@@ -374,6 +381,17 @@ class MorseServer:
     def publish(self, readings: dict[str, Readings]) -> None:
         """Stream a batch of readings (by vilma sensor name): one JSON line per reading on its component's
         datastream. Thread-safe, never blocks; ignored before start and after stop."""
+        self._enqueue(self.core.readings, readings)
+
+    def publish_captures(self, captures: Mapping[str, Message] | Iterable[tuple[str, Message]]) -> None:
+        """Stream the world sensors' messages (topic name -> message, e.g. ``{"laser": PointCloud}``, or the
+        (topic, message) pairs of ``Simulator.take_captures`` in time order): a JSON line each on the
+        component's datastream (``laser``); topics without a component (cameras) are ignored, a malformed scan
+        is dropped with a warning. Thread-safe, never blocks; ignored before start and after stop."""
+        self._enqueue(self.core.captures, captures if isinstance(captures, Mapping) else list(captures))
+
+    def _enqueue(self, lines: Callable[[Any, set[str]], dict[str, bytes]], batch: Any) -> None:
+        """Queue ``batch`` for the server thread, which turns it into lines with ``lines(batch, wanted)``."""
         loop = self._loop
         if loop is None or not self._open:
             return
@@ -381,7 +399,7 @@ class MorseServer:
             if len(self._queue) >= PUBLISH_BACKLOG:
                 self._queue.popleft()
                 self.publish_dropped += 1
-            self._queue.append(readings)
+            self._queue.append((lines, batch))
             if self._scheduled:
                 return
             self._scheduled = True
@@ -396,9 +414,9 @@ class MorseServer:
         if not self._open:
             return
         wanted = {fqn for fqn, conns in self._out.items() if conns}
-        for readings in batches:
+        for lines_of, batch in batches:
             try:
-                lines = self.core.readings(readings, wanted)
+                lines = lines_of(batch, wanted)
             except Exception:
                 log.exception("MORSE: could not stream a batch of readings")
                 continue

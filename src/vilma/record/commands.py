@@ -8,11 +8,16 @@ from pathlib import Path
 
 def report_command(args: argparse.Namespace) -> int:
     """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone."""
-    from vilma.record.report import report
+    from vilma.record.reader import read_recording
+    from vilma.record.report import report, world_counts
 
-    result = report(Path(args.recording), Path(args.out) if args.out else None)
+    rec = read_recording(Path(args.recording))
+    result = report(rec, Path(args.out) if args.out else None)
     for k, v in result.metrics.items():
         print(f"{k:32s} {v}")
+    counts = world_counts(rec)
+    if counts:
+        print("world sensors: " + ", ".join(f"{name} {n}" for name, n in counts.items()))
     print(f"vilma report: metrics.json and plots in {result.out_dir}")
     for line in result.failures:
         print(f"FAIL {line}")

@@ -2,7 +2,9 @@
 
 The channels and their JSON are those of a recording (:mod:`vilma.record.schemas`):
 ``vilma/<car>/pose`` as ``foxglove.PoseInFrame``, ``.../gps`` as ``foxglove.LocationFix``,
-``.../tf`` as ``foxglove.FrameTransform``, the rest as ``vilma.<Type>``. Each
+``.../tf`` as ``foxglove.FrameTransform``, the rest as ``vilma.<Type>``; the world sensors'
+topics it is given as :mod:`vilma.record.world_schemas` lays them out (colour images JPEG,
+depth ``foxglove.RawImage``, the laser ``foxglove.PointCloud``). Each
 message's log time is its sim time, and the server broadcasts the sim time of
 each ``sim/status`` (Foxglove's clock follows the simulation). Open Foxglove,
 "Open connection", ``ws://127.0.0.1:8765``.
@@ -19,6 +21,13 @@ from vilma.core.messages import Message
 from vilma.core.net import is_loopback
 from vilma.record.recorder import LIVE_TOPICS, msgspec_row
 from vilma.record.schemas import TF, encode_struct, numeric_layouts, struct_schema
+from vilma.record.world_schemas import (
+    JPEG_QUALITY,
+    WorldMessageError,
+    check_world_topics,
+    note_dropped,
+    world_layout,
+)
 
 log = logging.getLogger(__name__)
 
@@ -27,12 +36,19 @@ DEFAULT_PORT = 8765
 
 
 class FoxgloveLive:
-    """Serves car ``car``'s topics on ``bus`` to Foxglove at ``host``:``port`` (0: a free port) until :meth:`close`."""
+    """Serves car ``car``'s topics on ``bus`` to Foxglove at ``host``:``port`` (0: a free port) until :meth:`close`,
+    and the world sensors' ``world_topics`` (colour images as JPEG of ``jpeg_quality``, None: raw).
 
-    def __init__(self, bus: Bus, car: str = "vilma", host: str = "127.0.0.1", port: int = DEFAULT_PORT) -> None:
+    Raises:
+        ValueError: a world topic that is not a camera or laser topic, or a bad JPEG quality.
+    """
+
+    def __init__(self, bus: Bus, car: str = "vilma", host: str = "127.0.0.1", port: int = DEFAULT_PORT,
+                 world_topics: tuple[str, ...] = (), jpeg_quality: int | None = JPEG_QUALITY) -> None:
         import foxglove
         from foxglove.websocket import Capability
 
+        self._world = {name: world_layout(name, jpeg_quality) for name in check_world_topics(world_topics)}
         if not is_loopback(host):
             log.warning("Foxglove server on %s, beyond this machine: anyone who reaches it sees the car", host)
         self._fox = foxglove
@@ -42,9 +58,11 @@ class FoxgloveLive:
                                             capabilities=[Capability.Time])
         self._layouts = numeric_layouts(car)
         self._channels: dict[str, object] = {}
-        for name in (*LIVE_TOPICS, TF):  # advertised from the start, so a client sees every channel at once
+        self.dropped: dict[str, int] = {}
+        """Malformed world-sensor messages dropped, by topic."""
+        for name in (*LIVE_TOPICS, TF, *self._world):  # advertised from the start: a client sees every channel at once
             self._channel(name)
-        self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in LIVE_TOPICS]
+        self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in (*LIVE_TOPICS, *self._world)]
 
     @property
     def port(self) -> int:
@@ -54,7 +72,7 @@ class FoxgloveLive:
     def _channel(self, name: str):
         ch = self._channels.get(name)
         if ch is None:
-            lay = self._layouts.get(name)
+            lay = self._layouts.get(name) or self._world.get(name)
             schema_name, schema = ((lay.schema_name, lay.schema) if lay is not None
                                    else (f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name])))
             ch = self._fox.Channel(f"vilma/{self.car}/{name}", message_encoding="json", context=self._context,
@@ -63,6 +81,20 @@ class FoxgloveLive:
         return ch
 
     def _taker(self, name: str) -> Callable[[Message], None]:
+        world = self._world.get(name)
+        if world is not None:
+            def take_world(msg: Message) -> None:
+                ch = self._channel(name)
+                if not ch.has_sinks():  # nobody watches: spare the JPEG
+                    return
+                try:
+                    data = world.encode(msg)
+                except WorldMessageError as e:
+                    note_dropped(self.dropped, "Foxglove", name, e)
+                    return
+                ch.log(data, log_time=msg.stamp_ns)
+            return take_world
+
         def take(msg: Message) -> None:
             if name in SENSOR_TOPICS:
                 values = msgspec_row(msg)

@@ -3,7 +3,9 @@
 :func:`read_recording` reads the file from the start, record by record, so a
 file whose writer was killed (no summary, a torn last record) is read up to
 its last complete chunk; :attr:`Recording.complete` says whether the footer
-was there.
+was there. Camera images and laser scans come back as
+:class:`~vilma.core.messages.Image` and :class:`~vilma.core.messages.PointCloud`
+(a JPEG image as its decoded pixels: see :mod:`vilma.record.world_schemas`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS
 from vilma.core import messages as m
 from vilma.record.mcap_file import MAGIC
 from vilma.record.schemas import DRIVE_LOG, decode_fields
+from vilma.record.world_schemas import WORLD_SCHEMAS, decode_world
 from vilma.scenario.drive_log import COLUMNS
 from vilma.sensors import Readings
 
@@ -52,16 +55,25 @@ class Recording:
         """Topics with at least one message."""
         return [t for t, (st, _) in self.raw.items() if st]
 
+    @property
+    def world_topics(self) -> list[str]:
+        """Topics of camera images and laser scans with at least one message."""
+        return [t for t in self.topics if self.schemas.get(t) in WORLD_SCHEMAS and t not in TOPICS]
+
     def count(self, name: str) -> int:
         """Messages on topic ``name``."""
         return len(self.raw.get(name, ((), ()))[0])
 
+    def payloads(self, name: str) -> list[bytes]:
+        """The JSON payloads of topic ``name``, in stamp order."""
+        st, data = self.raw.get(name, ([], []))
+        order = np.argsort(np.asarray(st, np.int64), kind="stable")
+        return [data[i] for i in order.tolist()]
+
     def objects(self, name: str) -> list[dict]:
         """The JSON objects of topic ``name``, in stamp order."""
-        st, data = self.raw.get(name, ([], []))
-        objs = msgspec.json.decode(b"[" + b",".join(data) + b"]") if data else []
-        order = np.argsort(np.asarray(st, np.int64), kind="stable")
-        return [objs[i] for i in order.tolist()]
+        data = self.payloads(name)
+        return msgspec.json.decode(b"[" + b",".join(data) + b"]") if data else []
 
     def readings(self, name: str) -> Readings:
         """A sensor topic as arrays (stamp order); NaN where a value was null."""
@@ -76,6 +88,8 @@ class Recording:
         """Topic ``name`` as vilma messages, in stamp order."""
         if name in SENSOR_TOPICS:
             return self.readings(name).messages()
+        if name not in TOPICS and self.schemas.get(name) in WORLD_SCHEMAS:
+            return [decode_world(self.schemas[name], p) for p in self.payloads(name)]
         cls = TOPICS[name]
         return [decode_fields(cls, o) for o in self.objects(name)]
 

@@ -3,8 +3,11 @@
 :class:`Recorder` turns vilma messages and reading arrays into channels of an
 :class:`~vilma.record.mcap_file.McapFile` (layouts in :mod:`vilma.record.schemas`).
 A recording that cannot go on (unwritable path, full disk) says so in one line
-through ``on_error`` and then drops what comes: the drive goes on.
-:class:`BusRecorder` subscribes to every topic of a car on a bus.
+through ``on_error`` and then drops what comes: the drive goes on. Camera images and
+laser scans go in as :mod:`vilma.record.world_schemas` lays them out; a malformed one is
+dropped with a one-line warning (the first of each topic).
+:class:`BusRecorder` subscribes to every topic of a car on a bus, and to the world
+sensors' topics it is given.
 """
 
 from __future__ import annotations
@@ -23,6 +26,15 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
 from vilma.record.schemas import DRIVE_LOG, TF, encode_struct, numeric_layouts, struct_schema
+from vilma.record.world_schemas import (
+    JPEG_QUALITY,
+    WorldLayout,
+    WorldMessageError,
+    check_jpeg_quality,
+    check_world_topics,
+    note_dropped,
+    world_layout,
+)
 from vilma.sensors import Readings
 
 log = logging.getLogger(__name__)
@@ -36,13 +48,21 @@ def _stderr(line: str) -> None:
 
 
 class Recorder:
-    """One MCAP recording of car ``car`` (see the module docstring); ``source`` says which program made it."""
+    """One MCAP recording of car ``car`` (see the module docstring); ``source`` says which program made it.
+
+    ``jpeg_quality`` (1..95) is that of colour camera images; None records them raw (exact, but some 30 times
+    larger: :mod:`vilma.record.world_schemas`).
+    """
 
     def __init__(self, path: Path, car: str = "vilma", source: str = "vilma", policy: ChunkPolicy = ChunkPolicy(),
-                 on_error: Callable[[str], None] = _stderr) -> None:
+                 on_error: Callable[[str], None] = _stderr, jpeg_quality: int | None = JPEG_QUALITY) -> None:
         self.path, self.car, self.on_error = Path(path), car, on_error
+        self.jpeg_quality = check_jpeg_quality(jpeg_quality)
         self.error: str | None = None
+        self.dropped: dict[str, int] = {}
+        """Malformed world-sensor messages dropped, by topic."""
         self._layouts = numeric_layouts(car)
+        self._world: dict[str, WorldLayout] = {}
         self._channels: dict[str, int] = {}
         self._lock = threading.Lock()
         self._file: McapFile | None = None
@@ -78,7 +98,7 @@ class Recorder:
         cid = self._channels.get(name)
         if cid is None:
             key = f"vilma/{self.car}/{name}"
-            lay = self._layouts.get(name)
+            lay = self._layouts.get(name) or self._world.get(name)
             if lay is not None:
                 cid = f.add_channel(key, lay.schema_name, lay.schema)
             else:
@@ -111,7 +131,12 @@ class Recorder:
             f.write_records(cid, np.asarray(st, np.int64), blob, starts)
 
     def add_message(self, name: str, msg: Message) -> None:
-        """One message of topic ``name`` (``pose``, ``cmd``, ``driver/status``...), as it went on the bus."""
+        """One message of topic ``name`` (``pose``, ``cmd``, ``driver/status``, ``camera/front``, ``laser``...), as
+        it went on the bus."""
+        if name not in TOPICS:
+            self._add_world(name, msg)
+            return
+
         def put(f: McapFile) -> None:
             if name in SENSOR_TOPICS:
                 values = msgspec_row(msg)
@@ -122,6 +147,20 @@ class Recorder:
             else:
                 f.write(self._channel(f, name), msg.stamp_ns, encode_struct(msg))
         self._guard(put)
+
+    def _add_world(self, name: str, msg: Message) -> None:
+        if self._file is None:
+            return
+        lay = self._world.get(name)
+        if lay is None:
+            check_world_topics((name,))
+            lay = self._world[name] = world_layout(name, self.jpeg_quality)
+        try:
+            data = lay.encode(msg)  # outside the lock: JPEG takes milliseconds
+        except WorldMessageError as e:
+            note_dropped(self.dropped, "recording", name, e)
+            return
+        self._guard(lambda f: f.write(self._channel(f, name), msg.stamp_ns, data))
 
     def tick(self) -> None:
         """Flush the open chunk if it is a second old (call it now and then)."""
@@ -152,11 +191,17 @@ def msgspec_row(msg: Message) -> list[float]:
 
 
 class BusRecorder:
-    """Records every topic of ``car`` on ``bus`` into ``recorder`` until :meth:`close`."""
+    """Records every topic of ``car`` on ``bus`` into ``recorder`` until :meth:`close`, and the world sensors'
+    ``world_topics`` (e.g. ``("camera/front_left", "camera/front_left/depth", "laser")``).
 
-    def __init__(self, bus: Bus, recorder: Recorder, car: str = "vilma") -> None:
+    Raises:
+        ValueError: a world topic that is not a camera or laser topic.
+    """
+
+    def __init__(self, bus: Bus, recorder: Recorder, car: str = "vilma", world_topics: tuple[str, ...] = ()) -> None:
         self.recorder = recorder
-        self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in LIVE_TOPICS]
+        names = (*LIVE_TOPICS, *check_world_topics(world_topics))
+        self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in names]
 
     def _taker(self, name: str) -> Callable[[Message], None]:
         rec = self.recorder

@@ -1,23 +1,30 @@
 """``vilma replay RUN.mcap``: a recording played back onto the bus, as if live, with pause, seek and speed.
 
 :class:`Replayer` publishes every bus topic of the recording (sensors,
-``cmd``, ``driver/status``, ``sim/status``) in stamp order from its own
+``cmd``, ``driver/status``, ``sim/status``, camera images and laser scans) in stamp order from its own
 thread, paced so that ``speed`` seconds of sim time pass per wall second.
 Derived channels (``tf``, ``drive_log``) are not bus topics and are not
-played. The whole recording is held in memory (about 150 bytes a message).
+played. The whole recording is held in memory (about 150 bytes a message;
+camera images and laser scans as recorded, decoded as they are played).
 """
 
 from __future__ import annotations
 
 import bisect
+import functools
+import logging
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import TOPICS, topic
 from vilma.core.messages import Message
 from vilma.record.reader import Recording, read_recording
+from vilma.record.world_schemas import decode_world
+
+log = logging.getLogger(__name__)
 
 PLAYED = tuple(n for n in TOPICS if n not in ("driver/cmd", "sim/cmd"))
 """Topics a replay publishes."""
@@ -33,11 +40,15 @@ class Replayer:
     def __init__(self, recording: Recording | Path, bus: Bus, speed: float = 1.0, car: str | None = None) -> None:
         rec = recording if isinstance(recording, Recording) else read_recording(recording)
         self.bus, self.car = bus, car or rec.car
-        items: list[tuple[int, int, str, Message]] = []
+        items: list[tuple[int, int, str, Message | Callable[[], Message]]] = []
         for order, name in enumerate(PLAYED):
             if rec.count(name):
                 key = topic(name, self.car)
                 items += [(msg.stamp_ns, order, key, msg) for msg in rec.messages(name)]
+        for order, name in enumerate(rec.world_topics, len(PLAYED)):
+            key, stamps, payloads = topic(name, self.car), *rec.raw[name]
+            items += [(t, order, key, functools.partial(decode_world, rec.schemas[name], p))
+                      for t, p in zip(stamps, payloads, strict=True)]
         items.sort(key=lambda it: (it[0], it[1]))
         self._items = [(t, key, msg) for t, _, key, msg in items]
         self._stamps = [t for t, _, _ in self._items]
@@ -146,5 +157,11 @@ class Replayer:
                     self._cv.wait(min(left, 0.1))  # pause, seek or speed may change meanwhile
                     continue
                 self._i += 1
+            if not isinstance(msg, Message):
+                try:
+                    msg = msg()
+                except ValueError as e:
+                    log.warning("replay: %s at %.3f s; skipped", e, t * 1e-9)
+                    continue
             self.bus.publish(key, msg)
             self.published += 1

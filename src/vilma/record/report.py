@@ -7,6 +7,9 @@ recomputed from them with :func:`vilma.scenario.metrics.scorecard` and the
 plots drawn with :func:`vilma.scenario.report.plot_run`, as the run did. A
 live recording (``vilma up --record``) has no ``drive_log``: its rows are
 rebuilt from the pose, velocity, actuator and driver topics at each pose.
+Collisions are counted by the plant, not in any row: they come from the run's
+``scorecard`` metadata, or the last ``sim/status`` of a live recording.
+Camera images and laser scans are not scored; :func:`world_counts` counts them.
 """
 
 from __future__ import annotations
@@ -76,16 +79,31 @@ def rows_from_topics(rec: Recording) -> np.ndarray:
     return out
 
 
-def report(path: Path, out_dir: Path | None = None) -> RunResult:
-    """Score and plot the recording ``path``; files (``metrics.json`` and the PNGs) go to ``out_dir``
-    (default ``<RUN>-report/`` beside it).
+def collisions_of(rec: Recording) -> int | None:
+    """Collisions of the car with the world's obstacles: the run's scorecard's, else the last simulator status's
+    (None if the recording has neither)."""
+    if "collisions" in rec.metadata.get("scorecard", {}):
+        return rec.meta("scorecard")["collisions"]
+    status = rec.messages("sim/status")
+    return status[-1].collisions if status else None
+
+
+def world_counts(rec: Recording) -> dict[str, int]:
+    """Messages of each camera and laser topic (``camera/front_left``: 600, ``laser``: 300...)."""
+    return {name: rec.count(name) for name in rec.world_topics}
+
+
+def report(recording: Path | Recording, out_dir: Path | None = None) -> RunResult:
+    """Score and plot ``recording`` (a path, or one already read); files (``metrics.json`` and the PNGs) go to
+    ``out_dir`` (default ``<RUN>-report/`` beside it).
 
     Raises:
         RecordingError: the file is not a recording, or has neither a drive log nor poses.
     """
     from vilma.scenario.report import plot_run  # matplotlib only here
 
-    rec = read_recording(path)
+    rec = recording if isinstance(recording, Recording) else read_recording(recording)
+    path = rec.path
     scenario = scenario_of(rec)
     rows = rec.drive_log()
     if not len(rows):
@@ -100,6 +118,7 @@ def report(path: Path, out_dir: Path | None = None) -> RunResult:
     wall = run.get("wall_time_s")
     trajectory = path_of(rec, scenario)
     metrics = scorecard(log, scenario, trajectory, t_start, completed, float(wall) if wall else 0.0)
+    metrics["collisions"] = collisions_of(rec)
     failures = check_expectations(metrics, {"completed": True, **scenario.expect})
     result = RunResult(scenario, metrics, failures, log, trajectory, t_start)
     out = Path(out_dir) if out_dir is not None else Path(path).with_name(Path(path).stem + "-report")

@@ -14,7 +14,8 @@ stamped with sim time:
 
 and takes commands on ``/cmd`` (std_msgs/Float64MultiArray ``[steer rad, drive N, brake N]``, optionally
 ``velocity_limit`` [m/s] and ``autonomous`` (0/1) after them; drive and brake are forces at the wheels),
-which it puts on the bus as :class:`~vilma.core.messages.ActuatorCommand`.
+which it puts on the bus as :class:`~vilma.core.messages.ActuatorCommand`. Camera images and laser scans
+are not bridged (the original had no such sensors); ``vilma export rosbag2`` carries them to ROS 2.
 
 ROS 1 comes from Debian (``ros-core python3-rospy python3-geometry-msgs python3-sensor-msgs
 python3-std-msgs``) and its Python packages live in ``/usr/lib/python3/dist-packages``: run the bridge with

@@ -21,6 +21,17 @@ topic           type                             content
 ``/drive_log``  std_msgs/msg/Float64MultiArray   the runner's row (labels: the DriveLog columns)
 =============== ================================ =====================================================
 
+and the world sensors' topics, under ROS ``image_transport`` names:
+
+================================== ============================== ===========================================
+``/camera/<name>/compressed``      sensor_msgs/msg/CompressedImage  a JPEG-recorded colour image, its JPEG as
+                                                                  recorded (format ``jpeg``)
+``/camera/<name>``                 sensor_msgs/msg/Image          a raw-recorded colour image (``rgb8``)
+``/camera/<name>/depth``           sensor_msgs/msg/Image          depth ``32FC1`` [m], little-endian
+``/laser``                         sensor_msgs/msg/PointCloud2    the hits: one row of ``x, y, z`` float32 [m]
+                                                                  (stride 12), frame the laser's
+================================== ============================== ===========================================
+
 Each message's bag timestamp and header stamp are its sim time.
 """
 
@@ -35,7 +46,8 @@ from rosbags.typesys import Stores, get_typestore
 
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
-from vilma.record.reader import read_recording
+from vilma.record.reader import Recording, read_recording
+from vilma.record.world_schemas import COMPRESSED_IMAGE, compressed_image
 from vilma.scenario.drive_log import COLUMNS
 
 STORE = Stores.ROS2_HUMBLE
@@ -125,6 +137,37 @@ def _tf(T: _Types, p: m.Pose, car: str):
     return t["tf2_msgs/msg/TFMessage"](transforms=[ts])
 
 
+def _image(T: _Types, i: m.Image):
+    return T.t["sensor_msgs/msg/Image"](header=T.header(i.stamp_ns, i.frame_id), height=i.height, width=i.width,
+                                        encoding=i.encoding, is_bigendian=0, step=i.step,
+                                        data=np.frombuffer(i.data, np.uint8))
+
+
+def _jpeg(T: _Types, payload: bytes):
+    stamp_ns, frame_id, fmt, data = compressed_image(payload)  # the recorded JPEG as it is: no second compression
+    return stamp_ns, T.t["sensor_msgs/msg/CompressedImage"](header=T.header(stamp_ns, frame_id), format=fmt,
+                                                            data=np.frombuffer(data, np.uint8))
+
+
+def _cloud(T: _Types, c: m.PointCloud):
+    t = T.t
+    field = t["sensor_msgs/msg/PointField"]
+    n = len(c.points) // 12
+    return t["sensor_msgs/msg/PointCloud2"](
+        header=T.header(c.stamp_ns, c.frame_id), height=1, width=n,
+        fields=[field(name=k, offset=4 * j, datatype=field.FLOAT32, count=1) for j, k in enumerate("xyz")],
+        is_bigendian=False, point_step=12, row_step=12 * n, data=np.frombuffer(c.points, np.uint8), is_dense=True)
+
+
+def _world(T: _Types, rec: Recording, name: str):
+    """ROS topic, ROS type and the (stamp, message) pairs of world topic ``name``."""
+    if rec.schemas[name] == COMPRESSED_IMAGE:
+        return f"/{name}/compressed", "sensor_msgs/msg/CompressedImage", (_jpeg(T, p) for p in rec.payloads(name))
+    if name == "laser":
+        return "/laser", "sensor_msgs/msg/PointCloud2", ((c.stamp_ns, _cloud(T, c)) for c in rec.messages(name))
+    return f"/{name}", "sensor_msgs/msg/Image", ((i.stamp_ns, _image(T, i)) for i in rec.messages(name))
+
+
 TOPICS = {  # vilma topic -> (ROS topic, ROS type, converter)
     "pose": ("/pose", "geometry_msgs/msg/PoseStamped", _pose),
     "velocity": ("/velocity", "geometry_msgs/msg/TwistStamped", _velocity),
@@ -168,6 +211,8 @@ def export_rosbag2(recording: Path, out_dir: Path) -> dict[str, int]:
         if rec.count("pose"):
             put("/tf", "tf2_msgs/msg/TFMessage",
                 ((p.stamp_ns, _tf(T, p, rec.car)) for p in rec.messages("pose")))
+        for name in rec.world_topics:
+            put(*_world(T, rec, name))
         rows = rec.drive_log()
         if len(rows):
             labels = ",".join(COLUMNS)

@@ -3,7 +3,8 @@ the scorecard.
 
 The runner hands over each block of readings (the compiled loop's blocks, or
 the Python loop's periods, gathered ``BLOCK`` at a time) and its log grows in
-place; this module encodes both in bulk. ``run`` metadata and the
+place; this module encodes both in bulk. The 3D plant's camera images and laser
+scans are written as they come (:meth:`RunRecorder.add_captures`). ``run`` metadata and the
 ``scenario.yaml``, ``path.csv`` and ``metrics.json`` attachments let
 ``vilma report RUN.mcap`` score the run from the recording alone.
 """
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from vilma.core.messages import Message
 from vilma.record.recorder import Recorder
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import Scenario, to_yaml
@@ -50,6 +52,14 @@ class RunRecorder:
         self._pending.append(readings)
         if len(self.log) - self._written >= self.BLOCK:
             self._flush()
+
+    def add_captures(self, captures: list[tuple[str, Message]]) -> None:
+        """The world sensors' messages of a block or period (``Simulator.take_captures``): camera images and
+        laser scans by topic name."""
+        if not self.recorder.ok:
+            return
+        for name, msg in captures:
+            self.recorder.add_message(name, msg)
 
     def _flush(self) -> None:
         if self._pending:

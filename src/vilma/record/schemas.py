@@ -59,7 +59,8 @@ def _number(name: str) -> dict:
     return {"type": "number", **({"description": f"[{unit}]"} if unit else {})}
 
 
-def _object(title: str, description: str, props: dict, required: list[str]) -> bytes:
+def object_schema(title: str, description: str, props: dict, required: list[str]) -> bytes:
+    """A JSON schema (draft 2020-12) of an object titled ``title`` with ``props``."""
     return json.dumps({"$schema": "https://json-schema.org/draft/2020-12/schema", "title": title,
                        "description": description, "type": "object", "properties": props,
                        "required": required}).encode()
@@ -127,7 +128,7 @@ def _plain_layout(name: str, doc: str, fields: tuple[str, ...]) -> Layout:
 
     def row(t, v):
         return [t // 1_000_000_000, t % 1_000_000_000, t, *v]
-    return Layout(name, _object(name, doc, props, ["stamp_ns", *fields]), template, columns, fields, row)
+    return Layout(name, object_schema(name, doc, props, ["stamp_ns", *fields]), template, columns, fields, row)
 
 
 def _message_layout(cls: type[m.Message]) -> Layout:
@@ -151,7 +152,7 @@ def _pose_layout() -> Layout:
     def row(t, v):
         return [t // 1_000_000_000, t % 1_000_000_000, *v[:3], *_quat(*v[3:6]), t, *v]
     doc = "The car's ground-truth pose in the map (ENU); vilma's fields beside the well-known ones."
-    return Layout("foxglove.PoseInFrame", _object("foxglove.PoseInFrame", doc, props, ["timestamp", "pose"]),
+    return Layout("foxglove.PoseInFrame", object_schema("foxglove.PoseInFrame", doc, props, ["timestamp", "pose"]),
                   template, columns, fields, row)
 
 
@@ -168,7 +169,7 @@ def _tf_layout(car: str) -> Layout:
     def row(t, v):
         return [t // 1_000_000_000, t % 1_000_000_000, *v[:3], *_quat(*v[3:6])]
     doc = f"The frame of car {car} in the map, from its pose."
-    return Layout("foxglove.FrameTransform", _object("foxglove.FrameTransform", doc, props,
+    return Layout("foxglove.FrameTransform", object_schema("foxglove.FrameTransform", doc, props,
                                                      ["timestamp", "parent_frame_id", "child_frame_id"]),
                   template, columns, (), row)
 
@@ -193,7 +194,7 @@ def _gps_layout() -> Layout:
     def row(t, v):
         return [t // 1_000_000_000, t % 1_000_000_000, *v[:3], t, *v[3:6]]
     doc = "GPS fix: WGS84 latitude, longitude [deg], altitude [m]; local ENU x, y, z [m] beside."
-    return Layout("foxglove.LocationFix", _object("foxglove.LocationFix", doc, props,
+    return Layout("foxglove.LocationFix", object_schema("foxglove.LocationFix", doc, props,
                                                   ["latitude", "longitude", "altitude"]), template, columns, fields,
                   row)
 
@@ -218,7 +219,7 @@ def struct_schema(cls: type[m.Message]) -> bytes:
     for f in msgspec.structs.fields(cls)[1:]:
         kind = _JSON_TYPES.get(f.type, "string" if isinstance(f.type, type) and issubclass(f.type, str) else None)
         props[f.name] = {"type": [kind, "null"]} if kind == "number" else ({"type": kind} if kind else {})
-    return _object(f"vilma.{cls.__name__}", (cls.__doc__ or "").split("\n")[0], props, ["stamp_ns"])
+    return object_schema(f"vilma.{cls.__name__}", (cls.__doc__ or "").split("\n")[0], props, ["stamp_ns"])
 
 
 def encode_struct(msg: m.Message) -> bytes:

@@ -110,6 +110,9 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
                  *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
         if on_block is not None:
             on_block(readings)
+        captures = sim.take_captures()  # camera images and laser scans (3D plant): recorded, never kept
+        if captures and rec is not None:
+            rec.add_captures(captures)
 
     try:
         result = _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled)
@@ -119,6 +122,8 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
             if rec is not None:
                 rec.abort()
         raise
+    finally:
+        sim.close()
     if series is not None:
         series.close()
         write_outputs(result, out_dir)

@@ -1,0 +1,116 @@
+"""Recording camera images and laser scans from a bus, read back by vilma and by the mcap library."""
+
+from __future__ import annotations
+
+import json
+import logging
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from tests.record.world_messages import (
+    PERIOD_NS,
+    SQUARE,
+    WORLD_TOPICS,
+    depth_image,
+    red_square,
+    wall_scan,
+    world_at,
+)
+from vilma.bus.local import LocalBus
+from vilma.bus.topics import topic
+from vilma.core.messages import Image, PointCloud
+from vilma.record.reader import read_recording
+from vilma.record.recorder import BusRecorder, Recorder
+from vilma.record.run import RunRecorder
+from vilma.record.world_schemas import COMPRESSED_IMAGE, POINT_CLOUD, RAW_IMAGE
+from vilma.scenario import load_scenario
+from vilma.scenario.batch import BUNDLED
+from vilma.scenario.drive_log import DriveLog
+
+
+def _publish_world(bus: LocalBus, n: int) -> list[tuple[str, object]]:
+    sent = [c for k in range(1, n + 1) for c in world_at(k * PERIOD_NS)]
+    for name, msg in sent:
+        bus.publish(topic(name), msg)
+    return sent
+
+
+def test_a_bus_recording_reads_back_images_and_scans(tmp_path):
+    bus = LocalBus()
+    recording = BusRecorder(bus, Recorder(tmp_path / "w.mcap"), world_topics=WORLD_TOPICS)
+    sent = _publish_world(bus, 5)
+    recording.close()
+
+    back = read_recording(tmp_path / "w.mcap")
+    assert back.complete and sorted(back.world_topics) == sorted(WORLD_TOPICS)
+    assert {n: back.schemas[n] for n in WORLD_TOPICS} == {"camera/front_left": COMPRESSED_IMAGE,
+                                                   "camera/front_left/depth": RAW_IMAGE, "laser": POINT_CLOUD}
+    assert back.messages("laser") == [m for n, m in sent if n == "laser"]
+    assert back.messages("camera/front_left/depth") == [m for n, m in sent if n == "camera/front_left/depth"]
+    colour = back.messages("camera/front_left")
+    assert [c.stamp_ns for c in colour] == [k * PERIOD_NS for k in range(1, 6)]
+    x, y, w, h = SQUARE
+    for c in colour:
+        px = np.frombuffer(c.data, np.uint8).reshape(c.height, c.width, 3).astype(int)
+        assert np.abs(px[y + 8:y + h - 8, x + 8:x + w - 8] - (255, 0, 0)).max() <= 12  # lossy JPEG
+
+    with (tmp_path / "w.mcap").open("rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        by_topic = {c.topic: c for c in summary.channels.values()}
+        for name in WORLD_TOPICS:
+            ch = by_topic[f"vilma/vilma/{name}"]
+            assert ch.message_encoding == "json" and summary.schemas[ch.schema_id].encoding == "jsonschema"
+            assert summary.statistics.channel_message_counts[ch.id] == 5
+        laser = next(json.loads(msg.data) for _, ch, msg in reader.iter_messages(topics=["vilma/vilma/laser"]))
+    assert laser["point_stride"] == 12 and laser["frame_id"] == "laser"
+
+
+def test_raw_colour_images_read_back_exactly(tmp_path):
+    rec = Recorder(tmp_path / "raw.mcap", jpeg_quality=None)
+    img = red_square(pad=3)
+    rec.add_message("camera/rear", img)
+    rec.close()
+    back = read_recording(tmp_path / "raw.mcap")
+    assert back.schemas["camera/rear"] == RAW_IMAGE and back.messages("camera/rear") == [img]
+
+
+def test_malformed_messages_are_dropped_with_one_warning_a_topic(tmp_path, caplog):
+    bus = LocalBus()
+    recording = BusRecorder(bus, Recorder(tmp_path / "bad.mcap"), world_topics=WORLD_TOPICS)
+    good = red_square()
+    torn = Image(1, "front_left", good.width, good.height, "rgb8", good.step, good.data[:-1])
+    scan = wall_scan()
+    with caplog.at_level(logging.DEBUG, logger="vilma.record"):
+        for _ in range(3):
+            bus.publish(topic("camera/front_left"), torn)
+        bus.publish(topic("laser"), PointCloud(1, "laser", scan.points[:-12], scan.ranges))
+        bus.publish(topic("camera/front_left"), good)
+    recording.close()
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert warnings == ["recording camera/front_left: 57599 bytes of data, not height 120 x step 480 = 57600; "
+                        "message dropped", "recording laser: 78 points for 79 finite ranges; message dropped"]
+    assert recording.recorder.dropped == {"camera/front_left": 3, "laser": 1}
+    back = read_recording(tmp_path / "bad.mcap")
+    assert back.count("camera/front_left") == 1 and back.count("laser") == 0
+
+
+def test_bad_world_topics_and_quality_are_refused_at_once(tmp_path):
+    rec = Recorder(tmp_path / "a.mcap")
+    with pytest.raises(ValueError, match="'pose' is not a camera or laser topic"):
+        BusRecorder(LocalBus(), rec, world_topics=("pose",))
+    rec.close()
+    with pytest.raises(ValueError, match="JPEG quality"):
+        Recorder(tmp_path / "b.mcap", jpeg_quality=100)
+
+
+def test_a_run_records_the_captures_it_is_handed(tmp_path):
+    scenario = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml")
+    run = RunRecorder(tmp_path / "run.mcap", scenario, DriveLog(capacity=10))
+    run.add_captures([("laser", wall_scan(PERIOD_NS)), ("camera/front_left/depth", depth_image(PERIOD_NS))])
+    run.abort()
+    back = read_recording(tmp_path / "run.mcap")
+    assert back.messages("laser") == [wall_scan(PERIOD_NS)]
+    assert back.messages("camera/front_left/depth") == [depth_image(PERIOD_NS)]

@@ -1,0 +1,92 @@
+"""Synthetic world-sensor messages with known content: a red square on grey, a depth ramp, a laser facing a wall."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vilma.core.messages import Image, PointCloud
+
+GREY = 64
+"""Background level of :func:`red_square` images."""
+SQUARE = (64, 40, 48, 32)
+"""The red square of :func:`red_square`: first column, first row, width, height [px]."""
+WALL = 5.0
+"""Distance of the wall ahead in :func:`wall_scan` [m]."""
+
+
+def red_square_pixels(width: int = 160, height: int = 120, square: tuple[int, int, int, int] = SQUARE) -> np.ndarray:
+    """(height, width, 3) uint8: grey, with a pure red square at ``square``."""
+    a = np.full((height, width, 3), GREY, np.uint8)
+    x, y, w, h = square
+    a[y:y + h, x:x + w] = (255, 0, 0)
+    return a
+
+
+def red_square(stamp_ns: int = 100_000_000, width: int = 160, height: int = 120, pad: int = 0,
+               square: tuple[int, int, int, int] = SQUARE, frame_id: str = "front_left") -> Image:
+    """An ``rgb8`` image of :func:`red_square_pixels`, each row padded with ``pad`` bytes (step = 3 width + pad)."""
+    rows = red_square_pixels(width, height, square).reshape(height, 3 * width)
+    data = np.hstack([rows, np.full((height, pad), 7, np.uint8)]).tobytes()
+    return Image(stamp_ns, frame_id, width, height, "rgb8", 3 * width + pad, data)
+
+
+def depth_ramp(width: int = 64, height: int = 48) -> np.ndarray:
+    """(height, width) float32 depths [m]: inf in the top quarter (sky), then 2 m + 0.25 m a row down to the rest."""
+    d = np.empty((height, width), "<f4")
+    d[:height // 4] = np.inf
+    d[height // 4:] = (2.0 + 0.25 * np.arange(height - height // 4, dtype=np.float32))[::-1, None]
+    return d
+
+
+def depth_image(stamp_ns: int = 100_000_000, width: int = 64, height: int = 48) -> Image:
+    """A ``32FC1`` image of :func:`depth_ramp`."""
+    return Image(stamp_ns, "front_left", width, height, "32FC1", 4 * width, depth_ramp(width, height).tobytes())
+
+
+def wall_rays(n: int = 181, fov: float = math.pi) -> tuple[np.ndarray, np.ndarray]:
+    """Ray angles [rad] from -fov/2 to +fov/2 (counter-clockwise) and their ranges [m] to a wall :data:`WALL` m
+    ahead, hit by the rays within 40 deg of the axis (the others: inf)."""
+    angles = np.linspace(-fov / 2, fov / 2, n)
+    ranges = np.where(np.abs(angles) < math.radians(40), WALL / np.cos(angles), np.inf).astype("<f4")
+    return angles, ranges
+
+
+def wall_scan(stamp_ns: int = 100_000_000, n: int = 181) -> PointCloud:
+    """A laser scan of :func:`wall_rays`: the hits at ``(WALL, WALL tan(a), 0)``."""
+    angles, ranges = wall_rays(n)
+    hit = np.isfinite(ranges)
+    r = ranges[hit].astype(float)
+    points = np.column_stack([r * np.cos(angles[hit]), r * np.sin(angles[hit]), np.zeros(len(r))]).astype("<f4")
+    return PointCloud(stamp_ns, "laser", points.tobytes(), ranges.tobytes())
+
+
+WORLD_TOPICS = ("camera/front_left", "camera/front_left/depth", "laser")
+PERIOD_NS = 100_000_000
+"""The world sensors' period in :func:`write_world_recording` (10 Hz)."""
+
+
+def world_at(stamp_ns: int) -> list[tuple[str, Image | PointCloud]]:
+    """One capture of each of :data:`WORLD_TOPICS` at ``stamp_ns``."""
+    return [("camera/front_left", red_square(stamp_ns)), ("camera/front_left/depth", depth_image(stamp_ns)),
+            ("laser", wall_scan(stamp_ns))]
+
+
+def write_world_recording(path, n: int = 5, **recorder) -> list[tuple[str, Image | PointCloud]]:
+    """A recording at ``path``: poses at 50 Hz driving along x at 1 m/s for ``n`` world periods, and ``n``
+    captures of each world topic; returns the captures in the order recorded."""
+    from vilma.core.messages import Pose
+    from vilma.record.recorder import Recorder
+    from vilma.sensors import Readings
+
+    stamps = np.arange(1, 5 * n + 1, dtype=np.int64) * (PERIOD_NS // 5)
+    values = np.zeros((len(stamps), 6))
+    values[:, 0] = stamps * 1e-9
+    rec = Recorder(path, **recorder)
+    rec.add_readings({"pose": Readings("pose", Pose, stamps, values)})
+    sent = [c for k in range(1, n + 1) for c in world_at(k * PERIOD_NS)]
+    for name, msg in sent:
+        rec.add_message(name, msg)
+    rec.close()
+    return sent
