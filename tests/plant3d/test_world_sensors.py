@@ -3,6 +3,9 @@ published on the bus beside the other sensors."""
 
 from __future__ import annotations
 
+import json
+import socket
+
 import numpy as np
 import pytest
 
@@ -15,6 +18,9 @@ from vilma.core.messages import ActuatorCommand, Image, PointCloud
 from vilma.plant3d.camera import stereo_pair
 from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import Box, World
+from vilma.record.reader import read_recording
+from vilma.scenario import load_scenario
+from vilma.scenario.runner import run
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import VehicleState
 
@@ -91,3 +97,41 @@ def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path):
     finally:
         watcher.close()
         assert _stop(sim) < 1.5
+
+
+def test_a_run_records_its_camera_images_and_scans(tmp_path):
+    scenario = tmp_path / "rec.yaml"
+    scenario.write_text("plant: mujoco\ncameras: [{name: dash, width: 64, height: 48, rate_hz: 10}]\n"
+                        "laser: {rate_hz: 5}\ntask: {speed: 3}\nduration: 2\n", encoding="utf-8")
+    run(load_scenario(scenario), out_dir=tmp_path / "out")
+    rec = read_recording(tmp_path / "out" / "run.mcap")
+    images = rec.messages("camera/dash")
+    assert len(images) == 20 and {(i.width, i.height) for i in images} == {(64, 48)}  # 2 s at 10 Hz
+    assert [s.stamp_ns for s in rec.messages("laser")] == [k * 200_000_000 for k in range(1, 11)]
+
+
+def test_vilma_sim_streams_the_laser_to_morse_clients(tmp_path):
+    scenario = tmp_path / "laser.yaml"
+    scenario.write_text("plant: mujoco\nlaser: {max_range: 20}\ntask: {speed: 0.0001}\n", encoding="utf-8")
+    port = _free_port()
+    sim = _vilma("sim", str(scenario), "--listen", f"tcp/127.0.0.1:{_free_port()}", "--morse-port", str(port),
+                 "--morse-stream-port", str(_free_port()))
+    try:
+        _wait(lambda: _connects(port), 30, "the MORSE service port")
+        with socket.create_connection(("127.0.0.1", port)) as c:
+            c.sendall(b'1 simulation get_stream_port ["vilma.laser"]\n')
+            stream = int(c.makefile("rb").readline().split()[2])
+        with socket.create_connection(("127.0.0.1", stream)) as s:
+            scan = json.loads(s.makefile("rb").readline())
+        assert len(scan["range_list"]) == len(LaserParams().bearings)
+        assert set(scan["range_list"]) == {20.0}  # nothing around the car: every ray at the laser's range
+    finally:
+        assert _stop(sim) < 1.5
+
+
+def _connects(port: int) -> bool:
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+    except OSError:
+        return False
+    return True
