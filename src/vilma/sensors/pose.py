@@ -11,7 +11,7 @@ from vilma.core.geometry import wrap
 from vilma.core.messages import Pose
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
-from vilma.vehicle.state import HEIGHT, PITCH, ROLL, YAW, X, Y
+from vilma.vehicle.state import HEIGHT, PITCH, YAW, X, Y
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -54,5 +54,5 @@ class PoseSensor:
         p = self.params
         out = _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.position_noise, p.yaw_noise)
         if s.extra is not None:
-            out[:, 2:5] = s.extra[s.rows][:, [HEIGHT, ROLL, PITCH]]
+            out[:, 2:5] = s.extra[s.rows, HEIGHT:PITCH + 1]  # height, roll, pitch: adjacent
         return out
