@@ -57,3 +57,25 @@ def test_orders_and_reset_over_the_bus():
     assert bus.request(topic("sim/cmd"), SimControl(action="reset")).ok
     sim_node.frame(sim.advance(2))  # the reset applies at the end of this frame
     assert sim.state.speed == 0.0 and (sim.state.x, sim.state.y) == (path.xy[0, 0], path.xy[0, 1])
+
+
+def test_tune_swaps_controllers_and_gains_and_refuses_what_does_not_fit():
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    bus, *_, drv, _path = _nodes(scenario)
+    order = topic("driver/cmd")
+    assert bus.request(order, DriverOrder(action="set_speed", speed=4.0)).ok
+    reply = bus.request(order, DriverOrder(action="tune", speed_controller="vilma_pid",
+                                           gains={"vilma_pid": {"kp": 150.0}, "stanley": {"gain": 2.0}}))
+    assert reply.ok, reply.error
+    params = drv.driver.params
+    assert (params.speed_controller, params.vilma_pid.kp, params.stanley.gain) == ("vilma_pid", 150.0, 2.0)
+    assert drv.driver.task.speed == 4.0  # the task goes on with the new controllers
+    for gains, error in (({"nope": {}}, "tune: gains of 'nope': no such controller"),
+                         ({"stanley": {"gian": 1.0}}, "tune: gains of stanley: fields are period, gain,")):
+        reply = bus.request(order, DriverOrder(action="tune", gains=gains))
+        assert not reply.ok and reply.error.startswith(error)
+    assert bus.request(order, DriverOrder(action="tune", path_controller="magic")).error.startswith(
+        "tune: controllers 'vilma_pid' + 'magic': use a speed controller of")
+    assert drv.driver.params == params  # nothing refused was taken
+    reply = bus.request(order, DriverOrder(action="follow", points=[(0.0, 0.0), (20.0, 0.0)], speeds=[2.0]))
+    assert not reply.ok and "speeds must be 2 finite numbers" in reply.error

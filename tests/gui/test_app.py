@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import socket
 import subprocess
 import sys
+import time
 
 import pytest
 
 from tests.gui.conftest import WAIT_MS
+from vilma.bus import Latest, topic
 from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
+from vilma.core.messages import DriverOrder
 from vilma.gui.backend import Remote
 from vilma.gui.main_window import MainWindow
 
@@ -59,7 +63,6 @@ def test_connect_shows_a_lost_simulator_and_reconnects_by_itself(qtbot):
     w.show()
     try:
         qtbot.waitUntil(lambda: w.link.text() == "connected", timeout=WAIT_MS)
-        assert not w.auto_dock.apply_button.parentWidget().isEnabled()  # controllers are fixed over Zenoh
         _stop(sim)
         qtbot.waitUntil(lambda: w.link.text().startswith("DISCONNECTED"), timeout=WAIT_MS)
         sim = _sim(endpoint)
@@ -69,3 +72,37 @@ def test_connect_shows_a_lost_simulator_and_reconnects_by_itself(qtbot):
         w.close()
         _stop(sim)
         backend.close()
+
+
+@pytest.mark.slow
+def test_connected_gains_and_table_speeds_reach_a_driver_in_another_process():
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    sim = _sim(endpoint)
+    drive = subprocess.Popen([sys.executable, "-m", "vilma.cli", "drive", "--connect", endpoint],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    backend = Remote(ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,))), endpoint)
+    try:
+        order = topic("driver/cmd")
+        deadline = time.monotonic() + WAIT_MS / 1000
+        while not backend.bus.request(order, DriverOrder(action="manual"), timeout=0.5).ok:
+            assert time.monotonic() < deadline, "the driver never answered"
+        tuned = dataclasses.replace(backend.driver_params, path_controller="stanley",
+                                    stanley=dataclasses.replace(backend.driver_params.stanley, gain=1.7))
+        backend.set_driver_params(tuned)
+        assert backend.driver_params.stanley.gain == 1.7
+        bad = dataclasses.replace(tuned, pi_ff=dataclasses.replace(tuned.pi_ff, period=0.013), speed_controller="pi_ff")
+        with pytest.raises(ValueError, match="tune: "):
+            backend.set_driver_params(bad)
+        assert backend.driver_params == tuned  # what was refused is not taken
+        reply = backend.bus.request(order, DriverOrder(action="follow", points=[(0.0, 0.0), (30.0, 0.0)],
+                                                       speeds=[3.0, 3.0]))
+        assert reply.ok, reply.error
+        status = Latest(backend.bus, topic("driver/status"))
+        deadline = time.monotonic() + WAIT_MS / 1000
+        while not (status.value is not None and status.value.mode == "follow" and status.value.target_speed == 3.0):
+            assert time.monotonic() < deadline, f"no follow at the table's speed: {status.value}"
+            time.sleep(0.05)
+    finally:
+        backend.close()
+        _stop(drive)
+        _stop(sim)

@@ -14,6 +14,7 @@ on ``cmd`` and its status on ``driver/status``, and takes orders on
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import threading
@@ -25,7 +26,7 @@ import numpy as np
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, topic
-from vilma.control.driver import Driver
+from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, Driver, DriverMode, DriverParams
 from vilma.core.messages import ActuatorCommand, DriverOrder, Message, Reply, SimControl, SimStatus
 from vilma.sensors import Readings
 from vilma.sim import Simulator
@@ -192,11 +193,32 @@ class DriverNode:
                 d.go_to(order.x, order.y, _need(speed, "speed"))
             elif a == "follow":
                 d.follow(_path_of(order), speed)
+            elif a == "tune":
+                self.set_params(_tuned(d.params, order))
             else:
-                return Reply(ok=False, error=f"unknown order {a!r}; use manual, set_speed, hold_speed, go_to, follow")
+                return Reply(ok=False, error=f"unknown order {a!r}; use manual, set_speed, hold_speed, go_to, follow,"
+                                             " tune")
         except (ValueError, TrajectoryFileError) as e:
             return Reply(ok=False, error=f"{a}: {e}")
         return Reply(ok=True)
+
+    def set_params(self, params: DriverParams) -> None:
+        """Swap the driver for one with ``params``; a task under way goes on with the new controllers, and the
+        pose estimate is kept when its source is the same.
+
+        Raises:
+            ValueError: the parameters do not fit (controller periods, values).
+        """
+        old = self.driver
+        new = Driver(old.vehicle, params, step=old.step)
+        task = old.task
+        if task.mode in (DriverMode.FOLLOW, DriverMode.GO_TO_POINT) and task.path is not None:
+            new.follow(task.path, None if task.path.speed is not None else task.speed)
+        elif task.mode in (DriverMode.SET_SPEED, DriverMode.HOLD_SPEED):
+            new.set_speed(task.speed)
+        if params.pose_source == old.params.pose_source:
+            new.estimator = old.estimator
+        self.driver = new
 
     def close(self) -> None:
         for s in self._subs:
@@ -214,4 +236,23 @@ def _path_of(order: DriverOrder) -> Trajectory:
         return load_trajectory(Path(order.file))
     if len(order.points) < 2:
         raise ValueError("give a trajectory file or at least 2 points")
-    return Trajectory.from_points(order.points)
+    return Trajectory.from_points(order.points, order.speeds or None)
+
+
+def _tuned(base: DriverParams, order: DriverOrder) -> DriverParams:
+    """``base`` with the controllers and gains of a ``tune`` order."""
+    speed = order.speed_controller or base.speed_controller
+    path = order.path_controller or base.path_controller
+    if speed not in SPEED_CONTROLLERS or path not in PATH_CONTROLLERS:
+        raise ValueError(f"controllers {speed!r} + {path!r}: use a speed controller of {', '.join(SPEED_CONTROLLERS)}"
+                         f" and a path controller of {', '.join(PATH_CONTROLLERS)}")
+    changes = {}
+    for name, fields in order.gains.items():
+        if name not in (*SPEED_CONTROLLERS, *PATH_CONTROLLERS):
+            raise ValueError(f"gains of {name!r}: no such controller")
+        try:
+            changes[name] = dataclasses.replace(getattr(base, name), **fields)
+        except TypeError:
+            known = [f.name for f in dataclasses.fields(getattr(base, name))]
+            raise ValueError(f"gains of {name}: fields are {', '.join(known)}") from None
+    return dataclasses.replace(base, speed_controller=speed, path_controller=path, **changes)

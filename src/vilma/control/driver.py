@@ -260,7 +260,7 @@ class Driver:
     """
 
     def __init__(self, vehicle: VehicleParams, params: DriverParams | None = None, step: float = 0.01) -> None:
-        self.vehicle = vehicle
+        self.vehicle, self.step = vehicle, step
         self.params = p = params or DriverParams()
         self.speed_ctrl = make_speed_controller(p, vehicle)
         self.path_ctrl = make_path_controller(p, vehicle)

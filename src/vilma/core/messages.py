@@ -192,8 +192,9 @@ class DriverOrder(Message, frozen=True, kw_only=True):
     """An order to the self-driver (the original GUI's Automatic Driving buttons).
 
     ``action``: ``manual``, ``set_speed`` (``speed`` [m/s]), ``hold_speed``, ``go_to`` (``x``, ``y`` [m],
-    ``speed``), ``follow`` (``points`` [[x, y], ...] [m] or a trajectory ``file``; ``speed``, or NaN for
-    the file's own speeds).
+    ``speed``), ``follow`` (``points`` [[x, y], ...] [m] with their ``speeds`` [m/s], or a trajectory
+    ``file``; ``speed``, or NaN for the points' or the file's own speeds), ``tune`` (the driver's
+    ``speed_controller`` and ``path_controller`` by name, and ``gains``: controller name -> {field: value}).
     """
 
     stamp_ns: int = 0
@@ -202,7 +203,11 @@ class DriverOrder(Message, frozen=True, kw_only=True):
     x: float = math.nan
     y: float = math.nan
     points: list[tuple[float, float]] = []
+    speeds: list[float] = []
     file: str = ""
+    speed_controller: str = ""
+    path_controller: str = ""
+    gains: dict[str, dict[str, bool | int | float | str]] = {}
 
 
 class SimControl(Message, frozen=True, kw_only=True):

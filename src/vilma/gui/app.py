@@ -31,7 +31,8 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
         raise ValueError(f"--refresh must be 10..60000 ms, got {refresh}")
     if bus is not None:
         world = scenario.sim.world_topics if scenario is not None else ()
-        backend = Remote(bus, "Zenoh " + ", ".join(getattr(args, "connect", None) or ["peers"]), world_topics=world)
+        backend = Remote(bus, "Zenoh " + ", ".join(getattr(args, "connect", None) or ["peers"]), world_topics=world,
+                         driver_params=scenario.driver if scenario is not None else None)
     else:
         backend = Embedded(scenario, speed=getattr(args, "speed", 1.0))
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY") \

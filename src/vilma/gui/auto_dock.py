@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tempfile
 from pathlib import Path
 
 from PySide6.QtCore import Signal
@@ -70,7 +69,6 @@ class AutoDock(QDockWidget):
         super().__init__("Automatic Driving", parent)
         self.setObjectName("automatic_driving")
         self.bridge, self.backend, self.table = bridge, backend, table
-        self._tmp = tempfile.TemporaryDirectory(prefix="vilma-gui-")
         body = QWidget(self)
         lay = QVBoxLayout(body)
 
@@ -154,9 +152,6 @@ class AutoDock(QDockWidget):
             lambda name: self.speed_gains.set_params(getattr(self.backend.driver_params, name)))
         self.path_ctrl.currentTextChanged.connect(
             lambda name: self.path_gains.set_params(getattr(self.backend.driver_params, name)))
-        if not backend.embedded:
-            ctrl.setEnabled(False)
-            ctrl.setToolTip("over Zenoh the driver's controllers are fixed: start `vilma drive SCENARIO` with them")
         lay.addWidget(ctrl)
         lay.addStretch(1)
         scroll = QScrollArea(self)
@@ -250,9 +245,7 @@ class AutoDock(QDockWidget):
             return DriverOrder(action="follow", points=[tuple(p) for p in path.xy.tolist()], speed=speed)
         if path.speed is None:
             raise FieldError("From Table: give a path speed, or a speed in every row of the table")
-        file = Path(self._tmp.name) / "table.csv"  # points with their speeds travel as a file
-        save_trajectory(file, path)
-        return DriverOrder(action="follow", file=str(file))
+        return DriverOrder(action="follow", points=[tuple(p) for p in path.xy.tolist()], speeds=path.speed.tolist())
 
     def stop_car(self) -> None:
         """Take the car from the driver and brake it to a stop (STOP_DECEL)."""
@@ -374,7 +367,7 @@ class AutoDock(QDockWidget):
             raise FieldError(str(e)) from None
 
     def apply_controllers(self) -> bool:
-        """Swap the driver's controllers and gains live (embedded simulator only)."""
+        """Swap the driver's controllers and gains live (over the bus, a ``tune`` order)."""
         try:
             params = self.controller_params()
         except FieldError as e:
@@ -383,8 +376,4 @@ class AutoDock(QDockWidget):
         self.bridge.call(lambda: self.backend.set_driver_params(params),
                          f"controllers {params.speed_controller} + {params.path_controller}")
         return True
-
-    def close(self) -> bool:
-        self._tmp.cleanup()
-        return super().close()
 

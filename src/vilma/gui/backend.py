@@ -11,6 +11,7 @@ that).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import threading
@@ -18,7 +19,9 @@ import threading
 from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
-from vilma.control.driver import Driver, DriverMode, DriverParams
+from vilma.bus.topics import topic
+from vilma.control.driver import Driver, DriverParams
+from vilma.core.messages import DriverOrder
 from vilma.programs import run_paced
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import initial_state
@@ -93,16 +96,7 @@ class Embedded:
         Raises:
             ValueError: the parameters do not fit the simulator (periods, values).
         """
-        new = Driver(self.vehicle, params, step=self.sim.config.step)
-        old = self.driver_node.driver
-        task = old.task
-        if task.mode in (DriverMode.FOLLOW, DriverMode.GO_TO_POINT) and task.path is not None:
-            new.follow(task.path, None if task.path.speed is not None else task.speed)
-        elif task.mode in (DriverMode.SET_SPEED, DriverMode.HOLD_SPEED):
-            new.set_speed(task.speed)
-        if params.pose_source == old.params.pose_source:
-            new.estimator = old.estimator  # keeps what it knows of the pose
-        self.driver_node.driver = new
+        self.driver_node.set_params(params)
         self.driver_params = params
 
     def stop(self) -> None:
@@ -131,11 +125,13 @@ class Remote:
 
     embedded = False
 
-    def __init__(self, bus: Bus, where: str = "Zenoh", car: str = "vilma", world_topics: tuple[str, ...] = ()) -> None:
+    def __init__(self, bus: Bus, where: str = "Zenoh", car: str = "vilma", world_topics: tuple[str, ...] = (),
+                 driver_params: DriverParams | None = None) -> None:
         self.bus, self.where, self.car = bus, where, car
         self.world_topics = tuple(world_topics)
         self.vehicle = vilma()
-        self.driver_params = DriverParams()
+        self.driver_params = driver_params or DriverParams()
+        """What the remote driver runs, as far as this GUI knows (its scenario's, then what was set)."""
         self.scenario: Scenario | None = None
 
     def describe(self) -> str:
@@ -146,9 +142,18 @@ class Remote:
         """Nothing to start: the simulator runs elsewhere."""
 
     def set_driver_params(self, params: DriverParams) -> None:
-        """Not possible over the bus (it has no order for controller parameters)."""
-        raise ValueError("controllers and gains can be changed only in the embedded simulator; start "
-                         "`vilma drive SCENARIO` with them instead")
+        """Send the driver a ``tune`` order with the controllers and gains of ``params``.
+
+        Raises:
+            ValueError: the driver refused them, or did not answer.
+        """
+        names = (params.speed_controller, params.path_controller)
+        reply = self.bus.request(topic("driver/cmd", self.car), DriverOrder(
+            action="tune", speed_controller=names[0], path_controller=names[1],
+            gains={name: dataclasses.asdict(getattr(params, name)) for name in names}))
+        if not reply.ok:
+            raise ValueError(reply.error)
+        self.driver_params = params
 
     def close(self) -> None:
         """Close the bus."""
