@@ -130,3 +130,38 @@ def test_the_main_window_has_the_dock_only_with_cameras(qtbot, embedded, tmp_pat
     assert _rgb(w.camera_dock.view.image, x + ww // 2, y + h // 2) == (255, 0, 0)
     assert w.camera_dock.toggleViewAction() in w.menuBar().actions()[2].menu().actions()
     w.close()
+
+
+def test_the_main_window_shows_what_the_3d_car_s_camera_sees(qtbot, tmp_path):
+    from pathlib import Path
+
+    from tests.gui.conftest import SPEED, shown_window
+    from vilma.gui.backend import Embedded
+    from vilma.scenario.fields import load_yaml
+    from vilma.scenario.spec import parse_scenario
+
+    data, src = load_yaml("plant: mujoco\ncameras: {stereo: {width: 320, height: 240, rate_hz: 10}}\n"
+                          "world:\n  boxes: [{pos: [15, 0, 1], size: [0.5, 1.5, 1], rgba: [1, 0, 0, 1]}]\n"
+                          "  cones: [{pos: [8, 2.5]}, {pos: [8, -2.5]}, {pos: [12, 2.5]}, {pos: [12, -2.5]}]\n"
+                          "task: {speed: 0.0001}\n", "camera.yaml")
+    backend = Embedded(parse_scenario(data, src), speed=SPEED)
+    try:
+        w = shown_window(qtbot, backend, tmp_path)
+        d = w.camera_dock
+        assert d.isVisible() and d.combo.currentText() == "camera/front_left"
+        qtbot.waitUntil(lambda: d.view.image is not None, timeout=10_000)
+        img = d.view.image
+        assert (img.width(), img.height()) == (320, 240)
+        # the red box stands straight ahead: in the centre column, from its top to its foot as the pinhole puts them
+        red = [y for y in range(240) if _rgb(img, 160, y)[0] > 2 * _rgb(img, 160, y)[1] + 20]
+        cam = backend.scenario.sim.cameras[0]
+        height = backend.vehicle.suspension.cg_height + cam.position[2]
+        ahead = 15.0 - 0.5 - cam.position[0]
+        assert min(red) == pytest.approx(120 - cam.focal_px * (2.0 - height) / ahead, abs=2)
+        assert max(red) == pytest.approx(120 + cam.focal_px * height / ahead, abs=2)
+        docs = Path(__file__).resolve().parents[2] / "docs"
+        d.resize(520, 420)
+        assert d.grab().save(str(docs / "gui-camera.png"))
+        w.close()
+    finally:
+        backend.close()

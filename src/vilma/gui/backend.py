@@ -116,6 +116,7 @@ class Embedded:
         self.stop()
         self.driver_node.close()
         self.sim_node.close()
+        self.sim.close()
         self.bus.close()
 
 
