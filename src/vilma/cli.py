@@ -6,6 +6,8 @@ import argparse
 import logging
 import sys
 
+from vilma.options import check_factor, scenario_or_default, zenoh_bus
+
 
 def _demo(args: argparse.Namespace) -> int:
     from pathlib import Path
@@ -13,7 +15,7 @@ def _demo(args: argparse.Namespace) -> int:
     from vilma import demo
     from vilma.scenario import batch
 
-    _check_factor(args.realtime, "--realtime")
+    check_factor(args.realtime, "--realtime")
     console = _console()
     jobs = batch.plan(demo.scenario_names(), [])
     root = demo.out_root(Path(args.out) if args.out else None)
@@ -29,11 +31,6 @@ def _console():
     return Console(width=None if sys.stdout.isatty() else 160)
 
 
-def _check_factor(value: float | None, option: str) -> None:
-    if value is not None and not 0 < value < float("inf"):
-        raise ValueError(f"{option} must be a positive factor, got {value:g}")
-
-
 def _report_failures(results, console) -> int:
     failed = [r for r in results if not r.passed]
     for r in failed:
@@ -47,7 +44,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from vilma.scenario import batch
 
-    _check_factor(args.realtime, "--realtime")
+    check_factor(args.realtime, "--realtime")
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
     console = _console()
     live = None
@@ -112,47 +109,16 @@ def _trajectory(args: argparse.Namespace) -> int:
     return 0
 
 
-def _scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", plant: str | None = None):
-    """The scenario named (file or bundled), else the defaults with an idle task; ``plant`` overrides its plant."""
-    from vilma.scenario import batch
-    from vilma.scenario.fields import load_yaml
-    from vilma.scenario.spec import load_scenario, parse_scenario
-
-    overrides = {"plant": plant} if plant else None
-    if name:
-        return load_scenario(batch.find_scenario(name), overrides)
-    data, src = load_yaml(task, "defaults")
-    return parse_scenario(data, src, name="defaults", overrides=overrides)
-
-
-def _zenoh(args: argparse.Namespace, listen_default: tuple[str, ...], connect_default: tuple[str, ...]):
-    import dataclasses
-    from pathlib import Path
-
-    from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
-    from vilma.scenario.fields import build, read_yaml
-
-    cfg = ZenohConfig(listen=listen_default, connect=connect_default)
-    if args.zenoh_config:  # a YAML file with listen, connect, multicast_scouting
-        data, src = read_yaml(Path(args.zenoh_config))
-        cfg = build(ZenohConfig, data, src, base=cfg)
-    if args.listen is not None:
-        cfg = dataclasses.replace(cfg, listen=tuple(args.listen))
-    if args.connect is not None:
-        cfg = dataclasses.replace(cfg, connect=tuple(args.connect))
-    return ZenohBus(cfg), cfg
-
-
 def _sim(args: argparse.Namespace) -> int:
     from vilma import programs
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 
-    _check_factor(args.speed, "--speed")
-    scenario = _scenario_or_default(args.scenario, plant=args.plant)
+    check_factor(args.speed, "--speed")
+    scenario = scenario_or_default(args.scenario, plant=args.plant)
     morse = None if args.no_morse else programs.MorseOptions(
         args.morse_host, args.morse_port, args.morse_stream_port,
         tuple(args.allow_commands_from) if args.allow_commands_from else None)
-    bus, cfg = _zenoh(args, (DEFAULT_ENDPOINT,), ())
+    bus, cfg = zenoh_bus(args, (DEFAULT_ENDPOINT,), ())
     print(f"vilma sim: {scenario.name}, {args.speed:g}x real time; Zenoh listens on {', '.join(cfg.listen) or '-'}"
           f", connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*", flush=True)
     try:
@@ -166,8 +132,8 @@ def _drive(args: argparse.Namespace) -> int:
     from vilma import programs
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT, LOOPBACK_ANY_PORT
 
-    scenario = _scenario_or_default(args.scenario) if args.scenario else None
-    bus, cfg = _zenoh(args, (LOOPBACK_ANY_PORT,), (DEFAULT_ENDPOINT,))
+    scenario = scenario_or_default(args.scenario) if args.scenario else None
+    bus, cfg = zenoh_bus(args, (LOOPBACK_ANY_PORT,), (DEFAULT_ENDPOINT,))
     print(f"vilma drive: {'task of ' + scenario.name if scenario else 'waiting for orders on vilma/vilma/driver/cmd'}"
           f"; Zenoh connects to {', '.join(cfg.connect) or '-'}", flush=True)
     try:
@@ -179,8 +145,8 @@ def _drive(args: argparse.Namespace) -> int:
 def _up(args: argparse.Namespace) -> int:
     from vilma import programs
 
-    _check_factor(args.speed, "--speed")
-    scenario = _scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
+    check_factor(args.speed, "--speed")
+    scenario = scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
                                                      "[60, 0]], speed: 8.33}", args.plant)
     print(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)",
           flush=True)
@@ -197,13 +163,13 @@ def _record_path(args: argparse.Namespace):
 def _gui(args: argparse.Namespace) -> int:
     from vilma.gui.app import main
 
-    _check_factor(args.speed, "--speed")
+    check_factor(args.speed, "--speed")
     if args.connect:
         from vilma.bus.zenoh_bus import LOOPBACK_ANY_PORT
 
-        scenario = _scenario_or_default(args.scenario, plant=args.plant) if args.scenario else None
-        return main(args, scenario=scenario, bus=_zenoh(args, (LOOPBACK_ANY_PORT,), ())[0])
-    return main(args, scenario=_scenario_or_default(args.scenario, plant=args.plant))
+        scenario = scenario_or_default(args.scenario, plant=args.plant) if args.scenario else None
+        return main(args, scenario=scenario, bus=zenoh_bus(args, (LOOPBACK_ANY_PORT,), ())[0])
+    return main(args, scenario=scenario_or_default(args.scenario, plant=args.plant))
 
 
 def _record_command(name: str):

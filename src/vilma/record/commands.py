@@ -41,11 +41,11 @@ def replay_command(args: argparse.Namespace) -> int:
     import threading
 
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
-    from vilma.cli import _zenoh
+    from vilma.options import zenoh_bus
     from vilma.programs import stop_on_signals
     from vilma.record.replay import Replayer
 
-    bus, cfg = _zenoh(args, (DEFAULT_ENDPOINT,), ())
+    bus, cfg = zenoh_bus(args, (DEFAULT_ENDPOINT,), ())
     try:
         player = Replayer(Path(args.recording), bus, args.speed)
         if args.start:
@@ -94,10 +94,10 @@ def ros1_bridge_command(args: argparse.Namespace) -> int:
     init_node()
     from vilma import programs
     from vilma.bus.local import LocalBus
-    from vilma.cli import _check_factor, _scenario_or_default, _zenoh
+    from vilma.options import check_factor, scenario_or_default, zenoh_bus
 
     if args.connect or args.zenoh_config:
-        bus, cfg = _zenoh(args, (), ())
+        bus, cfg = zenoh_bus(args, (), ())
         bridge = Ros1Bridge(bus, cmd_topic=args.cmd_topic)
         print(f"vilma ros1-bridge: Zenoh {', '.join(cfg.connect)} <-> ROS 1; commands on {args.cmd_topic}", flush=True)
         try:
@@ -108,8 +108,8 @@ def ros1_bridge_command(args: argparse.Namespace) -> int:
             bridge.close()
             bus.close()
         return 0
-    _check_factor(args.speed, "--speed")
-    scenario = _scenario_or_default(args.scenario)
+    check_factor(args.speed, "--speed")
+    scenario = scenario_or_default(args.scenario)
     bus = LocalBus()
     bridge = Ros1Bridge(bus, cmd_topic=args.cmd_topic)
     print(f"vilma ros1-bridge: simulator ({scenario.name}) at {args.speed:g}x real time on ROS 1: /pose /velocity "
