@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from vilma.bus import Latest, LocalBus, topic
 from vilma.bus.nodes import DriverNode, SimNode
@@ -71,7 +75,11 @@ def test_tune_swaps_controllers_and_gains_and_refuses_what_does_not_fit():
     assert (params.speed_controller, params.vilma_pid.kp, params.stanley.gain) == ("vilma_pid", 150.0, 2.0)
     assert drv.driver.task.speed == 4.0  # the task goes on with the new controllers
     for gains, error in (({"nope": {}}, "tune: gains of 'nope': no such controller"),
-                         ({"stanley": {"gian": 1.0}}, "tune: gains of stanley: fields are period, gain,")):
+                         ({"stanley": {"gian": 1.0}}, "tune: gains of stanley: no field 'gian'; fields are period,"),
+                         ({"stanley": {"gain": math.nan}}, "tune: gains of stanley: gain must be a finite number"),
+                         ({"stanley": {"window": 2.5}}, "tune: gains of stanley: window must be a finite integer"),
+                         ({"stanley": {"point": 3.0}}, "tune: gains of stanley: point must be a str, got 3.0"),
+                         ({"vilma_pid": {"integer_target": 1}}, "tune: gains of vilma_pid: integer_target must be")):
         reply = bus.request(order, DriverOrder(action="tune", gains=gains))
         assert not reply.ok and reply.error.startswith(error)
     assert bus.request(order, DriverOrder(action="tune", path_controller="magic")).error.startswith(
@@ -79,3 +87,19 @@ def test_tune_swaps_controllers_and_gains_and_refuses_what_does_not_fit():
     assert drv.driver.params == params  # nothing refused was taken
     reply = bus.request(order, DriverOrder(action="follow", points=[(0.0, 0.0), (20.0, 0.0)], speeds=[2.0]))
     assert not reply.ok and "speeds must be 2 finite numbers" in reply.error
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(gains=st.dictionaries(
+    st.sampled_from(["vilma_pid", "pi_ff", "stanley", "pure_pursuit", "vilma_heading", "x"]),
+    st.dictionaries(st.sampled_from(["kp", "ki", "gain", "window", "point", "period", "integer_target", "zz"]),
+                    st.one_of(st.floats(), st.integers(-5, 5), st.booleans(), st.text(max_size=3)), max_size=3),
+    max_size=3))
+def test_any_tune_order_is_answered_and_a_refused_one_changes_nothing(gains):
+    bus, *_, drv, _path = _nodes(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"))
+    before = drv.driver.params
+    reply = bus.request(topic("driver/cmd"), DriverOrder(action="tune", gains=gains))
+    assert reply.ok or (reply.error.startswith("tune: ") and drv.driver.params == before)
+    for name, fields in gains.items() if reply.ok else ():
+        for field, value in fields.items():
+            assert getattr(getattr(drv.driver.params, name), field) == value

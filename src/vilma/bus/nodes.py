@@ -250,9 +250,24 @@ def _tuned(base: DriverParams, order: DriverOrder) -> DriverParams:
     for name, fields in order.gains.items():
         if name not in (*SPEED_CONTROLLERS, *PATH_CONTROLLERS):
             raise ValueError(f"gains of {name!r}: no such controller")
-        try:
-            changes[name] = dataclasses.replace(getattr(base, name), **fields)
-        except TypeError:
-            known = [f.name for f in dataclasses.fields(getattr(base, name))]
-            raise ValueError(f"gains of {name}: fields are {', '.join(known)}") from None
+        now = getattr(base, name)
+        known = [f.name for f in dataclasses.fields(now)]
+        values = {}
+        for field, value in fields.items():
+            if field not in known:
+                raise ValueError(f"gains of {name}: no field {field!r}; fields are {', '.join(known)}")
+            values[field] = _like(getattr(now, field), value, f"gains of {name}: {field}")
+        changes[name] = dataclasses.replace(now, **values)
     return dataclasses.replace(base, speed_controller=speed, path_controller=path, **changes)
+
+
+def _like(old: object, value: object, what: str) -> object:
+    """``value`` as the type of ``old`` (an int is a float too); a finite number where a number belongs."""
+    if isinstance(old, bool) or not isinstance(old, int | float):
+        if type(value) is not type(old):
+            raise ValueError(f"{what} must be a {type(old).__name__}, got {value!r}")
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or \
+            (isinstance(old, int) and value != int(value)):
+        raise ValueError(f"{what} must be a finite {'integer' if isinstance(old, int) else 'number'}, got {value!r}")
+    return type(old)(value)

@@ -16,6 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from vilma.control.checks import check_params
 from vilma.control.path.base import PathOutput
 from vilma.core.messages import PoseEstimate
 from vilma.trajectory import Trajectory
@@ -37,6 +38,12 @@ class PurePursuitParams:
     """Largest look-ahead [m]."""
     window: int = 40
     """Segments searched on each side of the last projection."""
+
+    def __post_init__(self) -> None:
+        check_params(self, "pure_pursuit", positive=("lookahead_min", "lookahead_max"))
+        if self.lookahead_max < self.lookahead_min:
+            raise ValueError(f"pure_pursuit lookahead_max {self.lookahead_max!r} must be >= lookahead_min "
+                             f"{self.lookahead_min!r}")
 
 
 class PurePursuitConsts(NamedTuple):

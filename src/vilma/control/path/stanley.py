@@ -20,6 +20,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from vilma.control.checks import check_params
 from vilma.control.path.base import PathOutput
 from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
@@ -48,6 +49,7 @@ class StanleyParams:
     """Segments searched on each side of the last projection."""
 
     def __post_init__(self) -> None:
+        check_params(self, "stanley", positive=("softening",))
         if self.point not in ("cg", "front_axle"):
             raise ValueError(f"stanley point must be 'cg' or 'front_axle', got {self.point!r}")
 

@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from vilma.control.checks import check_params
 from vilma.control.path.base import PathOutput
 from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
@@ -41,6 +42,9 @@ class VilmaHeadingParams:
     """Heading error [rad] above which the waypoint is behind: go to the next."""
     original_quirks: bool = False
     """Compute as the shipped binary (see module docstring)."""
+
+    def __post_init__(self) -> None:
+        check_params(self, "vilma_heading", positive=("max_steer", "behind"))
 
 
 @njit(cache=True)

@@ -22,6 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from vilma.control.checks import check_params
 from vilma.control.speed.base import LongitudinalOutput
 from vilma.core.messages import Longitudinal
 from vilma.vehicle.params import GRAVITY, VehicleParams
@@ -43,6 +44,9 @@ class PiFfParams:
     """Largest deceleration [m/s^2]."""
     max_jerk: float = 2.0
     """Largest rate of change of the reference acceleration [m/s^3]."""
+
+    def __post_init__(self) -> None:
+        check_params(self, "pi_ff", positive=("max_accel", "max_decel", "max_jerk"))
 
 
 class PiFfConsts(NamedTuple):

@@ -30,6 +30,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from vilma.control.checks import check_params
 from vilma.control.speed.base import LongitudinalOutput
 from vilma.core.messages import Longitudinal
 
@@ -63,6 +64,9 @@ class VilmaPidParams:
     """Truncate the target speed to an integer, as the original ``maintainSpeed(int)``."""
     mirror_negative: bool = False
     """Mirror a negative power to positive (original) instead of clamping it at zero."""
+
+    def __post_init__(self) -> None:
+        check_params(self, "vilma_pid")
 
     @classmethod
     def original(cls) -> VilmaPidParams:
