@@ -3,7 +3,9 @@ the scorecard.
 
 The runner hands over each block of readings (the compiled loop's blocks, or
 the Python loop's periods, gathered ``BLOCK`` at a time) and its log grows in
-place; this module encodes both in bulk. The 3D plant's camera images and laser
+place; a recorder in a process of its own (:mod:`vilma.record.process`)
+encodes both in bulk on another core, and finishes the file even if the run
+is killed. The 3D plant's camera images and laser
 scans are written as they come (:meth:`RunRecorder.add_captures`). ``run`` metadata and the
 ``scenario.yaml``, ``path.csv`` and ``metrics.json`` attachments let
 ``vilma report RUN.mcap`` score the run from the recording alone.
@@ -19,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.core.messages import Message
-from vilma.record.recorder import Recorder
+from vilma.record.process import RecorderProcess
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sensors import Readings
@@ -39,7 +41,7 @@ class RunRecorder:
 
     def __init__(self, path: Path, scenario: Scenario, log: DriveLog) -> None:
         self.log = log
-        self.recorder = Recorder(path, source="vilma run")
+        self.recorder = RecorderProcess(path, source="vilma run")
         self.recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
         self.recorder.add_metadata("scenario", {"name": scenario.name, "description": scenario.description})
         self._written = 0
