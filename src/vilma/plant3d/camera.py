@@ -160,6 +160,9 @@ class CameraSensor:
 
         self.close()
         p, m = self.params, plant.model
+        if not hasattr(mujoco, "GLContext"):  # MuJoCo found no OpenGL for its MUJOCO_GL backend
+            raise RuntimeError(f"camera {self.name!r}: no OpenGL to render with; install EGL and Mesa (Debian: "
+                               "apt install libegl1 libegl-mesa0 libgl1-mesa-dri) or remove the cameras")
         self._gl = mujoco.GLContext(p.width, p.height)
         with self._gl.as_current(), _offscreen(m, p.width, p.height):
             try:
@@ -182,8 +185,8 @@ class CameraSensor:
         self._plant = plant
 
     def capture(self, stamp_ns: int) -> dict[str, Message]:
-        """Render the world from the poses in the plant's data (its last kinematics: after ``mj_step``, those
-        at the start of that step unless the caller ran ``mj_kinematics`` since)."""
+        """Render the world from the poses in the plant's data (their kinematics: :meth:`MujocoPlant.step
+        <vilma.plant3d.plant.MujocoPlant.step>` brings them to the end of each step)."""
         import mujoco
 
         if self._plant is None:

@@ -123,8 +123,8 @@ class LaserSensor:
         self._plant = plant
 
     def capture(self, stamp_ns: int) -> dict[str, Message]:
-        """Cast every ray from the mount's pose in the plant's data (its last kinematics, as
-        :meth:`CameraSensor.capture <vilma.plant3d.camera.CameraSensor.capture>`)."""
+        """Cast every ray from the mount's pose in the plant's data (as
+        :meth:`CameraSensor.capture <vilma.plant3d.camera.CameraSensor.capture>`: at the end of the last step)."""
         import mujoco
 
         if self._plant is None:
