@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.core.messages import Message
-from vilma.record.mcap_file import ChunkPolicy
 from vilma.record.process import RecorderProcess
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import Scenario, to_yaml
@@ -43,7 +42,7 @@ class RunRecorder:
 
     def __init__(self, path: Path, scenario: Scenario, log: DriveLog) -> None:
         self.log = log
-        self.recorder = RecorderProcess(path, source="vilma run", policy=ChunkPolicy(zstd_threads=0))
+        self.recorder = RecorderProcess(path, source="vilma run")
         self.recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
         self.recorder.add_metadata("scenario", {"name": scenario.name, "description": scenario.description})
         self._written = 0
