@@ -26,11 +26,12 @@ CALLS = ("add_readings", "add_log_rows", "add_message", "add_attachment", "add_m
 """The recorder's methods that go to the child."""
 
 
-def _serve(conn: Connection, path: Path, options: dict[str, Any]) -> None:
+def _serve(conn: Connection, parent_end: Connection, path: Path, options: dict[str, Any]) -> None:
     """The child: make the recorder, then do the calls as they come until ``close`` (or until the parent is
     gone: the file is finished either way). Ctrl-C is the parent's to handle; a failing call ends the
     recording, keeping what was written."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent_end.close()  # forked with it: only the parent may hold that end, or the pipe would never end
     recorder = Recorder(path, **options)
     error = None
     while True:
@@ -63,7 +64,7 @@ class RecorderProcess:
     def __init__(self, path: Path, **options: Any) -> None:
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe()
-        self._process = ctx.Process(target=_serve, args=(child, Path(path), options), daemon=True,
+        self._process = ctx.Process(target=_serve, args=(child, self._conn, Path(path), options), daemon=True,
                                     name="vilma-recorder")
         self._process.start()
         child.close()
