@@ -108,9 +108,9 @@ def test_hitting_a_cone_counts_it_by_name():
 def test_a_world_needs_the_3d_plant_and_valid_elements():
     with pytest.raises(ValueError, match="needs the 3D plant"):
         SimConfig(world=World(cones=(Cone(pos=(1.0, 1.0)),)))
-    with pytest.raises(ValueError, match="box size must be > 0"):
+    with pytest.raises(ValueError, match="box size must be a finite number > 0"):
         Box(pos=(0.0, 0.0, 0.0), size=(1.0, -1.0, 1.0))
-    with pytest.raises(ValueError, match="ramp height must be finite"):
+    with pytest.raises(ValueError, match="ramp height must be a finite number"):
         Ramp(start=(0.0, 0.0), height=math.nan)
     with pytest.raises(ValueError, match="below half its length"):
         Bump(pos=(0.0, 0.0), height=0.4, length=0.6)
@@ -149,5 +149,5 @@ def test_a_world_on_the_planar_plant_is_refused_at_its_line(tmp_path):
     with pytest.raises(SpecError, match=r"flat.yaml:2: world: .*needs the 3D plant"):
         load_scenario(f)
     f.write_text("plant: mujoco\ntask: {speed: 3}\nworld:\n  cones: [{pos: [12, 0], radius: -1}]\n", encoding="utf-8")
-    with pytest.raises(SpecError, match=r"flat.yaml:4: world.cones\[0\]: cone radius must be > 0"):
+    with pytest.raises(SpecError, match=r"flat.yaml:4: world.cones\[0\]: cone radius must be a finite number > 0"):
         load_scenario(f)

@@ -9,24 +9,14 @@ so a bad scenario entry fails with the field at fault.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
+
+from vilma.core.checks import check_numbers
 
 SLAB = 0.2
 """Thickness of a ramp's slabs [m] (below the driving surface)."""
 CONE_SEGMENTS = 16
 """Sides of the polygon approximating a cone's base."""
-
-
-def _check(obj: object, positive: tuple[str, ...]) -> None:
-    """Every number of ``obj`` finite, those named in ``positive`` > 0."""
-    kind = type(obj).__name__.lower()
-    for f in fields(obj):
-        value = getattr(obj, f.name)
-        for v in value if isinstance(value, tuple) else (value,):
-            if isinstance(v, float | int) and not math.isfinite(v):
-                raise ValueError(f"{kind} {f.name} must be finite, got {value!r}")
-        if f.name in positive and not all(v > 0 for v in (value if isinstance(value, tuple) else (value,))):
-            raise ValueError(f"{kind} {f.name} must be > 0{'' if f.name == 'mass' else ' m'}, got {value!r}")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -41,7 +31,7 @@ class Box:
     """Named in collision reports (default ``box<i>``)."""
 
     def __post_init__(self) -> None:
-        _check(self, ("size",))
+        check_numbers(self, "box", ("size",))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -58,7 +48,7 @@ class Cone:
     """Named in collision reports (default ``cone<i>``)."""
 
     def __post_init__(self) -> None:
-        _check(self, ("radius", "height", "mass"))
+        check_numbers(self, "cone", ("radius", "height", "mass"))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -74,7 +64,7 @@ class Ramp:
     width: float = 4.0
 
     def __post_init__(self) -> None:
-        _check(self, ("length", "height", "width"))
+        check_numbers(self, "ramp", ("length", "height", "width"))
         if self.top < 0:
             raise ValueError(f"ramp top must be >= 0 m, got {self.top!r}")
 
@@ -96,7 +86,7 @@ class Bump:
     width: float = 4.0
 
     def __post_init__(self) -> None:
-        _check(self, ("height", "length", "width"))
+        check_numbers(self, "bump", ("height", "length", "width"))
         if self.height >= self.length / 2:
             raise ValueError(f"bump height {self.height!r} m must be below half its length {self.length!r} m")
 

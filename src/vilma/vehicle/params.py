@@ -16,6 +16,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from vilma.core.checks import check_numbers
+
 GRAVITY = 9.81
 """Gravitational acceleration [m/s^2]."""
 
@@ -64,10 +66,8 @@ class SuspensionParams:
     """Moment of inertia about the lateral axis [kg m^2] (0: a box estimate)."""
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            v = getattr(self, f.name)
-            if not math.isfinite(v) or v < 0 or (v == 0 and f.name not in ("roll_inertia", "pitch_inertia")):
-                raise ValueError(f"suspension: {f.name} must be a finite number > 0, got {v!r}")
+        check_numbers(self, "suspension", positive=("cg_height", "stiffness", "damping", "travel", "wheel_mass",
+                                                    "wheel_width"), non_negative=True)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
