@@ -80,11 +80,6 @@ class MujocoPlant:
         self._touched: dict[int, float] = {}
         """Obstacle geom id -> MuJoCo time it was last touched [s]."""
 
-    @property
-    def time(self) -> float:
-        """MuJoCo time since the last reset [s]."""
-        return float(self.data.time)
-
     def set_controls(self, steer: float, drive: float, brake: float) -> None:
         """Hold ``steer`` [rad], ``drive`` [N] and ``brake`` [N] from now on."""
         p, d = self.params, self.data
@@ -174,11 +169,6 @@ class MujocoPlant:
         return vx_w, vy_w, r, c * ax_w + s * ay_w + vy * r, -s * ax_w + c * ay_w - vx * r, \
             xm[6] * a0 + xm[7] * a1 + xm[8] * a2
 
-    def body_velocity(self) -> np.ndarray:
-        """Velocity of the centre of mass in the body frame ``(vx, vy, vz)`` [m/s]."""
-        rot = self.data.xmat[self._chassis].reshape(3, 3)
-        return rot.T @ self.data.qvel[0:3]
-
     def planar_state(self) -> tuple[float, float, float, float, float, float]:
         """``(x, y, yaw, vx, vy, yaw_rate)`` as vilma's planar models hold them (yaw from the heading of
         body x in the ground plane, velocities of the centre of mass in the heading frame)."""
@@ -197,10 +187,6 @@ class MujocoPlant:
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
         return float(self.data.qpos[2]), roll, pitch
-
-    def wheel_speeds(self) -> np.ndarray:
-        """Wheel spin rates ``fl, fr, rl, rr`` [rad/s], positive rolling forward."""
-        return self.data.qvel[self._spin_dof].copy()
 
     def suspension(self) -> np.ndarray:
         """Suspension positions ``fl, fr, rl, rr`` [m] from the static rest position, positive in compression
