@@ -11,6 +11,7 @@ import time
 import pytest
 from websockets.sync.client import connect
 
+from tests.record.ros2 import ros2_decoder
 from tests.record.world_messages import PERIOD_NS, WORLD_TOPICS, depth_image, red_square, wall_scan, world_at
 from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
@@ -42,23 +43,29 @@ def _json_until(ws, op: str) -> dict:
 
 def test_a_foxglove_client_gets_channels_messages_and_sim_time(live):
     bus, server = live
+    keys = {"pose": "vilma/vilma/pose", "tf": "vilma/vilma/tf", "fix": "vilma/vilma/gps/fix"}
     with connect(f"ws://127.0.0.1:{server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
         info = _json_until(ws, "serverInfo")
         assert "time" in info["capabilities"]
         channels = {}
-        while not {"vilma/vilma/pose", "vilma/vilma/gps", "vilma/vilma/tf"} <= set(channels):
+        while not set(keys.values()) <= set(channels):
             channels.update({c["topic"]: c for c in _json_until(ws, "advertise")["channels"]})
-        assert channels["vilma/vilma/pose"]["schemaName"] == "foxglove.PoseInFrame"
-        assert channels["vilma/vilma/gps"]["schemaName"] == "foxglove.LocationFix"
-        assert channels["vilma/vilma/tf"]["schemaName"] == "foxglove.FrameTransform"
-        assert channels["vilma/vilma/pose"]["encoding"] == "json"
+        assert [(channels[k]["schemaName"], channels[k]["schemaEncoding"], channels[k]["encoding"])
+                for k in keys.values()] == [("vilma_msgs/msg/Pose", "ros2msg", "cdr"),
+                                            ("foxglove_msgs/msg/FrameTransform", "ros2msg", "cdr"),
+                                            ("foxglove_msgs/msg/LocationFix", "ros2msg", "cdr")]
+        assert channels["vilma/vilma/driver/status"]["encoding"] == "json"
+        decoders = {}
+        for sub, name in enumerate(("pose", "tf"), 7):
+            ch = channels[keys[name]]
+            decoders[sub] = ros2_decoder(ch["schemaName"], ch["schema"])
         ws.send(json.dumps({"op": "subscribe", "subscriptions": [
-            {"id": 7, "channelId": channels["vilma/vilma/pose"]["id"]}]}))
+            {"id": sub, "channelId": channels[keys[name]]["id"]} for sub, name in enumerate(("pose", "tf"), 7)]}))
 
         deadline = time.monotonic() + 10
-        got = None
+        got: dict[int, tuple[int, object]] = {}
         k = 0
-        while got is None and time.monotonic() < deadline:  # the subscription takes effect asynchronously
+        while len(got) < 2 and time.monotonic() < deadline:  # the subscription takes effect asynchronously
             k += 1
             pose = m.Pose(k * 20_000_000, 10.0 + k, -5.0, 0.0, 0.0, 0.0, 0.5)
             bus.publish(topic("pose"), pose)
@@ -67,18 +74,20 @@ def test_a_foxglove_client_gets_channels_messages_and_sim_time(live):
                 while True:
                     frame = ws.recv(timeout=0.05)
                     if isinstance(frame, bytes) and frame[0] == 0x01:
-                        got = frame
-                        break
+                        sub_id, log_time = struct.unpack_from("<IQ", frame, 1)
+                        got.setdefault(sub_id, (log_time, decoders[sub_id](frame[13:])))
             except TimeoutError:
                 pass
-        assert got is not None, "no message came"
-        sub_id, log_time = struct.unpack_from("<IQ", got, 1)
-        body = json.loads(got[13:])
-        assert sub_id == 7
-        assert log_time == body["stamp_ns"] and log_time % 20_000_000 == 0
-        k = log_time // 20_000_000
-        assert body["x"] == 10.0 + k and body["pose"]["position"]["x"] == 10.0 + k
-        assert body["pose"]["orientation"]["z"] == pytest.approx(float(quaternion_from_euler(0.0, 0.0, 0.5)[2]))
+        assert set(got) == {7, 8}, "no message came"
+        for log_time, msg in got.values():
+            stamp = getattr(msg, "stamp", None) or msg.timestamp
+            assert log_time == stamp.sec * 10**9 + stamp.nanosec and log_time % 20_000_000 == 0
+        log_time, pose = got[7]
+        assert (pose.x, pose.y, pose.yaw) == (10.0 + log_time // 20_000_000, -5.0, 0.5)
+        log_time, tf = got[8]
+        assert (tf.parent_frame_id, tf.child_frame_id, tf.translation.x) == ("map", "vilma",
+                                                                           10.0 + log_time // 20_000_000)
+        assert tf.rotation.z == pytest.approx(float(quaternion_from_euler(0.0, 0.0, 0.5)[2]))
         bus.publish(topic("sim/status"), m.SimStatus(stamp_ns=123_000_000_000))
         while True:  # the server's clock follows sim time
             frame = ws.recv(timeout=10)

@@ -1,4 +1,4 @@
-"""The MCAP file: values read back exactly, Foxglove schemas, chunks flushed by age, errors as one line."""
+"""The MCAP file: values read back exactly, ROS 2 and Foxglove types, chunks flushed by age, errors as one line."""
 
 from __future__ import annotations
 
@@ -6,14 +6,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
+from tests.record.ros2 import ros2_decoder
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
 from vilma.record import mcap_file
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
-from vilma.record.reader import read_recording
+from vilma.record.reader import RecordingError, read_recording
 from vilma.record.recorder import Recorder
+from vilma.record.schemas import numeric_layouts
 from vilma.sensors import Readings
 
 
@@ -23,10 +28,19 @@ def _pose_readings(n: int = 200, seed: int = 1) -> Readings:
     return Readings("pose", m.Pose, np.arange(1, n + 1, dtype=np.int64) * 20_000_000, values)
 
 
-def test_readings_read_back_exactly_with_foxglove_fields(tmp_path):
+def _decoded(path: Path, topic: str) -> list:
+    """The messages of ``topic`` as the ``mcap_ros2`` package (Foxglove's ROS 2 decoder) reads them from the
+    file's own schemas."""
+    with path.open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        return [msg for _, _, _, msg in reader.iter_decoded_messages(topics=[f"vilma/vilma/{topic}"])]
+
+
+def test_readings_read_back_exactly_and_decode_as_ros2_messages(tmp_path):
     pose = _pose_readings()
+    pose.values[3, 2], pose.values[4, 0] = np.nan, -np.inf
     gps = Readings("gps", m.GpsFix, pose.stamp_ns[::5], np.column_stack([
-        -22.8 + pose.values[::5, :1] * 1e-6, -47.0 + pose.values[::5, 1:2] * 1e-6, 600 + pose.values[::5, 2:3],
+        -22.8 + pose.values[::5, 1:2] * 1e-6, -47.0 + pose.values[::5, 1:2] * 1e-6, 600 + pose.values[::5, 2:3],
         pose.values[::5, :3]]))
     rec = Recorder(tmp_path / "a.mcap")
     rec.add_readings({"pose": pose, "gps": gps})
@@ -36,19 +50,26 @@ def test_readings_read_back_exactly_with_foxglove_fields(tmp_path):
     assert back.complete
     for r in (pose, gps):
         got = back.readings(r.name)
-        assert np.array_equal(got.stamp_ns, r.stamp_ns) and np.array_equal(got.values, r.values)
-    assert back.schemas["pose"] == "foxglove.PoseInFrame"
-    assert back.schemas["gps"] == "foxglove.LocationFix"
-    assert back.schemas["tf"] == "foxglove.FrameTransform"
+        assert np.array_equal(got.stamp_ns, r.stamp_ns) and np.array_equal(got.values, r.values, equal_nan=True)
+    assert {t: (back.schemas[t], back.encodings[t]) for t in back.topics} == {
+        "pose": ("vilma_msgs/msg/Pose", "cdr"), "gps": ("vilma_msgs/msg/GpsFix", "cdr"),
+        "tf": ("foxglove_msgs/msg/FrameTransform", "cdr"), "gps/fix": ("foxglove_msgs/msg/LocationFix", "cdr")}
+
+    ros = _decoded(tmp_path / "a.mcap", "pose")
+    assert [p.stamp.sec * 10**9 + p.stamp.nanosec for p in ros] == pose.stamp_ns.tolist()
+    assert np.array_equal([[p.x, p.y, p.z, p.roll, p.pitch, p.yaw] for p in ros], pose.values, equal_nan=True)
+    tf = _decoded(tmp_path / "a.mcap", "tf")
+    assert {(t.parent_frame_id, t.child_frame_id) for t in tf} == {("map", "vilma")}
+    assert np.array_equal([[t.translation.x, t.translation.y, t.translation.z] for t in tf], pose.values[:, :3],
+                          equal_nan=True)
     q = np.column_stack(quaternion_from_euler(*pose.values[:, 3:6].T))
-    fox = back.objects("pose")
-    assert [o["pose"]["position"]["x"] for o in fox] == pose.values[:, 0].tolist()
-    assert np.array_equal([[o["pose"]["orientation"][k] for k in "xyzw"] for o in fox], q)
-    assert [o["timestamp"]["sec"] * 10**9 + o["timestamp"]["nsec"] for o in fox] == pose.stamp_ns.tolist()
-    tf = back.objects("tf")
-    assert {(o["parent_frame_id"], o["child_frame_id"]) for o in tf} == {("map", "vilma")}
-    assert [o["translation"]["y"] for o in tf] == pose.values[:, 1].tolist()
-    assert [o["latitude"] for o in back.objects("gps")] == gps.values[:, 0].tolist()
+    assert np.array_equal([[t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w] for t in tf], q)
+    assert np.allclose(np.linalg.norm(q, axis=1), 1.0)
+    fix = _decoded(tmp_path / "a.mcap", "gps/fix")
+    assert [(f.frame_id, f.position_covariance_type, list(f.position_covariance)) for f in fix] == [
+        ("gps", 0, [0.0] * 9)] * len(gps)
+    assert [[f.latitude, f.longitude, f.altitude] for f in fix] == gps.values[:, :3].tolist()
+    assert [f.timestamp.sec * 10**9 + f.timestamp.nanosec for f in fix] == gps.stamp_ns.tolist()
 
 
 def test_the_summary_is_what_the_mcap_library_reads(tmp_path):
@@ -155,27 +176,59 @@ def test_open_failure_is_a_record_error(tmp_path):
         McapFile(tmp_path / "no" / "a.mcap")
 
 
-def test_one_message_encodes_as_the_bulk_path_does():
-    import json
-
-    from vilma.record.schemas import numeric_layouts
-
+def test_every_numeric_layout_is_the_ros2_message_its_schema_says():
+    """Each layout's payloads, decoded by ``mcap_ros2`` from the layout's own ``ros2msg`` text, hold the stamp and
+    the values (the derived topics: the source's first values), stamps across second boundaries included."""
     rng = np.random.default_rng(3)
+    stamps = np.array([0, 999_999_999, 1_000_000_000, 3_600_000_000_017], np.int64)
     for name, layout in numeric_layouts("vilma").items():
-        width = len(layout.fields) or 6  # tf: the pose's fields
-        values = rng.normal(size=(4, width))
-        stamps = np.array([0, 999_999_999, 1_000_000_000, 3_600_000_000_017], np.int64)
-        bulk = [json.loads(b) for b in layout.encode(stamps, values)]
-        one = [json.loads(layout.encode_one(int(t), v.tolist())) for t, v in zip(stamps, values, strict=True)]
-        assert _close(bulk, one), name
+        values = rng.normal(size=(4, len(layout.fields) or 6))  # derived: a pose's or a GPS fix's six values
+        decode = ros2_decoder(layout.schema_name, layout.schema)
+        got = [decode(p) for p in layout.encode(stamps, values)]
+        stamp = [getattr(g, "stamp", None) or g.timestamp for g in got]
+        assert [t.sec * 10**9 + t.nanosec for t in stamp] == stamps.tolist(), name
+        if layout.fields:
+            assert [[getattr(g, f) for f in layout.fields] for g in got] == values.tolist(), name
+        elif name == "tf":
+            assert [[g.translation.x, g.translation.y, g.translation.z] for g in got] == values[:, :3].tolist()
+        else:
+            assert [[g.latitude, g.longitude, g.altitude] for g in got] == values[:, :3].tolist()
+        assert layout.encode_one(int(stamps[1]), values[1].tolist()) == layout.encode(stamps, values)[1]
 
 
-def _close(a, b) -> bool:
-    """Equal, numbers within 1e-15 (numpy's and math's cosines may differ in the last bit)."""
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_close(a[k], b[k]) for k in a)
-    if isinstance(a, list):
-        return len(a) == len(b) and all(_close(x, y) for x, y in zip(a, b, strict=True))
-    if isinstance(a, float):
-        return abs(a - b) <= 1e-15
-    return a == b
+def test_a_vilma_0_1_json_recording_still_reads(tmp_path):
+    """Numeric topics were JSON objects with ``stamp_ns`` and the fields before CDR; null is NaN."""
+    f = McapFile(tmp_path / "old.mcap")
+    cid = f.add_channel("vilma/vilma/wheel_speed", "vilma.WheelSpeeds", b"{}")
+    f.write(cid, 20, b'{"timestamp":{"sec":0,"nsec":20},"stamp_ns":20,"fl":1.5,"fr":null,"rl":-2,"rr":1e300}')
+    f.close()
+    got = read_recording(tmp_path / "old.mcap").readings("wheel_speed")
+    assert got.stamp_ns.tolist() == [20] and np.array_equal(got.values, [[1.5, np.nan, -2.0, 1e300]],
+                                                           equal_nan=True)
+
+
+def test_a_numeric_topic_of_another_size_is_one_clear_error(tmp_path):
+    layout = numeric_layouts("vilma")["wheel_speed"]
+    f = McapFile(tmp_path / "bad.mcap")
+    cid = f.add_channel("vilma/vilma/wheel_speed", layout.schema_name, layout.schema, encoding="cdr")
+    f.write(cid, 20, layout.encode_one(20, [1.0, 2.0, 3.0, 4.0])[:-8])
+    f.close()
+    with pytest.raises(RecordingError, match=r"bad.mcap: topic wheel_speed: a vilma_msgs/msg/WheelSpeeds message "
+                                             r"of 36 bytes, not 44"):
+        read_recording(tmp_path / "bad.mcap").readings("wheel_speed")
+
+
+@settings(max_examples=60, deadline=None)
+@given(name=st.sampled_from(["pose", "velocity", "gps", "imu", "wheel_speed", "odometry", "actuators", "drive_log"]),
+       stamps=st.lists(st.integers(0, 2**62), min_size=1, max_size=5),
+       data=st.data())
+def test_numeric_payloads_decode_to_what_was_encoded_bit_for_bit(name, stamps, data):
+    layout = numeric_layouts("vilma")[name]
+    values = np.array([data.draw(st.lists(st.floats(), min_size=len(layout.fields), max_size=len(layout.fields)))
+                       for _ in stamps], np.float64)
+    payloads = layout.encode(np.array(stamps, np.int64), values)
+    got_stamps, got = layout.decode(payloads)
+    assert got_stamps.tolist() == stamps and got.tobytes() == values.tobytes()
+    cut = data.draw(st.integers(0, len(payloads[0]) - 1))
+    with pytest.raises(ValueError, match=f"a {layout.schema_name} message of {cut} bytes"):
+        layout.decode([*payloads[:-1], payloads[-1][:cut]])

@@ -11,6 +11,7 @@ from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
 from vilma.record.reader import read_recording
 from vilma.record.replay import Replayer
+from vilma.record.schemas import DERIVED
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 
@@ -22,6 +23,10 @@ def recording(tmp_path_factory):
     return read_recording(path)
 
 
+NOT_PLAYED = (*DERIVED.values(), "drive_log")
+"""Topics a replay does not publish: made from others, or not a bus topic."""
+
+
 def test_replay_publishes_every_message_as_recorded(recording):
     bus = LocalBus()
     poses = BoundedQueue(bus, topic("pose"), maxsize=100_000)
@@ -31,7 +36,7 @@ def test_replay_publishes_every_message_as_recorded(recording):
     player.close()
     assert poses.drain() == recording.messages("pose")
     assert cmds.drain() == recording.messages("cmd")
-    assert player.published == sum(recording.count(n) for n in recording.topics if n not in ("tf", "drive_log"))
+    assert player.published == sum(recording.count(n) for n in recording.topics if n not in NOT_PLAYED)
 
 
 def test_pause_stops_publishing_and_seek_jumps(recording):
@@ -66,7 +71,7 @@ def test_replay_cli_plays_to_the_end_on_zenoh(recording):
                         "--listen", "tcp/127.0.0.1:0"], stdin=subprocess.DEVNULL, capture_output=True, text=True,
                        timeout=120)
     assert r.returncode == 0, r.stderr
-    played = sum(recording.count(n) for n in recording.topics if n not in ("tf", "drive_log"))
+    played = sum(recording.count(n) for n in recording.topics if n not in NOT_PLAYED)
     assert r.stdout.splitlines()[-1] == f"vilma replay: {played} messages published"
 
 

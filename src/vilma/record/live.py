@@ -1,8 +1,9 @@
 """``--foxglove``: a Foxglove WebSocket server (foxglove-sdk) broadcasting a car's topics live, with sim time.
 
-The channels and their JSON are those of a recording (:mod:`vilma.record.schemas`):
-``vilma/<car>/pose`` as ``foxglove.PoseInFrame``, ``.../gps`` as ``foxglove.LocationFix``,
-``.../tf`` as ``foxglove.FrameTransform``, the rest as ``vilma.<Type>``; the world sensors'
+The channels and their messages are those of a recording (:mod:`vilma.record.schemas`): the
+sensors as ``vilma_msgs/msg/<Type>`` in CDR, ``vilma/<car>/tf`` as ``foxglove_msgs/msg/FrameTransform``
+and ``.../gps/fix`` as ``foxglove_msgs/msg/LocationFix`` (derived from the pose and the GPS), orders and
+statuses as JSON ``vilma.<Type>``; the world sensors'
 topics it is given as :mod:`vilma.record.world_schemas` lays them out (colour images JPEG,
 depth ``foxglove.RawImage``, the laser ``foxglove.PointCloud``). Each
 message's log time is its sim time, and the server broadcasts the sim time of
@@ -20,7 +21,7 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.messages import Message
 from vilma.core.net import is_loopback
 from vilma.record.recorder import LIVE_TOPICS, msgspec_row
-from vilma.record.schemas import TF, encode_struct, numeric_layouts, struct_schema
+from vilma.record.schemas import DERIVED, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
     WorldMessageError,
@@ -60,8 +61,8 @@ class FoxgloveLive:
         self._channels: dict[str, object] = {}
         self.dropped: dict[str, int] = {}
         """Malformed world-sensor messages dropped, by topic."""
-        for name in (*LIVE_TOPICS, TF, *self._world):  # advertised from the start: a client sees every channel at once
-            self._channel(name)
+        for name in (*LIVE_TOPICS, *DERIVED.values(), *self._world):
+            self._channel(name)  # advertised from the start: a client sees every channel at once
         self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in (*LIVE_TOPICS, *self._world)]
 
     @property
@@ -75,8 +76,10 @@ class FoxgloveLive:
             lay = self._layouts.get(name) or self._world.get(name)
             schema_name, schema = ((lay.schema_name, lay.schema) if lay is not None
                                    else (f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name])))
-            ch = self._fox.Channel(f"vilma/{self.car}/{name}", message_encoding="json", context=self._context,
-                                   schema=self._fox.Schema(name=schema_name, encoding="jsonschema", data=schema))
+            cdr = name in self._layouts
+            ch = self._fox.Channel(f"vilma/{self.car}/{name}", message_encoding="cdr" if cdr else "json",
+                                   context=self._context, schema=self._fox.Schema(
+                                       name=schema_name, encoding="ros2msg" if cdr else "jsonschema", data=schema))
             self._channels[name] = ch
         return ch
 
@@ -98,9 +101,9 @@ class FoxgloveLive:
         def take(msg: Message) -> None:
             if name in SENSOR_TOPICS:
                 values = msgspec_row(msg)
-                self._channel(name).log(self._layouts[name].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
-                if name == "pose":
-                    self._channel(TF).log(self._layouts[TF].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
+                for n in (name, DERIVED.get(name)):
+                    if n is not None:
+                        self._channel(n).log(self._layouts[n].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
             else:
                 self._channel(name).log(encode_struct(msg), log_time=msg.stamp_ns)
                 if name == "sim/status":

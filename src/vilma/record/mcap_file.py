@@ -8,7 +8,7 @@ with SIGKILL leaves a file readable up to its last flushed chunk
 the summary (schemas, channels, statistics, chunk, metadata and attachment
 indexes) and the footer, as the MCAP specification lays out.
 
-Message records are packed in bulk (:meth:`McapFile.write_records`, :mod:`vilma.record.jsonpack`):
+Message records are packed in bulk (:meth:`McapFile.write_records`, :mod:`vilma.record.cdr`):
 the ``mcap`` package's own writer costs about 10 us a message here, too much
 for a compiled run that makes half a million messages a minute of sim time.
 """
@@ -80,7 +80,7 @@ class McapFile:
             self._file = open(self.path, "wb")  # noqa: SIM115 (closed by close())
         except OSError as e:
             raise RecordError(f"cannot record to {path}: {e.strerror or e}") from None
-        self._compress = zstandard.ZstdCompressor(level=policy.zstd_level, threads=-1)  # both cores: 550 -> 750 MB/s
+        self._compress = zstandard.ZstdCompressor(level=policy.zstd_level)
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []
         self._chunk_indexes: list[ChunkIndex] = []
@@ -129,11 +129,13 @@ class McapFile:
 
     def add_channel(self, topic: str, schema_name: str, schema: bytes, metadata: dict[str, str] | None = None,
                     encoding: str = "json") -> int:
-        """Register a channel (and its schema, shared by name); returns the channel id."""
+        """Register a channel of messages in ``encoding`` (``json``: a JSON schema, ``cdr``: a ``ros2msg`` one)
+        and its schema, shared by name; returns the channel id."""
         sid = next((s.id for s in self._schemas if s.name == schema_name and s.data == schema), None)
         if sid is None:
             sid = len(self._schemas) + 1
-            s = Schema(id=sid, name=schema_name, encoding=SchemaEncoding.JSONSchema, data=schema)
+            s = Schema(id=sid, name=schema_name, data=schema,
+                       encoding=SchemaEncoding.ROS2 if encoding == "cdr" else SchemaEncoding.JSONSchema)
             self._schemas.append(s)
             self._record(s)
         cid = len(self._channels) + 1
@@ -168,9 +170,10 @@ class McapFile:
                             or time.monotonic() - self._opened >= self.policy.chunk_seconds):
             self.flush()
 
-    def write_records(self, channel: int, stamps: np.ndarray, blob: bytes, starts: np.ndarray) -> None:
-        """Message records already packed (:func:`~vilma.record.jsonpack.message_records`) on ``channel``:
-        ``stamps`` [ns] and the offset of each record in ``blob``."""
+    def write_records(self, channel: int, stamps: np.ndarray, blob: bytes | np.ndarray, starts: np.ndarray,
+                      close_chunk: bool = True) -> None:
+        """Message records already packed (:meth:`~vilma.record.schemas.Layout.records`) on ``channel``:
+        ``stamps`` [ns] and the offset of each record in ``blob``; ``close_chunk`` as for :meth:`write`."""
         if not len(stamps) or self.closed:
             return
         self._index.setdefault(channel, []).append((stamps, self._size + starts))
@@ -180,7 +183,8 @@ class McapFile:
         self._t_hi = hi if self._t_hi is None else max(self._t_hi, hi)
         self._parts.append(blob)
         self._size += len(blob)
-        if self._size >= self.policy.chunk_bytes or time.monotonic() - self._opened >= self.policy.chunk_seconds:
+        if close_chunk and (self._size >= self.policy.chunk_bytes
+                            or time.monotonic() - self._opened >= self.policy.chunk_seconds):
             self.flush()
 
     def tick(self) -> None:
@@ -214,7 +218,8 @@ class McapFile:
             entries = np.empty((sum(len(p[0]) for p in parts), 2), "<u8")
             entries[:, 0] = np.concatenate([p[0] for p in parts])
             entries[:, 1] = np.concatenate([p[1] for p in parts])
-            entries = entries[np.lexsort((entries[:, 1], entries[:, 0]))]  # by log time, then offset
+            if (np.diff(entries[:, 0].view(np.int64)) < 0).any():  # by log time, then offset
+                entries = entries[np.lexsort((entries[:, 1], entries[:, 0]))]
             body = entries.tobytes()
             offsets[c] = index_at + sum(map(len, blob))
             blob.append(struct.pack("<BQHI", Opcode.MESSAGE_INDEX, 6 + len(body), c, len(body)) + body)

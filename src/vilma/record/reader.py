@@ -25,7 +25,7 @@ from mcap.stream_reader import StreamReader
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS
 from vilma.core import messages as m
 from vilma.record.mcap_file import MAGIC
-from vilma.record.schemas import DRIVE_LOG, decode_fields
+from vilma.record.schemas import DRIVE_LOG, decode_fields, numeric_layouts
 from vilma.record.world_schemas import WORLD_SCHEMAS, decode_world
 from vilma.scenario.drive_log import COLUMNS
 from vilma.sensors import Readings
@@ -43,8 +43,10 @@ class Recording:
     car: str = "vilma"
     schemas: dict[str, str] = field(default_factory=dict)
     """Topic -> schema name."""
+    encodings: dict[str, str] = field(default_factory=dict)
+    """Topic -> message encoding (``cdr``: numeric topics, ``json``: the others)."""
     raw: dict[str, tuple[list[int], list[bytes]]] = field(default_factory=dict)
-    """Topic -> (log times [ns], JSON payloads), in file order."""
+    """Topic -> (log times [ns], payloads), in file order."""
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     attachments: dict[str, bytes] = field(default_factory=dict)
     complete: bool = False
@@ -65,7 +67,7 @@ class Recording:
         return len(self.raw.get(name, ((), ()))[0])
 
     def payloads(self, name: str) -> list[bytes]:
-        """The JSON payloads of topic ``name``, in stamp order."""
+        """The payloads of topic ``name``, in stamp order."""
         st, data = self.raw.get(name, ([], []))
         order = np.argsort(np.asarray(st, np.int64), kind="stable")
         return [data[i] for i in order.tolist()]
@@ -76,7 +78,11 @@ class Recording:
         return msgspec.json.decode(b"[" + b",".join(data) + b"]") if data else []
 
     def readings(self, name: str) -> Readings:
-        """A sensor topic as arrays (stamp order); NaN where a value was null."""
+        """A sensor topic as arrays (stamp order).
+
+        Raises:
+            RecordingError: the topic is of a type this vilma does not read.
+        """
         cls = SENSOR_TOPICS[name]
         return _arrays(self, name, cls.__struct_fields__[1:], cls)
 
@@ -105,14 +111,27 @@ class Recording:
 
 
 def _arrays(rec: Recording, name: str, fields: tuple[str, ...], cls: type[m.Message]) -> Readings:
-    row = msgspec.defstruct("Row", [("stamp_ns", int), *((f, float | None, None) for f in fields)])
     data = rec.raw.get(name, ([], []))[1]
-    rows = msgspec.json.decode(b"[" + b",".join(data) + b"]", type=list[row]) if data else []
-    stamps = np.array([r.stamp_ns for r in rows], np.int64)
-    # None (JSON null) becomes NaN in a float array
-    values = np.array([msgspec.structs.astuple(r)[1:] for r in rows], dtype=float).reshape(len(rows), len(fields))
+    if rec.encodings.get(name, "json") == "json":  # a recording of vilma 0.1, before CDR
+        stamps, values = _json_arrays(data, fields)
+    else:
+        lay = numeric_layouts(rec.car).get(name)
+        if lay is None or lay.schema_name != rec.schemas[name] or lay.fields != fields:
+            raise RecordingError(f"{rec.path}: topic {name} is {rec.schemas[name]}, which this vilma does not read")
+        try:
+            stamps, values = lay.decode(data)
+        except ValueError as e:
+            raise RecordingError(f"{rec.path}: topic {name}: {e}") from None
     order = np.argsort(stamps, kind="stable")
     return Readings(name, cls, stamps[order], values[order])
+
+
+def _json_arrays(data: list[bytes], fields: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Stamps and values of JSON objects with ``stamp_ns`` and ``fields``; NaN where a value is null."""
+    row = msgspec.defstruct("Row", [("stamp_ns", int), *((f, float | None, None) for f in fields)])
+    rows = msgspec.json.decode(b"[" + b",".join(data) + b"]", type=list[row]) if data else []
+    values = np.array([msgspec.structs.astuple(r)[1:] for r in rows], dtype=float).reshape(len(rows), len(fields))
+    return np.array([r.stamp_ns for r in rows], np.int64), values
 
 
 def read_recording(path: Path) -> Recording:
@@ -150,6 +169,7 @@ def read_recording(path: Path) -> Recording:
                         channels[r.id] = name
                         rec.raw.setdefault(name, ([], []))
                         rec.schemas[name] = schemas[r.schema_id].name if r.schema_id in schemas else ""
+                        rec.encodings[name] = r.message_encoding
                 elif isinstance(r, Metadata):
                     rec.metadata[r.name] = dict(r.metadata)
                 elif isinstance(r, Attachment):

@@ -25,7 +25,7 @@ from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
-from vilma.record.schemas import DRIVE_LOG, TF, encode_struct, numeric_layouts, struct_schema
+from vilma.record.schemas import DERIVED, DRIVE_LOG, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
     WorldLayout,
@@ -56,7 +56,7 @@ class Recorder:
 
     def __init__(self, path: Path, car: str = "vilma", source: str = "vilma", policy: ChunkPolicy = ChunkPolicy(),
                  on_error: Callable[[str], None] = _stderr, jpeg_quality: int | None = JPEG_QUALITY) -> None:
-        self.path, self.car, self.on_error = Path(path), car, on_error
+        self.path, self.car, self.on_error, self.policy = Path(path), car, on_error, policy
         self.jpeg_quality = check_jpeg_quality(jpeg_quality)
         self.error: str | None = None
         self.dropped: dict[str, int] = {}
@@ -98,8 +98,11 @@ class Recorder:
         cid = self._channels.get(name)
         if cid is None:
             key = f"vilma/{self.car}/{name}"
-            lay = self._layouts.get(name) or self._world.get(name)
-            if lay is not None:
+            if name in self._layouts:
+                lay = self._layouts[name]
+                cid = f.add_channel(key, lay.schema_name, lay.schema, encoding="cdr")
+            elif name in self._world:
+                lay = self._world[name]
                 cid = f.add_channel(key, lay.schema_name, lay.schema)
             else:
                 cid = f.add_channel(key, f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name]))
@@ -109,13 +112,14 @@ class Recorder:
     # -- what to record ----------------------------------------------------------------------------------------
 
     def add_readings(self, readings: dict[str, Readings]) -> None:
-        """Sensor readings (arrays) of one stretch of sim time; ``pose`` also makes the ``tf`` frame."""
+        """Sensor readings (arrays) of one stretch of sim time, and the topics derived from them
+        (:data:`~vilma.record.schemas.DERIVED`)."""
         batches = []
         for name, r in readings.items():
             if len(r) and name in self._layouts:
                 batches.append((name, r.stamp_ns, r.values))
-                if name == "pose":
-                    batches.append((TF, r.stamp_ns, r.values))
+                if name in DERIVED:
+                    batches.append((DERIVED[name], r.stamp_ns, r.values))
         self._guard(lambda f: self._write(f, batches))
 
     def add_log_rows(self, rows: np.ndarray) -> None:
@@ -125,10 +129,11 @@ class Recorder:
             self._guard(lambda f: self._write(f, [(DRIVE_LOG, stamps, rows)]))
 
     def _write(self, f: McapFile, batches: list[tuple[str, np.ndarray, np.ndarray]]) -> None:
-        for name, st, v in batches:  # a topic's messages in stamp order; topics one after the other
-            cid = self._channel(f, name)
-            blob, starts = self._layouts[name].records(st, v, cid)
-            f.write_records(cid, np.asarray(st, np.int64), blob, starts)
+        for k, (name, st, v) in enumerate(batches, 1):  # a topic's messages in stamp order, one topic after another
+            cid, lay = self._channel(f, name), self._layouts[name]
+            f.write_records(cid, np.asarray(st, np.int64), lay.records(st, v, cid),
+                            np.arange(len(st), dtype=np.int64) * lay.record_size,
+                            close_chunk=k == len(batches))  # a file cut short holds whole batches
 
     def add_message(self, name: str, msg: Message) -> None:
         """One message of topic ``name`` (``pose``, ``cmd``, ``driver/status``, ``camera/front``, ``laser``...), as
@@ -140,10 +145,12 @@ class Recorder:
         def put(f: McapFile) -> None:
             if name in SENSOR_TOPICS:
                 values = msgspec_row(msg)
+                derived = DERIVED.get(name)
                 f.write(self._channel(f, name), msg.stamp_ns, self._layouts[name].encode_one(msg.stamp_ns, values),
-                        close_chunk=name != "pose")  # a pose and its frame in the same chunk
-                if name == "pose":
-                    f.write(self._channel(f, TF), msg.stamp_ns, self._layouts[TF].encode_one(msg.stamp_ns, values))
+                        close_chunk=derived is None)  # a message and the one derived from it in the same chunk
+                if derived is not None:
+                    f.write(self._channel(f, derived), msg.stamp_ns,
+                            self._layouts[derived].encode_one(msg.stamp_ns, values))
             else:
                 f.write(self._channel(f, name), msg.stamp_ns, encode_struct(msg))
         self._guard(put)

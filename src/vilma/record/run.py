@@ -2,10 +2,10 @@
 the scorecard.
 
 The runner hands over each block of readings (the compiled loop's blocks, or
-the Python loop's periods, gathered ``BLOCK`` at a time) and its log grows in
-place; a recorder in a process of its own (:mod:`vilma.record.process`)
-encodes both in bulk on another core, and finishes the file even if the run
-is killed. The 3D plant's camera images and laser
+the Python loop's periods, gathered ``BLOCK`` periods or ``HAND_OVER_S`` at a
+time) and its log grows in place; a recorder in a thread of its own
+(:mod:`vilma.record.background`) joins, packs and compresses them on another
+core. The 3D plant's camera images and laser
 scans are written as they come (:meth:`RunRecorder.add_captures`). ``run`` metadata and the
 ``scenario.yaml``, ``path.csv`` and ``metrics.json`` attachments let
 ``vilma report RUN.mcap`` score the run from the recording alone.
@@ -15,13 +15,15 @@ from __future__ import annotations
 
 import io
 import json
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vilma.core.messages import Message
-from vilma.record.process import RecorderProcess
+from vilma.record.background import BackgroundRecorder
+from vilma.record.recorder import Recorder
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sensors import Readings
@@ -37,63 +39,70 @@ class RunRecorder:
     """Records one run into ``path`` as it goes (see the module docstring)."""
 
     BLOCK = 2048
-    """Control periods gathered before they are encoded (20 s of sim time at 100 Hz: few, large batches, as
-    each batch has a fixed cost)."""
+    """Control periods gathered before they are handed over (20 s of sim time at 100 Hz: few, large batches,
+    as each batch has a fixed cost)."""
+    HAND_OVER_S = 0.5
+    """Wall time between hand-overs at most [s] (a paced run's chunks still reach the disk every second)."""
 
     def __init__(self, path: Path, scenario: Scenario, log: DriveLog) -> None:
         self.log = log
-        self.recorder = RecorderProcess(path, source="vilma run")
-        self.recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
-        self.recorder.add_metadata("scenario", {"name": scenario.name, "description": scenario.description})
+        self.recorder = BackgroundRecorder(path, source="vilma run")
+        self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(scenario).encode())
+        self.recorder.call(Recorder.add_metadata, "scenario",
+                           {"name": scenario.name, "description": scenario.description})
         self._written = 0
         self._pending: list[dict[str, Readings]] = []
+        self._handed = time.monotonic()
 
     def add(self, readings: dict[str, Readings]) -> None:
         """The readings of a block or period, after its rows went into the log."""
         if not self.recorder.ok:
             return
         self._pending.append(readings)
-        if len(self.log) - self._written >= self.BLOCK:
-            self._flush()
+        if len(self.log) - self._written >= self.BLOCK or time.monotonic() - self._handed >= self.HAND_OVER_S:
+            self._hand_over()
 
     def add_captures(self, captures: list[tuple[str, Message]]) -> None:
         """The world sensors' messages of a block or period (``Simulator.take_captures``): camera images and
         laser scans by topic name."""
-        if not self.recorder.ok:
-            return
         for name, msg in captures:
-            self.recorder.add_message(name, msg)
+            self.recorder.call(Recorder.add_message, name, msg)
 
-    def _flush(self) -> None:
-        if self._pending:
-            merged: dict[str, list[Readings]] = {}
-            for block in self._pending:
-                for name, r in block.items():
-                    if len(r):
-                        merged.setdefault(name, []).append(r)
-            self.recorder.add_readings({n: Readings.concat(p) for n, p in merged.items()})
-            self._pending.clear()
-        rows = self.log.rows[self._written:]
-        self.recorder.add_log_rows(rows)
-        self._written += len(rows)
+    def _hand_over(self) -> None:
+        """The readings and log rows since the last hand-over to the recorder's thread (the log's rows are a
+        view: they are written once, never changed)."""
+        self.recorder.call(_write, self._pending, self.log.rows[self._written:])
+        self._pending, self._written, self._handed = [], len(self.log), time.monotonic()
 
     def finish(self, result: RunResult) -> None:
         """Write what is left, the run's facts, the path and the scorecard, and close the file."""
-        self._flush()
-        self.recorder.add_metadata("run", {"t_start": result.t_start, "completed": result.metrics.get("completed"),
-                                           "wall_time_s": result.metrics.get("wall_time_s"),
-                                           "failures": result.failures})
-        self.recorder.add_metadata("scorecard", result.metrics)
+        self._hand_over()
+        call = self.recorder.call
+        call(Recorder.add_metadata, "run", {"t_start": result.t_start, "completed": result.metrics.get("completed"),
+                                            "wall_time_s": result.metrics.get("wall_time_s"),
+                                            "failures": result.failures})
+        call(Recorder.add_metadata, "scorecard", result.metrics)
         if result.path is not None:
             buf = io.StringIO()
             cols = [result.path.xy] + ([result.path.speed[:, None]] if result.path.speed is not None else [])
             np.savetxt(buf, np.hstack(cols), delimiter=",", fmt="%.17g")
-            self.recorder.add_attachment("path.csv", "text/csv", buf.getvalue().encode())
-        self.recorder.add_attachment("metrics.json", "application/json",
-                                     (json.dumps(result.metrics, indent=2) + "\n").encode())
+            call(Recorder.add_attachment, "path.csv", "text/csv", buf.getvalue().encode())
+        call(Recorder.add_attachment, "metrics.json", "application/json",
+             (json.dumps(result.metrics, indent=2) + "\n").encode())
         self.recorder.close()
 
     def abort(self) -> None:
         """The run failed: keep what was recorded and close the file."""
-        self._flush()
+        self._hand_over()
         self.recorder.close()
+
+
+def _write(recorder: Recorder, blocks: list[dict[str, Readings]], rows: np.ndarray) -> None:
+    """Blocks of readings, joined a sensor each, and the log's rows of the same stretch of sim time."""
+    merged: dict[str, list[Readings]] = {}
+    for block in blocks:
+        for name, r in block.items():
+            if len(r):
+                merged.setdefault(name, []).append(r)
+    recorder.add_readings({n: Readings.concat(p) for n, p in merged.items()})
+    recorder.add_log_rows(rows)

@@ -1,18 +1,20 @@
-"""How each topic is written in a recording: channel, schema and JSON, encoded in bulk from arrays.
+"""How each topic is written in a recording: channel, schema and bytes, packed in bulk from arrays.
 
-Every message is one JSON object stamped with sim time. Topics that Foxglove
-can draw use its well-known schema names and carry vilma's own fields beside
-the well-known ones (JSON readers ignore fields they do not know), so one
-channel is both drawn by Foxglove and read back exactly by vilma:
+Numeric topics are ROS 2 messages (``ros2msg`` schemas, CDR payloads, as
+``ros2 bag`` writes them), which Foxglove, Lichtblick, PlotJuggler and ROS 2
+tools decode from the file alone:
 
-- ``pose``: ``foxglove.PoseInFrame`` (frame ``map``) plus ``stamp_ns, x, y, z, roll, pitch, yaw``;
-- ``gps``: ``foxglove.LocationFix`` plus ``stamp_ns, x, y, z`` (local ENU [m]);
-- ``tf`` (derived from ``pose``): ``foxglove.FrameTransform`` ``map`` -> ``<car>``;
-- the other sensors and ``drive_log`` (the runner's row a control period): ``vilma.<Type>`` JSON schemas
-  with every field named, unit in its description.
+- every sensor topic and ``drive_log`` (the runner's row a control period):
+  ``vilma_msgs/msg/<Type>``, a ``builtin_interfaces/Time stamp`` (sim time)
+  and the message's float64 fields, unit in a comment: read back exactly
+  (NaN and infinities included);
+- for Foxglove's panels, derived as they are written: ``tf``
+  (``foxglove_msgs/msg/FrameTransform`` ``map`` -> ``<car>``, from ``pose``)
+  and ``gps/fix`` (``foxglove_msgs/msg/LocationFix``, from ``gps``).
 
-Floats are written in their shortest exact form, so what is read back equals what was logged; NaN
-is written as ``null`` (read back as NaN, or infinity where the field's default is infinite).
+Every numeric message has a fixed size, so a column of them is packed in one
+compiled loop (:mod:`vilma.record.cdr`). Messages that are not only numbers
+(orders, statuses) are JSON objects with a ``vilma.<Type>`` JSON schema.
 """
 
 from __future__ import annotations
@@ -29,15 +31,10 @@ import numpy as np
 from vilma.bus.topics import SENSOR_TOPICS
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
-from vilma.record.jsonpack import message_records
+from vilma.record.cdr import CdrBody, pack_records, payload_dtype, stamp_words, stamps_of
 from vilma.scenario.drive_log import COLUMNS
 
 _enc = msgspec.json.Encoder()
-
-TIMESTAMP = {"type": "object", "title": "foxglove.Time", "properties": {
-    "sec": {"type": "integer", "minimum": 0}, "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}}
-VECTOR3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
-QUATERNION = {"type": "object", "properties": {k: {"type": "number"} for k in "xyzw"}}
 
 _UNITS = {
     "x": "m", "y": "m", "z": "m", "roll": "rad", "pitch": "rad", "yaw": "rad", "vx": "m/s", "vy": "m/s",
@@ -46,17 +43,134 @@ _UNITS = {
     "altitude": "m", "fl": "rad/s", "fr": "rad/s", "rl": "rad/s", "rr": "rad/s", "speed": "m/s",
     "yaw_rate": "rad/s", "steer": "rad", "drive_force": "N", "brake_force": "N", "t": "s",
     "target_speed": "m/s", "measured_speed": "m/s", "est_x": "m", "est_y": "m", "est_yaw": "rad",
-    "cmd_steer": "rad", "controller_us": "us",
+    "cmd_steer": "rad", "cmd_drive": "N", "cmd_brake": "N", "controller_us": "us",
 }
 DRIVE_LOG = "drive_log"
 """The runner's topic: one :data:`~vilma.scenario.drive_log.COLUMNS` row a control period (true plant + driver)."""
 TF = "tf"
-"""The car's frame in the map (``foxglove.FrameTransform``), derived from ``pose``."""
+"""The car's frame in the map (``foxglove_msgs/msg/FrameTransform``), derived from ``pose``."""
+FIX = "gps/fix"
+"""The GPS fix as Foxglove's map draws it (``foxglove_msgs/msg/LocationFix``), derived from ``gps``."""
+DERIVED = {"pose": TF, "gps": FIX}
+"""Topic -> the topic derived from each of its messages."""
+
+_SEPARATOR = "=" * 80
+_TIME = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec"
+_VECTOR3 = "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z"
+_QUATERNION = "MSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1"
 
 
-def _number(name: str) -> dict:
-    unit = _UNITS.get(name)
-    return {"type": "number", **({"description": f"[{unit}]"} if unit else {})}
+def ros2msg(definition: str, *dependencies: str) -> bytes:
+    """A ``ros2msg`` schema: the message's definition, then each type it uses (``MSG: pkg/Type`` and its own)."""
+    return "\n".join([definition, *(f"{_SEPARATOR}\n{d}" for d in dependencies)]).encode() + b"\n"
+
+
+@dataclass(frozen=True, slots=True)
+class Layout:
+    """How one numeric topic is written: its ROS 2 type and the CDR payload, a template with a word a slot.
+
+    ``words`` makes the (n, len(slots)) words of ``(stamps [ns], values (n, k))`` (the vilma message's fields
+    after ``stamp_ns``, in order; for a derived topic, its source's); ``fields`` names the vilma fields read
+    back (the slots after the stamp; none for a derived topic).
+    """
+
+    schema_name: str
+    schema: bytes
+    payload: bytes
+    slots: tuple[int, ...]
+    words: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    fields: tuple[str, ...]
+
+    def records(self, stamps: np.ndarray, values: np.ndarray, channel: int) -> np.ndarray:
+        """The MCAP Message records of the rows on ``channel`` (bytes as uint8, each of :attr:`record_size`)."""
+        stamps = np.asarray(stamps, np.int64)
+        return pack_records(self.payload, self.slots, channel, stamps, self.words(stamps, values))
+
+    @property
+    def record_size(self) -> int:
+        """Bytes of one Message record."""
+        return 31 + len(self.payload)
+
+    def encode(self, stamps: np.ndarray, values: np.ndarray) -> list[bytes]:
+        """One CDR payload per row."""
+        blob = self.records(stamps, values, 0).tobytes()
+        size = self.record_size
+        return [blob[i + 31:i + size] for i in range(0, len(blob), size)]
+
+    def encode_one(self, stamp_ns: int, values: list[float]) -> bytes:
+        """The payload of one message (fields after ``stamp_ns``), as :meth:`encode` writes it."""
+        return self.encode(np.array([stamp_ns], np.int64), np.array([values], np.float64))[0]
+
+    def decode(self, payloads: list[bytes]) -> tuple[np.ndarray, np.ndarray]:
+        """Stamps [ns] and values (n, len(fields)) of payloads this layout wrote.
+
+        Raises:
+            ValueError: a payload of another size (another type, or a file written otherwise).
+        """
+        size = len(self.payload)
+        bad = next((len(p) for p in payloads if len(p) != size), None)
+        if bad is not None:
+            raise ValueError(f"a {self.schema_name} message of {bad} bytes, not {size}")
+        rows = np.frombuffer(b"".join(payloads), payload_dtype(self.payload, self.slots))
+        words = np.empty((len(rows), len(self.slots)), np.uint64)
+        for j, name in enumerate(rows.dtype.names):
+            words[:, j] = rows[name]
+        return stamps_of(words[:, 0]), words[:, 1:].view(np.float64)
+
+
+def _words(stamps: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """A row's words: the stamp's, then its float64 values (n, k) bit for bit."""
+    out = np.empty((len(stamps), 1 + values.shape[1]), np.uint64)
+    out[:, 0] = stamp_words(stamps)
+    out[:, 1:].view(np.float64)[:] = values
+    return out
+
+
+def _vilma_layout(type_name: str, doc: str, fields: tuple[str, ...]) -> Layout:
+    lines = [f"# {doc}", "builtin_interfaces/Time stamp  # sim time",
+             *(f"float64 {f}" + (f"  # [{_UNITS[f]}]" if f in _UNITS else "") for f in fields)]
+    payload, slots = CdrBody().time().float64(len(fields)).payload()
+    return Layout(f"vilma_msgs/msg/{type_name}", ros2msg("\n".join(lines), _TIME), payload, slots, _words, fields)
+
+
+def _tf_layout(car: str) -> Layout:
+    definition = ("builtin_interfaces/Time timestamp\nstring parent_frame_id\nstring child_frame_id\n"
+                  "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation")
+    payload, slots = CdrBody().time().string("map").string(car).float64(7).payload()
+
+    def words(st, v):
+        return _words(st, np.column_stack([v[:, :3], *quaternion_from_euler(v[:, 3], v[:, 4], v[:, 5])]))
+    return Layout("foxglove_msgs/msg/FrameTransform", ros2msg(definition, _TIME, _VECTOR3, _QUATERNION),
+                  payload, slots, words, ())
+
+
+def _fix_layout() -> Layout:
+    definition = ("builtin_interfaces/Time timestamp\nstring frame_id\nfloat64 latitude\nfloat64 longitude\n"
+                  "float64 altitude\nfloat64[9] position_covariance\nuint8 UNKNOWN=0\nuint8 APPROXIMATED=1\n"
+                  "uint8 DIAGONAL_KNOWN=2\nuint8 KNOWN=3\nuint8 position_covariance_type")
+    payload, slots = CdrBody().time().string("gps").float64(3).zeros(9, 8).zeros(1, 1).payload()
+
+    def words(st, v):
+        return _words(st, v[:, :3])
+    return Layout("foxglove_msgs/msg/LocationFix", ros2msg(definition, _TIME), payload, slots, words, ())
+
+
+def numeric_layouts(car: str) -> dict[str, Layout]:
+    """Topic name (within the car) -> layout, for every topic made of numbers (and the derived ones)."""
+    out = {name: _vilma_layout(cls.__name__, (cls.__doc__ or "").split("\n")[0], cls.__struct_fields__[1:])
+           for name, cls in SENSOR_TOPICS.items()}
+    out[DRIVE_LOG] = _vilma_layout("DriveLogRow", "The runner's row a control period: the true plant and the "
+                                   "driver (t is sim time [s]).", COLUMNS)
+    out[TF], out[FIX] = _tf_layout(car), _fix_layout()
+    return out
+
+
+# -- messages that are not only numbers (live recordings), and the JSON schemas' pieces ---------------------------
+
+TIMESTAMP = {"type": "object", "title": "foxglove.Time", "properties": {
+    "sec": {"type": "integer", "minimum": 0}, "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}}
+VECTOR3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
+QUATERNION = {"type": "object", "properties": {k: {"type": "number"} for k in "xyzw"}}
 
 
 def object_schema(title: str, description: str, props: dict, required: list[str]) -> bytes:
@@ -65,150 +179,6 @@ def object_schema(title: str, description: str, props: dict, required: list[str]
                        "description": description, "type": "object", "properties": props,
                        "required": required}).encode()
 
-
-@dataclass(frozen=True, slots=True)
-class Layout:
-    """How one numeric topic is written: schema name and JSON schema, and the JSON of a row.
-
-    ``template`` is the JSON object with a ``%b`` per column that :attr:`columns` makes from
-    ``(stamps [ns], values (n, k))`` (the message's fields after ``stamp_ns``, in order);
-    ``fields`` names the vilma fields read back.
-    """
-
-    schema_name: str
-    schema: bytes
-    template: bytes
-    columns: Callable[[np.ndarray, np.ndarray], list[tuple[str, np.ndarray]]]
-    fields: tuple[str, ...]
-    row: Callable[[int, list[float]], list]
-    """The same values as :attr:`columns` for one message (plain Python: the live path, no numpy)."""
-
-    def records(self, stamps: np.ndarray, values: np.ndarray, channel: int) -> tuple[bytes, np.ndarray]:
-        """MCAP Message records of the rows on ``channel`` (bytes, and each record's offset in them)."""
-        stamps = np.asarray(stamps, dtype=np.int64)
-        return message_records(self.template, self.columns(stamps, values), channel, stamps)
-
-    def encode(self, stamps: np.ndarray, values: np.ndarray) -> list[bytes]:
-        """One JSON payload per row."""
-        if not len(stamps):
-            return []
-        blob, starts = self.records(stamps, values, 0)
-        ends = [*starts[1:].tolist(), len(blob)]
-        return [blob[a + 31:b] for a, b in zip(starts.tolist(), ends, strict=True)]
-
-    def encode_one(self, stamp_ns: int, values: list[float]) -> bytes:
-        """The JSON of one message (fields after ``stamp_ns``), as :meth:`encode` writes it."""
-        return self.template % tuple(_enc.encode(self.row(stamp_ns, values))[1:-1].split(b","))
-
-
-def _time_columns(stamps: np.ndarray) -> list[tuple[str, np.ndarray]]:
-    return [("i", stamps // 1_000_000_000), ("i", stamps % 1_000_000_000)]
-
-
-def _quat(roll: float, pitch: float, yaw: float) -> list[float]:
-    """:func:`~vilma.core.geometry.quaternion_from_euler` for one angle triple, in plain Python."""
-    cr, sr = math.cos(roll * 0.5), math.sin(roll * 0.5)
-    cp, sp = math.cos(pitch * 0.5), math.sin(pitch * 0.5)
-    cy, sy = math.cos(yaw * 0.5), math.sin(yaw * 0.5)
-    return [sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy]
-
-
-def _own(fields: tuple[str, ...]) -> bytes:
-    return b"".join(b',"%s":%%b' % f.encode() for f in fields)
-
-
-def _plain_layout(name: str, doc: str, fields: tuple[str, ...]) -> Layout:
-    props = {"stamp_ns": {"type": "integer", "description": "sim time [ns]"}, "timestamp": TIMESTAMP,
-             **{f: _number(f) for f in fields}}
-    template = b'{"timestamp":{"sec":%b,"nsec":%b},"stamp_ns":%b' + _own(fields) + b"}"
-
-    def columns(st, v):
-        return [*_time_columns(st), ("i", st), *(("f", v[:, i]) for i in range(len(fields)))]
-
-    def row(t, v):
-        return [t // 1_000_000_000, t % 1_000_000_000, t, *v]
-    return Layout(name, object_schema(name, doc, props, ["stamp_ns", *fields]), template, columns, fields, row)
-
-
-def _message_layout(cls: type[m.Message]) -> Layout:
-    fields = cls.__struct_fields__[1:]
-    return _plain_layout(f"vilma.{cls.__name__}", (cls.__doc__ or "").split("\n")[0], fields)
-
-
-def _pose_layout() -> Layout:
-    fields = m.Pose.__struct_fields__[1:]
-    props = {"timestamp": TIMESTAMP, "frame_id": {"type": "string"},
-             "pose": {"type": "object", "properties": {"position": VECTOR3, "orientation": QUATERNION}},
-             "stamp_ns": {"type": "integer", "description": "sim time [ns]"}, **{f: _number(f) for f in fields}}
-    template = (b'{"timestamp":{"sec":%b,"nsec":%b},"frame_id":"map","pose":{"position":{"x":%b,"y":%b,"z":%b},'
-                b'"orientation":{"x":%b,"y":%b,"z":%b,"w":%b}},"stamp_ns":%b' + _own(fields) + b"}")
-
-    def columns(st, v):
-        q = quaternion_from_euler(v[:, 3], v[:, 4], v[:, 5])
-        return [*_time_columns(st), *(("f", v[:, i]) for i in range(3)), *(("f", c) for c in q), ("i", st),
-                *(("f", v[:, i]) for i in range(6))]
-
-    def row(t, v):
-        return [t // 1_000_000_000, t % 1_000_000_000, *v[:3], *_quat(*v[3:6]), t, *v]
-    doc = "The car's ground-truth pose in the map (ENU); vilma's fields beside the well-known ones."
-    return Layout("foxglove.PoseInFrame", object_schema("foxglove.PoseInFrame", doc, props, ["timestamp", "pose"]),
-                  template, columns, fields, row)
-
-
-def _tf_layout(car: str) -> Layout:
-    props = {"timestamp": TIMESTAMP, "parent_frame_id": {"type": "string"}, "child_frame_id": {"type": "string"},
-             "translation": VECTOR3, "rotation": QUATERNION}
-    template = (b'{"timestamp":{"sec":%b,"nsec":%b},"parent_frame_id":"map","child_frame_id":"'
-                + car.encode() + b'","translation":{"x":%b,"y":%b,"z":%b},"rotation":{"x":%b,"y":%b,"z":%b,"w":%b}}')
-
-    def columns(st, v):
-        q = quaternion_from_euler(v[:, 3], v[:, 4], v[:, 5])
-        return [*_time_columns(st), *(("f", v[:, i]) for i in range(3)), *(("f", c) for c in q)]
-
-    def row(t, v):
-        return [t // 1_000_000_000, t % 1_000_000_000, *v[:3], *_quat(*v[3:6])]
-    doc = f"The frame of car {car} in the map, from its pose."
-    return Layout("foxglove.FrameTransform", object_schema("foxglove.FrameTransform", doc, props,
-                                                     ["timestamp", "parent_frame_id", "child_frame_id"]),
-                  template, columns, (), row)
-
-
-def _gps_layout() -> Layout:
-    fields = m.GpsFix.__struct_fields__[1:]
-    own = fields[3:]
-    props = {"timestamp": TIMESTAMP, "frame_id": {"type": "string"}, "latitude": _number("latitude"),
-             "longitude": _number("longitude"), "altitude": _number("altitude"),
-             "position_covariance": {"type": "array", "items": {"type": "number"}, "minItems": 9, "maxItems": 9},
-             "position_covariance_type": {"type": "integer", "description": "0 unknown, 1 approximated, "
-                                          "2 diagonal known, 3 known"},
-             "stamp_ns": {"type": "integer", "description": "sim time [ns]"}, **{f: _number(f) for f in own}}
-    template = (b'{"timestamp":{"sec":%b,"nsec":%b},"frame_id":"gps","latitude":%b,"longitude":%b,"altitude":%b,'
-                b'"position_covariance":[0,0,0,0,0,0,0,0,0],"position_covariance_type":0,"stamp_ns":%b'
-                + _own(own) + b"}")
-
-    def columns(st, v):
-        return [*_time_columns(st), *(("f", v[:, i]) for i in range(3)), ("i", st),
-                *(("f", v[:, i]) for i in range(3, 6))]
-
-    def row(t, v):
-        return [t // 1_000_000_000, t % 1_000_000_000, *v[:3], t, *v[3:6]]
-    doc = "GPS fix: WGS84 latitude, longitude [deg], altitude [m]; local ENU x, y, z [m] beside."
-    return Layout("foxglove.LocationFix", object_schema("foxglove.LocationFix", doc, props,
-                                                  ["latitude", "longitude", "altitude"]), template, columns, fields,
-                  row)
-
-
-def numeric_layouts(car: str) -> dict[str, Layout]:
-    """Topic name (within the car) -> layout, for every topic made of numbers."""
-    out = {name: _message_layout(cls) for name, cls in SENSOR_TOPICS.items()}
-    out["pose"], out["gps"], out[TF] = _pose_layout(), _gps_layout(), _tf_layout(car)
-    out[DRIVE_LOG] = _plain_layout("vilma.DriveLogRow", "The runner's row a control period: the true plant "
-                                   "and the driver (t is sim time [s]).", COLUMNS)
-    return out
-
-
-# -- messages that are not only numbers (live recordings) ------------------------------------------------------
 
 _JSON_TYPES = {float: "number", int: "integer", bool: "boolean", str: "string"}
 
