@@ -1,8 +1,8 @@
 """Fixed-size ROS 2 messages in CDR, packed in bulk into MCAP Message records.
 
 A message whose every field has a fixed size (vilma's numeric topics) is a
-byte template with 8-byte words in slots: the stamp (``builtin_interfaces/Time``:
-int32 sec, uint32 nanosec) and float64 values. :class:`CdrBody` lays out such a
+byte template with slots: the stamp (``builtin_interfaces/Time``: int32 sec,
+uint32 nanosec) and float64 values. :class:`CdrBody` lays out such a
 body as CDR does (little endian, each field aligned to its size from the body's
 start, after the 4-byte encapsulation header); :func:`pack_records` writes the
 MCAP records of a whole column of messages in one compiled loop that releases
@@ -25,18 +25,18 @@ _TIMES = (15, 23)
 
 
 class CdrBody:
-    """A fixed-size CDR message under construction: constant bytes, and slots for 8-byte words."""
+    """A fixed-size CDR message under construction: constant bytes, and slots for the stamp and float64s."""
 
     def __init__(self) -> None:
         self.data = bytearray()
         self.slots: list[int] = []
-        """Offsets of the words in the body [bytes]."""
+        """Offsets of the slots in the body [bytes]."""
 
     def _align(self, size: int) -> None:
         self.data += bytes(-len(self.data) % size)
 
     def time(self) -> CdrBody:
-        """A ``builtin_interfaces/Time`` filled from the stamp (a slot)."""
+        """A ``builtin_interfaces/Time`` filled from the stamp (a slot of its own: int32 sec, uint32 nanosec)."""
         self._align(4)
         self.slots.append(len(self.data))
         self.data += bytes(8)
@@ -68,60 +68,61 @@ class CdrBody:
         return ENCAPSULATION + bytes(self.data), tuple(4 + s for s in self.slots)
 
 
-def stamp_words(stamps: np.ndarray) -> np.ndarray:
-    """``builtin_interfaces/Time`` of sim times [ns] as one little-endian word each (sec, then nanosec)."""
-    st = np.asarray(stamps, np.int64)
-    return ((st // 1_000_000_000) & 0xFFFFFFFF).astype(np.uint64) | ((st % 1_000_000_000).astype(np.uint64) << 32)
-
-
-def stamps_of(words: np.ndarray) -> np.ndarray:
-    """The sim times [ns] of :func:`stamp_words`."""
-    w = np.asarray(words, np.uint64)
-    sec = (w & 0xFFFFFFFF).astype(np.uint32).view(np.int32).astype(np.int64)
-    return sec * 1_000_000_000 + (w >> 32).astype(np.int64)
+def stamps_of(sec: np.ndarray, nanosec: np.ndarray) -> np.ndarray:
+    """Sim times [ns] of ``builtin_interfaces/Time`` fields."""
+    return sec.astype(np.int64) * 1_000_000_000 + nanosec.astype(np.int64)
 
 
 @njit(nogil=True, cache=True)
-def _pack(out, template, runs, word_bytes):
+def _pack(out, template, time_at, runs, stamps, value_bytes):
     for i in range(out.shape[0]):
-        row, src = out[i], word_bytes[i]
+        row, src, t = out[i], value_bytes[i], stamps[i]
         row[:] = template
+        sec, nanosec = t // 1_000_000_000, t % 1_000_000_000
+        for b in range(8):
+            byte = (t >> (8 * b)) & 0xFF
+            row[_TIMES[0] + b] = byte
+            row[_TIMES[1] + b] = byte
+        for b in range(4):
+            row[time_at + b] = (sec >> (8 * b)) & 0xFF
+            row[time_at + 4 + b] = (nanosec >> (8 * b)) & 0xFF
         for r in range(runs.shape[0]):
             at, start, size = runs[r, 0], runs[r, 1], runs[r, 2]
             row[at:at + size] = src[start:start + size]
 
 
 def _runs(slots: tuple[int, ...]) -> np.ndarray:
-    """Slots side by side as runs: (offset in the record, offset in the row's words, length) [bytes]."""
+    """float64 slots side by side as runs: (offset in the record, offset in the row's values, length) [bytes]."""
     runs: list[list[int]] = []
     for j, at in enumerate(slots):
         if runs and runs[-1][0] + runs[-1][2] == at:
             runs[-1][2] += 8
         else:
             runs.append([at, 8 * j, 8])
-    return np.array(runs, np.int64)
+    return np.array(runs, np.int64).reshape(-1, 3)
 
 
-def pack_records(payload: bytes, slots: tuple[int, ...], channel: int, stamps: np.ndarray,
-                 words: np.ndarray) -> np.ndarray:
+def pack_records(payload: bytes, slots: tuple[int, ...], channel: int, stamps: np.ndarray, values: np.ndarray,
+                 out: np.ndarray | None = None) -> np.ndarray:
     """The MCAP Message records of ``len(stamps)`` messages on ``channel``, one after the other.
 
-    ``payload`` and ``slots`` come from :meth:`CdrBody.payload`; ``words`` (n, len(slots)) holds each message's
-    words (uint64, or float64 taken bit for bit). Returns the records' bytes (uint8); each is
-    ``RECORD_HEADER + len(payload)`` long.
+    ``payload`` and ``slots`` come from :meth:`CdrBody.payload` (the stamp's slot first, then the float64 ones);
+    ``stamps`` [ns] are the log and publish times and the stamp (``builtin_interfaces/Time`` holds 68 years),
+    ``values`` (n, len(slots) - 1) the float64s.
+    Returns the records' bytes (uint8, in ``out`` if given); each is ``RECORD_HEADER + len(payload)`` long.
     """
-    n = len(stamps)
     head = struct.pack("<BQHIQQ", 5, 22 + len(payload), channel, 0, 0, 0)
     template = np.frombuffer(head + payload, np.uint8)
-    all_words = np.empty((n, 2 + len(slots)), np.uint64)
-    all_words[:, 0] = all_words[:, 1] = np.asarray(stamps, np.int64)
-    all_words[:, 2:] = words.view(np.uint64) if words.dtype == np.float64 else words
-    out = np.empty((n, len(template)), np.uint8)
-    _pack(out, template, _runs(_TIMES + tuple(RECORD_HEADER + s for s in slots)), all_words.view(np.uint8))
-    return out.reshape(-1)
+    values = np.ascontiguousarray(values, np.float64)
+    out = np.empty(len(stamps) * len(template), np.uint8) if out is None else out
+    runs = _runs(tuple(RECORD_HEADER + s for s in slots[1:]))
+    _pack(out.reshape(len(stamps), len(template)), template, RECORD_HEADER + slots[0], runs,
+          np.asarray(stamps, np.int64), values.view(np.uint8).reshape(len(values), -1))
+    return out
 
 
 def payload_dtype(payload: bytes, slots: tuple[int, ...]) -> np.dtype:
-    """A structured dtype reading a payload's words (``w0``, ``w1``...: uint64) from its bytes."""
-    return np.dtype({"names": [f"w{j}" for j in range(len(slots))], "formats": ["<u8"] * len(slots),
-                     "offsets": list(slots), "itemsize": len(payload)})
+    """A structured dtype reading a payload's stamp (``sec``, ``nanosec``) and float64s (``v0``, ``v1``...)."""
+    return np.dtype({"names": ["sec", "nanosec", *(f"v{j}" for j in range(len(slots) - 1))],
+                     "formats": ["<i4", "<u4", *["<f8"] * (len(slots) - 1)],
+                     "offsets": [slots[0], slots[0] + 4, *slots[1:]], "itemsize": len(payload)})

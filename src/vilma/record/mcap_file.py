@@ -20,6 +20,7 @@ import contextlib
 import struct
 import time
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,7 +32,6 @@ from mcap.records import (
     Attachment,
     AttachmentIndex,
     Channel,
-    Chunk,
     ChunkIndex,
     DataEnd,
     Footer,
@@ -49,6 +49,9 @@ from vilma import __version__
 MAGIC = b"\x89MCAP0\r\n"
 _HEADER = struct.Struct("<BQHIQQ")
 """A Message record's opcode, length and fixed fields (31 bytes)."""
+_CHUNK = struct.Struct("<BQQQQII4sQ")
+"""A Chunk record up to its compressed records: opcode, length, message start and end time, uncompressed size
+and CRC, compression (``zstd``), compressed size."""
 
 
 class RecordError(OSError):
@@ -89,7 +92,8 @@ class McapFile:
         self._counts: dict[int, int] = {}
         self._chunk_count = 0
         self._first = self._last = None
-        self._parts: list[bytes] = []
+        self._chunk = np.empty(2 * policy.chunk_bytes, np.uint8)
+        """The open chunk's records, uncompressed: packed in place (no copy to join them)."""
         self._size = 0
         self._index: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
         self._single: dict[int, array.array] = {}
@@ -149,6 +153,21 @@ class McapFile:
             self._fail(e)
         return cid
 
+    def _take(self, size: int) -> np.ndarray:
+        """The next ``size`` bytes of the open chunk, to fill."""
+        end = self._size + size
+        if end > len(self._chunk):
+            grown = np.empty(max(end, 2 * len(self._chunk)), np.uint8)
+            grown[:self._size] = self._chunk[:self._size]
+            self._chunk = grown
+        self._size = end
+        return self._chunk[end - size:end]
+
+    def _written(self, close_chunk: bool) -> None:
+        if close_chunk and (self._size >= self.policy.chunk_bytes
+                            or time.monotonic() - self._opened >= self.policy.chunk_seconds):
+            self.flush()
+
     def write(self, channel: int, stamp_ns: int, data: bytes, close_chunk: bool = True) -> None:
         """One message on ``channel`` at sim time ``stamp_ns`` [ns] (log and publish time).
 
@@ -156,47 +175,44 @@ class McapFile:
         """
         if self.closed:
             return
-        self._parts.append(_HEADER.pack(Opcode.MESSAGE, 22 + len(data), channel, 0, stamp_ns, stamp_ns) + data)
         entries = self._single.get(channel)
         if entries is None:
             entries = self._single[channel] = array.array("q")
         entries.append(stamp_ns)
         entries.append(self._size)
+        record = _HEADER.pack(Opcode.MESSAGE, 22 + len(data), channel, 0, stamp_ns, stamp_ns) + data
+        self._take(len(record))[:] = np.frombuffer(record, np.uint8)
         self._counts[channel] += 1
         self._t_lo = stamp_ns if self._t_lo is None or stamp_ns < self._t_lo else self._t_lo
         self._t_hi = stamp_ns if self._t_hi is None or stamp_ns > self._t_hi else self._t_hi
-        self._size += 31 + len(data)
-        if close_chunk and (self._size >= self.policy.chunk_bytes
-                            or time.monotonic() - self._opened >= self.policy.chunk_seconds):
-            self.flush()
+        self._written(close_chunk)
 
-    def write_records(self, channel: int, stamps: np.ndarray, blob: bytes | np.ndarray, starts: np.ndarray,
+    def write_records(self, channel: int, stamps: np.ndarray, record_size: int, pack: Callable[[np.ndarray], None],
                       close_chunk: bool = True) -> None:
-        """Message records already packed (:meth:`~vilma.record.schemas.Layout.records`) on ``channel``:
-        ``stamps`` [ns] and the offset of each record in ``blob``; ``close_chunk`` as for :meth:`write`."""
+        """``len(stamps)`` Message records of ``record_size`` bytes on ``channel`` (stamps [ns]), packed in place
+        by ``pack`` into the array it is given (:meth:`~vilma.record.schemas.Layout.records`); ``close_chunk`` as
+        for :meth:`write`."""
         if not len(stamps) or self.closed:
             return
-        self._index.setdefault(channel, []).append((stamps, self._size + starts))
+        start = self._size
+        pack(self._take(len(stamps) * record_size))
+        self._index.setdefault(channel, []).append((stamps, start + record_size * np.arange(len(stamps))))
         self._counts[channel] += len(stamps)
         lo, hi = int(stamps.min()), int(stamps.max())
         self._t_lo = lo if self._t_lo is None else min(self._t_lo, lo)
         self._t_hi = hi if self._t_hi is None else max(self._t_hi, hi)
-        self._parts.append(blob)
-        self._size += len(blob)
-        if close_chunk and (self._size >= self.policy.chunk_bytes
-                            or time.monotonic() - self._opened >= self.policy.chunk_seconds):
-            self.flush()
+        self._written(close_chunk)
 
     def tick(self) -> None:
         """Close the chunk if it is ``chunk_seconds`` old: call it now and then when messages may pause."""
-        if self._parts and time.monotonic() - self._opened >= self.policy.chunk_seconds:
+        if self._size and time.monotonic() - self._opened >= self.policy.chunk_seconds:
             self.flush()
 
     def flush(self) -> None:
         """Close the open chunk, write it with its message indexes and hand it to the OS."""
         if self.closed:
             return
-        if self._parts:
+        if self._size:
             self._close_chunk()
         try:
             self._file.flush()
@@ -205,10 +221,13 @@ class McapFile:
         self._opened = time.monotonic()
 
     def _close_chunk(self) -> None:
-        data = b"".join(self._parts)
-        chunk = Chunk(compression="zstd", data=self._compress.compress(data), message_start_time=self._t_lo,
-                      message_end_time=self._t_hi, uncompressed_crc=zlib.crc32(data), uncompressed_size=len(data))
-        at, length = self._record(chunk)
+        data = self._chunk[:self._size]
+        compressed = self._compress.compress(data)  # both release the GIL
+        head = _CHUNK.pack(Opcode.CHUNK, _CHUNK.size - 9 + len(compressed), self._t_lo, self._t_hi, self._size,
+                           zlib.crc32(data), 4, b"zstd", len(compressed))
+        at, length = self._pos, len(head) + len(compressed)
+        self._write(head)
+        self._write(compressed)
         index_at = self._pos
         for c, entries in self._single.items():  # messages written one by one
             pairs = np.frombuffer(entries, np.int64).reshape(-1, 2)
@@ -228,11 +247,11 @@ class McapFile:
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=self._t_lo, message_end_time=self._t_hi, chunk_start_offset=at, chunk_length=length,
             message_index_offsets=offsets, message_index_length=len(index), compression="zstd",
-            compressed_size=len(chunk.data), uncompressed_size=len(data)))
+            compressed_size=len(compressed), uncompressed_size=self._size))
         self._first = self._t_lo if self._first is None else min(self._first, self._t_lo)
         self._last = self._t_hi if self._last is None else max(self._last, self._t_hi)
         self._chunk_count += 1
-        self._parts, self._size, self._index, self._t_lo, self._t_hi = [], 0, {}, None, None
+        self._size, self._index, self._t_lo, self._t_hi = 0, {}, None, None
         self._single = {}
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
@@ -263,7 +282,7 @@ class McapFile:
         """Write the last chunk, the summary and the footer, and close the file (a second call does nothing)."""
         if self.closed:
             return
-        if self._parts:
+        if self._size:
             self._close_chunk()
         self._record(DataEnd(data_section_crc=0))
         start = self._pos

@@ -131,8 +131,8 @@ class Recorder:
     def _write(self, f: McapFile, batches: list[tuple[str, np.ndarray, np.ndarray]]) -> None:
         for k, (name, st, v) in enumerate(batches, 1):  # a topic's messages in stamp order, one topic after another
             cid, lay = self._channel(f, name), self._layouts[name]
-            f.write_records(cid, np.asarray(st, np.int64), lay.records(st, v, cid),
-                            np.arange(len(st), dtype=np.int64) * lay.record_size,
+            f.write_records(cid, np.asarray(st, np.int64), lay.record_size,
+                            lambda out, lay=lay, st=st, v=v, cid=cid: lay.records(st, v, cid, out),
                             close_chunk=k == len(batches))  # a file cut short holds whole batches
 
     def add_message(self, name: str, msg: Message) -> None:

@@ -38,8 +38,8 @@ RUN_FILE = "run.mcap"
 class RunRecorder:
     """Records one run into ``path`` as it goes (see the module docstring)."""
 
-    BLOCK = 2048
-    """Control periods gathered before they are handed over (20 s of sim time at 100 Hz: few, large batches,
+    BLOCK = 8192
+    """Control periods gathered before they are handed over (164 s of sim time at 50 Hz: few, large batches,
     as each batch has a fixed cost)."""
     HAND_OVER_S = 0.5
     """Wall time between hand-overs at most [s] (a paced run's chunks still reach the disk every second)."""

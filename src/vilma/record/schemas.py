@@ -31,7 +31,7 @@ import numpy as np
 from vilma.bus.topics import SENSOR_TOPICS
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
-from vilma.record.cdr import CdrBody, pack_records, payload_dtype, stamp_words, stamps_of
+from vilma.record.cdr import RECORD_HEADER, CdrBody, pack_records, payload_dtype, stamps_of
 from vilma.scenario.drive_log import COLUMNS
 
 _enc = msgspec.json.Encoder()
@@ -67,35 +67,36 @@ def ros2msg(definition: str, *dependencies: str) -> bytes:
 
 @dataclass(frozen=True, slots=True)
 class Layout:
-    """How one numeric topic is written: its ROS 2 type and the CDR payload, a template with a word a slot.
+    """How one numeric topic is written: its ROS 2 type and the CDR payload, a template with slots.
 
-    ``words`` makes the (n, len(slots)) words of ``(stamps [ns], values (n, k))`` (the vilma message's fields
-    after ``stamp_ns``, in order; for a derived topic, its source's); ``fields`` names the vilma fields read
-    back (the slots after the stamp; none for a derived topic).
+    ``floats`` makes the (n, len(slots) - 1) float64s of ``(stamps [ns], values (n, k))`` (the vilma message's
+    fields after ``stamp_ns``, in order; for a derived topic, its source's); ``fields`` names the vilma fields
+    read back (none for a derived topic).
     """
 
     schema_name: str
     schema: bytes
     payload: bytes
     slots: tuple[int, ...]
-    words: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    floats: Callable[[np.ndarray, np.ndarray], np.ndarray]
     fields: tuple[str, ...]
 
-    def records(self, stamps: np.ndarray, values: np.ndarray, channel: int) -> np.ndarray:
-        """The MCAP Message records of the rows on ``channel`` (bytes as uint8, each of :attr:`record_size`)."""
-        stamps = np.asarray(stamps, np.int64)
-        return pack_records(self.payload, self.slots, channel, stamps, self.words(stamps, values))
+    def records(self, stamps: np.ndarray, values: np.ndarray, channel: int, out: np.ndarray | None = None
+                ) -> np.ndarray:
+        """The MCAP Message records of the rows on ``channel`` (bytes as uint8, each of :attr:`record_size`; in
+        ``out`` if given)."""
+        return pack_records(self.payload, self.slots, channel, stamps, self.floats(stamps, values), out)
 
     @property
     def record_size(self) -> int:
         """Bytes of one Message record."""
-        return 31 + len(self.payload)
+        return RECORD_HEADER + len(self.payload)
 
     def encode(self, stamps: np.ndarray, values: np.ndarray) -> list[bytes]:
         """One CDR payload per row."""
         blob = self.records(stamps, values, 0).tobytes()
         size = self.record_size
-        return [blob[i + 31:i + size] for i in range(0, len(blob), size)]
+        return [blob[i + RECORD_HEADER:i + size] for i in range(0, len(blob), size)]
 
     def encode_one(self, stamp_ns: int, values: list[float]) -> bytes:
         """The payload of one message (fields after ``stamp_ns``), as :meth:`encode` writes it."""
@@ -112,25 +113,21 @@ class Layout:
         if bad is not None:
             raise ValueError(f"a {self.schema_name} message of {bad} bytes, not {size}")
         rows = np.frombuffer(b"".join(payloads), payload_dtype(self.payload, self.slots))
-        words = np.empty((len(rows), len(self.slots)), np.uint64)
-        for j, name in enumerate(rows.dtype.names):
-            words[:, j] = rows[name]
-        return stamps_of(words[:, 0]), words[:, 1:].view(np.float64)
+        values = np.empty((len(rows), len(self.slots) - 1))
+        for j in range(values.shape[1]):
+            values[:, j] = rows[f"v{j}"]
+        return stamps_of(rows["sec"], rows["nanosec"]), values
 
 
-def _words(stamps: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """A row's words: the stamp's, then its float64 values (n, k) bit for bit."""
-    out = np.empty((len(stamps), 1 + values.shape[1]), np.uint64)
-    out[:, 0] = stamp_words(stamps)
-    out[:, 1:].view(np.float64)[:] = values
-    return out
+def _same(stamps: np.ndarray, values: np.ndarray) -> np.ndarray:
+    return values
 
 
 def _vilma_layout(type_name: str, doc: str, fields: tuple[str, ...]) -> Layout:
     lines = [f"# {doc}", "builtin_interfaces/Time stamp  # sim time",
              *(f"float64 {f}" + (f"  # [{_UNITS[f]}]" if f in _UNITS else "") for f in fields)]
     payload, slots = CdrBody().time().float64(len(fields)).payload()
-    return Layout(f"vilma_msgs/msg/{type_name}", ros2msg("\n".join(lines), _TIME), payload, slots, _words, fields)
+    return Layout(f"vilma_msgs/msg/{type_name}", ros2msg("\n".join(lines), _TIME), payload, slots, _same, fields)
 
 
 def _tf_layout(car: str) -> Layout:
@@ -138,10 +135,10 @@ def _tf_layout(car: str) -> Layout:
                   "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation")
     payload, slots = CdrBody().time().string("map").string(car).float64(7).payload()
 
-    def words(st, v):
-        return _words(st, np.column_stack([v[:, :3], *quaternion_from_euler(v[:, 3], v[:, 4], v[:, 5])]))
+    def floats(st, v):
+        return np.column_stack([v[:, :3], *quaternion_from_euler(v[:, 3], v[:, 4], v[:, 5])])
     return Layout("foxglove_msgs/msg/FrameTransform", ros2msg(definition, _TIME, _VECTOR3, _QUATERNION),
-                  payload, slots, words, ())
+                  payload, slots, floats, ())
 
 
 def _fix_layout() -> Layout:
@@ -150,9 +147,9 @@ def _fix_layout() -> Layout:
                   "uint8 DIAGONAL_KNOWN=2\nuint8 KNOWN=3\nuint8 position_covariance_type")
     payload, slots = CdrBody().time().string("gps").float64(3).zeros(9, 8).zeros(1, 1).payload()
 
-    def words(st, v):
-        return _words(st, v[:, :3])
-    return Layout("foxglove_msgs/msg/LocationFix", ros2msg(definition, _TIME), payload, slots, words, ())
+    def floats(st, v):
+        return v[:, :3]
+    return Layout("foxglove_msgs/msg/LocationFix", ros2msg(definition, _TIME), payload, slots, floats, ())
 
 
 def numeric_layouts(car: str) -> dict[str, Layout]:
