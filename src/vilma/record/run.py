@@ -3,9 +3,9 @@ the scorecard.
 
 The runner hands over each block of readings (the compiled loop's blocks, or
 the Python loop's periods, gathered ``BLOCK`` periods or ``HAND_OVER_S`` at a
-time) and its log grows in place; a recorder in a thread of its own
-(:mod:`vilma.record.background`) joins, packs and compresses them on another
-core. The 3D plant's camera images and laser
+time) and its log grows in place; a recorder in a process of its own
+(:mod:`vilma.record.process`) joins, packs and compresses them on another
+core, and finishes the file even if the run is killed. The 3D plant's camera images and laser
 scans are written as they come (:meth:`RunRecorder.add_captures`). ``run`` metadata and the
 ``scenario.yaml``, ``path.csv`` and ``metrics.json`` attachments let
 ``vilma report RUN.mcap`` score the run from the recording alone.
@@ -22,9 +22,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.core.messages import Message
-from vilma.record.background import BackgroundRecorder
+from vilma.record.process import RecorderProcess
 from vilma.record.recorder import Recorder
-from vilma.scenario.drive_log import DriveLog
+from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sensors import Readings
 
@@ -38,15 +38,14 @@ RUN_FILE = "run.mcap"
 class RunRecorder:
     """Records one run into ``path`` as it goes (see the module docstring)."""
 
-    BLOCK = 8192
-    """Control periods gathered before they are handed over (164 s of sim time at 50 Hz: few, large batches,
-    as each batch has a fixed cost)."""
+    BLOCK = 2048
+    """Control periods gathered before they are handed over (41 s of sim time at 50 Hz)."""
     HAND_OVER_S = 0.5
     """Wall time between hand-overs at most [s] (a paced run's chunks still reach the disk every second)."""
 
     def __init__(self, path: Path, scenario: Scenario, log: DriveLog) -> None:
         self.log = log
-        self.recorder = BackgroundRecorder(path, source="vilma run")
+        self.recorder = RecorderProcess(path, source="vilma run")
         self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(scenario).encode())
         self.recorder.call(Recorder.add_metadata, "scenario",
                            {"name": scenario.name, "description": scenario.description})
@@ -56,11 +55,9 @@ class RunRecorder:
 
     def add(self, readings: dict[str, Readings]) -> None:
         """The readings of a block or period, after its rows went into the log."""
-        if not self.recorder.ok:
-            return
         self._pending.append(readings)
         if len(self.log) - self._written >= self.BLOCK or time.monotonic() - self._handed >= self.HAND_OVER_S:
-            self._hand_over()
+            self._hand_over(wait=False)
 
     def add_captures(self, captures: list[tuple[str, Message]]) -> None:
         """The world sensors' messages of a block or period (``Simulator.take_captures``): camera images and
@@ -68,10 +65,18 @@ class RunRecorder:
         for name, msg in captures:
             self.recorder.call(Recorder.add_message, name, msg)
 
-    def _hand_over(self) -> None:
-        """The readings and log rows since the last hand-over to the recorder's thread (the log's rows are a
-        view: they are written once, never changed)."""
-        self.recorder.call(_write, self._pending, self.log.rows[self._written:])
+    def _hand_over(self, wait: bool = True) -> None:
+        """The readings (joined a sensor each: fewer arrays to hand over) and log rows since the last hand-over
+        to the recorder's process; unless ``wait``, only if its ring has room (it may still be starting)."""
+        merged: dict[str, list[Readings]] = {}
+        for block in self._pending:
+            for name, r in block.items():
+                if len(r):
+                    merged.setdefault(name, []).append(r)
+        size = sum(r.values.nbytes + r.stamp_ns.nbytes for p in merged.values() for r in p)
+        if not wait and size + (len(self.log) - self._written) * len(COLUMNS) * 8 > self.recorder.room():
+            return
+        self.recorder.call(_write, {n: Readings.concat(p) for n, p in merged.items()}, self.log.rows[self._written:])
         self._pending, self._written, self._handed = [], len(self.log), time.monotonic()
 
     def finish(self, result: RunResult) -> None:
@@ -97,12 +102,7 @@ class RunRecorder:
         self.recorder.close()
 
 
-def _write(recorder: Recorder, blocks: list[dict[str, Readings]], rows: np.ndarray) -> None:
-    """Blocks of readings, joined a sensor each, and the log's rows of the same stretch of sim time."""
-    merged: dict[str, list[Readings]] = {}
-    for block in blocks:
-        for name, r in block.items():
-            if len(r):
-                merged.setdefault(name, []).append(r)
-    recorder.add_readings({n: Readings.concat(p) for n, p in merged.items()})
+def _write(recorder: Recorder, readings: dict[str, Readings], rows: np.ndarray) -> None:
+    """Readings of a stretch of sim time, and the log's rows of it."""
+    recorder.add_readings(readings)
     recorder.add_log_rows(rows)

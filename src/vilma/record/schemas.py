@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
@@ -81,6 +82,10 @@ class Layout:
     floats: Callable[[np.ndarray, np.ndarray], np.ndarray]
     fields: tuple[str, ...]
 
+    def __post_init__(self) -> None:
+        if any(b - a != 8 for a, b in zip(self.slots[1:], self.slots[2:], strict=False)):
+            raise ValueError(f"{self.schema_name}: the float64 slots must be side by side")
+
     def records(self, stamps: np.ndarray, values: np.ndarray, channel: int, out: np.ndarray | None = None
                 ) -> np.ndarray:
         """The MCAP Message records of the rows on ``channel`` (bytes as uint8, each of :attr:`record_size`; in
@@ -99,8 +104,13 @@ class Layout:
         return [blob[i + RECORD_HEADER:i + size] for i in range(0, len(blob), size)]
 
     def encode_one(self, stamp_ns: int, values: list[float]) -> bytes:
-        """The payload of one message (fields after ``stamp_ns``), as :meth:`encode` writes it."""
-        return self.encode(np.array([stamp_ns], np.int64), np.array([values], np.float64))[0]
+        """The payload of one message (fields after ``stamp_ns``), as :meth:`encode` writes it (without numpy
+        for a vilma type: a live program's path, message by message)."""
+        row = values if self.floats is _same else self.floats(None, np.array([values], np.float64))[0].tolist()
+        out = bytearray(self.payload)
+        struct.pack_into("<iI", out, self.slots[0], *divmod(stamp_ns, 1_000_000_000))
+        struct.pack_into(f"<{len(row)}d", out, self.slots[1], *row)  # the float64 slots are side by side
+        return bytes(out)
 
     def decode(self, payloads: list[bytes]) -> tuple[np.ndarray, np.ndarray]:
         """Stamps [ns] and values (n, len(fields)) of payloads this layout wrote.

@@ -1,0 +1,197 @@
+"""A :class:`~vilma.record.recorder.Recorder` in a process of its own, as ``rosbag record`` is: the loop hands
+over its arrays and goes on, and shares no interpreter lock with the packing and the compression.
+
+The child is a fresh interpreter, not a fork (a forked copy of a large process makes the parent copy every
+page it writes afterwards). Each call is pickled with its arrays out of band (protocol 5) into a ring of
+shared memory, and a pipe carries where it lies; the child reads the arrays in place, does the call, then
+frees its part of the ring. The parent waits only when the ring is full. The child is in a session of its
+own (Ctrl-C is the parent's to handle), closes a chunk that is a second old while nothing comes, and
+finishes the file when the parent closes it or vanishes. A call that fails ends the recording only, keeping
+what was written (:attr:`RecorderProcess.error` says why).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import mmap
+import os
+import pickle
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+RING = 64 << 20
+"""Bytes of shared memory for the calls on their way, by default [bytes]."""
+_HEADER = 64
+"""Bytes before the ring: the child's progress (int64: bytes of the ring done with, counted from the start)."""
+_PIPE = 1 << 20
+"""Size asked for the pipe of call notices [bytes]."""
+
+
+def _aligned(n: int) -> int:
+    return (n + 63) & ~63
+
+
+class RecorderProcess:
+    """A :class:`~vilma.record.recorder.Recorder` of ``path`` (``options``: its keyword arguments, picklable) in a
+    child process, with a ring of ``ring`` bytes (a multiple of 64)."""
+
+    def __init__(self, path: Path, ring: int = RING, **options: Any) -> None:
+        mem_fd = os.memfd_create("vilma-recorder")
+        os.ftruncate(mem_fd, _HEADER + ring)
+        self._mem = mmap.mmap(mem_fd, _HEADER + ring)
+        self._done = np.frombuffer(self._mem, np.int64, 1)
+        self._ring = np.frombuffer(self._mem, np.uint8, ring, _HEADER)
+        calls_r, calls_w = os.pipe()
+        replies_r, replies_w = os.pipe()
+        with contextlib.suppress(OSError):
+            fcntl.fcntl(calls_w, fcntl.F_SETPIPE_SZ, _PIPE)
+        src = str(Path(__file__).resolve().parents[2])  # vilma's own, whatever the child's path
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")]))}
+        self._child = subprocess.Popen(
+            [sys.executable, "-m", "vilma.record.process", str(mem_fd), str(calls_r), str(replies_w)],
+            pass_fds=(mem_fd, calls_r, replies_w), stdin=subprocess.DEVNULL, start_new_session=True, env=env)
+        for fd in (mem_fd, calls_r, replies_w):
+            os.close(fd)
+        self._calls = Connection(calls_w, readable=False)
+        self._replies = Connection(replies_r, writable=False)
+        self._head = 0
+        self.error: str | None = None
+        self._calls.send((Path(path), options))
+
+    @property
+    def ok(self) -> bool:
+        """Whether the recording is still going (false once the child reported an error, or after close)."""
+        if self.error is None and self._child is not None:
+            with contextlib.suppress(OSError, EOFError):
+                while self.error is None and self._replies.poll():
+                    self.error = self._replies.recv()
+            if self.error is None and self._child.poll() is not None:
+                self.error = "the recording process ended early; the file may be incomplete"
+        return self.error is None and self._child is not None
+
+    def call(self, fn: Callable[..., None], *args: Any) -> None:
+        """Do ``fn(recorder, *args)`` in the child, after the calls before it (nothing once the recording stopped).
+        ``fn`` must be importable by name (a module's function, or a method of the recorder)."""
+        if not self.ok:
+            return
+        buffers: list[pickle.PickleBuffer] = []
+        stream = pickle.dumps((fn, args), protocol=5, buffer_callback=buffers.append)
+        parts = [memoryview(stream), *(b.raw() for b in buffers)]
+        total = sum(_aligned(p.nbytes) for p in parts)
+        if total > len(self._ring) // 2:  # too big for the ring: through the pipe
+            self._send(("inline", pickle.dumps((fn, args), protocol=5)))
+            return
+        start = self._reserve(total)
+        if start is None:
+            return
+        at = start % len(self._ring)
+        for p in parts:
+            self._ring[at:at + p.nbytes] = np.frombuffer(p, np.uint8)
+            at += _aligned(p.nbytes)
+        self._send(("ring", start % len(self._ring), [p.nbytes for p in parts], start + total))
+
+    def room(self) -> int:
+        """Bytes a call's arrays may take now without waiting for the child (it may still be starting)."""
+        return min(len(self._ring) // 2, len(self._ring) - (self._head - int(self._done[0]))) - (1 << 16)
+
+    def _reserve(self, size: int) -> int | None:
+        """Where ``size`` bytes of the ring go (counted from the start), once free; None if the child is gone."""
+        start, ring = self._head, len(self._ring)
+        if start % ring + size > ring:  # it would straddle the end: from the ring's start
+            start += ring - start % ring
+        while start + size - int(self._done[0]) > ring:
+            if not self.ok:
+                return None
+            time.sleep(0.001)
+        self._head = start + size
+        return start
+
+    def _send(self, message: tuple) -> None:
+        try:
+            self._calls.send(message)
+        except OSError:
+            self.ok  # noqa: B018 (reads the child's reason)
+            self.error = self.error or "the recording process ended early; the file may be incomplete"
+
+    def close(self) -> None:
+        """Finish the file and wait for the child (the file is complete when this returns)."""
+        if self._child is None:
+            return
+        with contextlib.suppress(OSError):
+            self._calls.send(("close",))
+        self._calls.close()
+        replies = []
+        with contextlib.suppress(EOFError, OSError):
+            while True:  # an error it reported earlier, then its answer to close, then the end of the pipe
+                replies.append(self._replies.recv())
+        self._replies.close()
+        self._child.wait()
+        if not replies:
+            replies.append("the recording process ended early; the file may be incomplete")
+        self.error = self.error or next((r for r in replies if r), None)
+        self._child = None
+        del self._done, self._ring
+        self._mem.close()
+
+
+def _serve(mem_fd: int, calls_fd: int, replies_fd: int) -> None:
+    """The child: make the recorder, then do the calls as they come until ``close`` or the end of the pipe."""
+    from vilma.record.recorder import Recorder
+
+    mem = mmap.mmap(mem_fd, 0)
+    done = np.frombuffer(mem, np.int64, 1)
+    ring = memoryview(mem)[_HEADER:]
+    calls, replies = Connection(calls_fd, writable=False), Connection(replies_fd, readable=False)
+    path, options = calls.recv()
+    recorder = Recorder(path, **options)
+    error = recorder.error
+    if error is not None:
+        replies.send(error)
+    while True:
+        if not calls.poll(recorder.policy.chunk_seconds / 2):
+            recorder.tick()
+            continue
+        try:
+            message = calls.recv()
+        except EOFError:  # the parent is gone
+            message = ("close",)
+        if message[0] == "close":
+            recorder.close()
+            with contextlib.suppress(OSError):
+                replies.send(error or recorder.error)
+            replies.close()
+            os._exit(0)  # the file is finished: spare the interpreter's teardown (half a second with numba)
+        if message[0] == "ring":
+            _, at, sizes, end = message
+            views = []
+            for n in sizes:
+                views.append(ring[at:at + n])
+                at += _aligned(n)
+            fn, args = pickle.loads(views[0], buffers=views[1:])
+        else:
+            fn, args, end = *pickle.loads(message[1]), None
+        if error is None:
+            try:
+                fn(recorder, *args)
+            except Exception as e:  # a bug must not lose what is written
+                recorder.on_error(f"recording stopped by {fn.__name__}: {e}; what was written is kept")
+                recorder.close()
+                error = f"{fn.__name__}: {e}"
+            error = error or recorder.error
+            if error is not None:
+                replies.send(error)
+        del fn, args
+        if end is not None:
+            done[0] = end
+
+
+if __name__ == "__main__":
+    _serve(*(int(a) for a in sys.argv[1:]))
