@@ -163,7 +163,7 @@ class McapFile:
         self._size = end
         return self._chunk[end - size:end]
 
-    def _written(self, close_chunk: bool) -> None:
+    def _close_if_due(self, close_chunk: bool) -> None:
         if close_chunk and (self._size >= self.policy.chunk_bytes
                             or time.monotonic() - self._opened >= self.policy.chunk_seconds):
             self.flush()
@@ -185,7 +185,7 @@ class McapFile:
         self._counts[channel] += 1
         self._t_lo = stamp_ns if self._t_lo is None or stamp_ns < self._t_lo else self._t_lo
         self._t_hi = stamp_ns if self._t_hi is None or stamp_ns > self._t_hi else self._t_hi
-        self._written(close_chunk)
+        self._close_if_due(close_chunk)
 
     def write_records(self, channel: int, stamps: np.ndarray, record_size: int, pack: Callable[[np.ndarray], None],
                       close_chunk: bool = True) -> None:
@@ -201,7 +201,7 @@ class McapFile:
         lo, hi = int(stamps.min()), int(stamps.max())
         self._t_lo = lo if self._t_lo is None else min(self._t_lo, lo)
         self._t_hi = hi if self._t_hi is None else max(self._t_hi, hi)
-        self._written(close_chunk)
+        self._close_if_due(close_chunk)
 
     def tick(self) -> None:
         """Close the chunk if it is ``chunk_seconds`` old: call it now and then when messages may pause."""
