@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import statistics
 import sys
 import tempfile
@@ -49,6 +50,8 @@ def _hour(tmp: Path) -> dict:
         pair = [(plain, {"out_dir": tmp / f"plain{i}", "record": False}), (with_rec, {"out_dir": tmp / f"rec{i}"})]
         for out, kw in pair[::1 if i % 2 else -1]:
             out.append(_timed(lambda kw=kw: run(scenario, **kw)))
+        for _, kw in pair[:None if i else 1]:  # an hour's files are hundreds of MB: keep rec0 only
+            shutil.rmtree(kw["out_dir"])
     cost = [100 * (w[0] - p[0]) / p[0] for w, p in zip(with_rec, plain, strict=True)]
     cpu = [100 * (w[1] - p[1]) / p[1] for w, p in zip(with_rec, plain, strict=True)]
     size = (tmp / "rec0" / "run.mcap").stat().st_size
