@@ -11,7 +11,6 @@ on one thread and captured on another (one thread at a time).
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -20,21 +19,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.core.messages import Image, Message
+from vilma.plant3d.capture import all_finite, check_mount
 
 if TYPE_CHECKING:
     import mujoco
 
     from vilma.plant3d.plant import MujocoPlant
 
-WORD = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
-"""A sensor name: it is a topic segment and an MJCF name."""
 MAX_GEOMS = 10_000
 """Capacity of a camera's scene [geoms]."""
-
-
-def all_finite(*values: object) -> bool:
-    """Whether every value is a finite real number (not a bool)."""
-    return all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in values)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -67,13 +60,7 @@ class CameraParams:
     """Far clipping distance along the optical axis [m]: nothing farther is drawn; depth is inf there."""
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.name, str) and WORD.fullmatch(self.name)):
-            raise ValueError(f"camera name must be a word (letters, digits, _; a letter first), got {self.name!r}")
-        what = f"camera {self.name!r}"
-        if not (isinstance(self.position, tuple) and len(self.position) == 3 and all_finite(*self.position)):
-            raise ValueError(f"{what} position must be three finite numbers (x, y, z) [m], got {self.position!r}")
-        if not all_finite(self.yaw):
-            raise ValueError(f"{what} yaw must be a finite number [rad], got {self.yaw!r}")
+        what = check_mount("camera", self.name, self.position, self.yaw)
         if not (all_finite(self.pitch) and abs(self.pitch) < math.pi / 2):
             raise ValueError(f"{what} pitch must be between -pi/2 and pi/2 rad (exclusive), got {self.pitch!r}")
         for field in ("width", "height"):

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.core.messages import Message, PointCloud
-from vilma.plant3d.camera import WORD, all_finite
+from vilma.plant3d.capture import all_finite, check_mount
 
 if TYPE_CHECKING:
     import mujoco
@@ -49,13 +49,7 @@ class LaserParams:
     """Scan rate [Hz]."""
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.name, str) and WORD.fullmatch(self.name)):
-            raise ValueError(f"laser name must be a word (letters, digits, _; a letter first), got {self.name!r}")
-        what = f"laser {self.name!r}"
-        if not (isinstance(self.position, tuple) and len(self.position) == 3 and all_finite(*self.position)):
-            raise ValueError(f"{what} position must be three finite numbers (x, y, z) [m], got {self.position!r}")
-        if not all_finite(self.yaw):
-            raise ValueError(f"{what} yaw must be a finite number [rad], got {self.yaw!r}")
+        what = check_mount("laser", self.name, self.position, self.yaw)
         if not (all_finite(self.fov) and 0 < self.fov <= 360):
             raise ValueError(f"{what} fov must be in (0, 360] deg, got {self.fov!r}")
         if not (all_finite(self.resolution) and 0 < self.resolution <= self.fov):

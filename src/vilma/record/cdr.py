@@ -14,11 +14,14 @@ from __future__ import annotations
 import struct
 
 import numpy as np
+from mcap.opcode import Opcode
 from numba import njit
+
+from vilma.record.mcap_file import MESSAGE_HEADER
 
 ENCAPSULATION = b"\x00\x01\x00\x00"
 """CDR, little endian: the first four bytes of every payload."""
-RECORD_HEADER = 31
+RECORD_HEADER = MESSAGE_HEADER.size
 """An MCAP Message record's opcode, length, channel, sequence, log and publish time [bytes]."""
 _TIMES = (15, 23)
 """Where a Message record's log time and publish time start [bytes]."""
@@ -74,9 +77,10 @@ def stamps_of(sec: np.ndarray, nanosec: np.ndarray) -> np.ndarray:
 
 
 @njit(nogil=True, cache=True)
-def _pack(out, template, time_at, runs, stamps, value_bytes):
+def _pack(out, template, time_at, floats_at, stamps, float_bytes):
+    size = float_bytes.shape[1]
     for i in range(out.shape[0]):
-        row, src, t = out[i], value_bytes[i], stamps[i]
+        row, t = out[i], stamps[i]
         row[:] = template
         sec, nanosec = t // 1_000_000_000, t % 1_000_000_000
         for b in range(8):
@@ -86,43 +90,28 @@ def _pack(out, template, time_at, runs, stamps, value_bytes):
         for b in range(4):
             row[time_at + b] = (sec >> (8 * b)) & 0xFF
             row[time_at + 4 + b] = (nanosec >> (8 * b)) & 0xFF
-        for r in range(runs.shape[0]):
-            at, start, size = runs[r, 0], runs[r, 1], runs[r, 2]
-            row[at:at + size] = src[start:start + size]
-
-
-def _runs(slots: tuple[int, ...]) -> np.ndarray:
-    """float64 slots side by side as runs: (offset in the record, offset in the row's values, length) [bytes]."""
-    runs: list[list[int]] = []
-    for j, at in enumerate(slots):
-        if runs and runs[-1][0] + runs[-1][2] == at:
-            runs[-1][2] += 8
-        else:
-            runs.append([at, 8 * j, 8])
-    return np.array(runs, np.int64).reshape(-1, 3)
+        row[floats_at:floats_at + size] = float_bytes[i]
 
 
 def pack_records(payload: bytes, slots: tuple[int, ...], channel: int, stamps: np.ndarray, values: np.ndarray,
                  out: np.ndarray | None = None) -> np.ndarray:
     """The MCAP Message records of ``len(stamps)`` messages on ``channel``, one after the other.
 
-    ``payload`` and ``slots`` come from :meth:`CdrBody.payload` (the stamp's slot first, then the float64 ones);
-    ``stamps`` [ns] are the log and publish times and the stamp (``builtin_interfaces/Time`` holds 68 years),
-    ``values`` (n, len(slots) - 1) the float64s.
+    ``payload`` and ``slots`` come from :meth:`CdrBody.payload` (the stamp's slot first, then the float64 ones,
+    side by side); ``stamps`` [ns] are the log and publish times and the stamp (``builtin_interfaces/Time`` holds
+    68 years), ``values`` (n, len(slots) - 1) the float64s.
     Returns the records' bytes (uint8, in ``out`` if given); each is ``RECORD_HEADER + len(payload)`` long.
     """
-    head = struct.pack("<BQHIQQ", 5, 22 + len(payload), channel, 0, 0, 0)
+    head = MESSAGE_HEADER.pack(Opcode.MESSAGE, 22 + len(payload), channel, 0, 0, 0)
     template = np.frombuffer(head + payload, np.uint8)
     values = np.ascontiguousarray(values, np.float64)
     out = np.empty(len(stamps) * len(template), np.uint8) if out is None else out
-    runs = _runs(tuple(RECORD_HEADER + s for s in slots[1:]))
-    _pack(out.reshape(len(stamps), len(template)), template, RECORD_HEADER + slots[0], runs,
+    _pack(out.reshape(len(stamps), len(template)), template, RECORD_HEADER + slots[0], RECORD_HEADER + slots[1],
           np.asarray(stamps, np.int64), values.view(np.uint8).reshape(len(values), -1))
     return out
 
 
 def payload_dtype(payload: bytes, slots: tuple[int, ...]) -> np.dtype:
-    """A structured dtype reading a payload's stamp (``sec``, ``nanosec``) and float64s (``v0``, ``v1``...)."""
-    return np.dtype({"names": ["sec", "nanosec", *(f"v{j}" for j in range(len(slots) - 1))],
-                     "formats": ["<i4", "<u4", *["<f8"] * (len(slots) - 1)],
-                     "offsets": [slots[0], slots[0] + 4, *slots[1:]], "itemsize": len(payload)})
+    """A structured dtype reading a payload's stamp (``sec``, ``nanosec``) and float64s (``values``, side by side)."""
+    return np.dtype({"names": ["sec", "nanosec", "values"], "formats": ["<i4", "<u4", ("<f8", (len(slots) - 1,))],
+                     "offsets": [slots[0], slots[0] + 4, slots[1]], "itemsize": len(payload)})

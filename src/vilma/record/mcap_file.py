@@ -47,7 +47,7 @@ from mcap.well_known import SchemaEncoding
 from vilma import __version__
 
 MAGIC = b"\x89MCAP0\r\n"
-_HEADER = struct.Struct("<BQHIQQ")
+MESSAGE_HEADER = struct.Struct("<BQHIQQ")
 """A Message record's opcode, length and fixed fields (31 bytes)."""
 _CHUNK = struct.Struct("<BQQQQII4sQ")
 """A Chunk record up to its compressed records: opcode, length, message start and end time, uncompressed size
@@ -180,7 +180,7 @@ class McapFile:
             entries = self._single[channel] = array.array("q")
         entries.append(stamp_ns)
         entries.append(self._size)
-        record = _HEADER.pack(Opcode.MESSAGE, 22 + len(data), channel, 0, stamp_ns, stamp_ns) + data
+        record = MESSAGE_HEADER.pack(Opcode.MESSAGE, 22 + len(data), channel, 0, stamp_ns, stamp_ns) + data
         self._take(len(record))[:] = np.frombuffer(record, np.uint8)
         self._counts[channel] += 1
         self._t_lo = stamp_ns if self._t_lo is None or stamp_ns < self._t_lo else self._t_lo

@@ -35,6 +35,9 @@ _PIPE = 1 << 20
 """Size asked for the pipe of call notices [bytes]."""
 
 
+_GONE = "the recording process ended early; the file may be incomplete"
+
+
 def _aligned(n: int) -> int:
     return (n + 63) & ~63
 
@@ -70,12 +73,17 @@ class RecorderProcess:
     def ok(self) -> bool:
         """Whether the recording is still going (false once the child reported an error, or after close)."""
         if self.error is None and self._child is not None:
-            with contextlib.suppress(OSError, EOFError):
-                while self.error is None and self._replies.poll():
-                    self.error = self._replies.recv()
-            if self.error is None and self._child.poll() is not None:
-                self.error = "the recording process ended early; the file may be incomplete"
+            self.error = self._trouble()
         return self.error is None and self._child is not None
+
+    def _trouble(self) -> str | None:
+        """The error the child reported, or that it is gone; None while it is well."""
+        with contextlib.suppress(OSError, EOFError):
+            while self._replies.poll():
+                reply = self._replies.recv()
+                if reply:
+                    return reply
+        return _GONE if self._child.poll() is not None else None
 
     def call(self, fn: Callable[..., None], *args: Any) -> None:
         """Do ``fn(recorder, *args)`` in the child, after the calls before it (nothing once the recording stopped).
@@ -87,7 +95,7 @@ class RecorderProcess:
         parts = [memoryview(stream), *(b.raw() for b in buffers)]
         total = sum(_aligned(p.nbytes) for p in parts)
         if total > len(self._ring) // 2:  # too big for the ring: through the pipe
-            self._send(("inline", pickle.dumps((fn, args), protocol=5)))
+            self._send(("pipe", stream, [p.tobytes() for p in parts[1:]]))
             return
         start = self._reserve(total)
         if start is None:
@@ -118,8 +126,7 @@ class RecorderProcess:
         try:
             self._calls.send(message)
         except OSError:
-            self.ok  # noqa: B018 (reads the child's reason)
-            self.error = self.error or "the recording process ended early; the file may be incomplete"
+            self.error = self.error or self._trouble() or _GONE
 
     def close(self) -> None:
         """Finish the file and wait for the child (the file is complete when this returns)."""
@@ -135,7 +142,7 @@ class RecorderProcess:
         self._replies.close()
         self._child.wait()
         if not replies:
-            replies.append("the recording process ended early; the file may be incomplete")
+            replies.append(_GONE)
         self.error = self.error or next((r for r in replies if r), None)
         self._child = None
         del self._done, self._ring
@@ -176,8 +183,8 @@ def _serve(mem_fd: int, calls_fd: int, replies_fd: int) -> None:
                 views.append(ring[at:at + n])
                 at += _aligned(n)
             fn, args = pickle.loads(views[0], buffers=views[1:])
-        else:
-            fn, args, end = *pickle.loads(message[1]), None
+        else:  # through the pipe
+            (fn, args), end = pickle.loads(message[1], buffers=message[2]), None
         if error is None:
             try:
                 fn(recorder, *args)

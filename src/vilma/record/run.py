@@ -24,7 +24,7 @@ import numpy as np
 from vilma.core.messages import Message
 from vilma.record.process import RecorderProcess
 from vilma.record.recorder import Recorder
-from vilma.scenario.drive_log import COLUMNS, DriveLog
+from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sensors import Readings
 
@@ -68,15 +68,16 @@ class RunRecorder:
     def _hand_over(self, wait: bool = True) -> None:
         """The readings (joined a sensor each: fewer arrays to hand over) and log rows since the last hand-over
         to the recorder's process; unless ``wait``, only if its ring has room (it may still be starting)."""
+        rows = self.log.rows[self._written:]
+        size = rows.nbytes + sum(r.values.nbytes + r.stamp_ns.nbytes for b in self._pending for r in b.values())
+        if not wait and self.recorder.ok and size > self.recorder.room():
+            return  # kept for the next hand-over
         merged: dict[str, list[Readings]] = {}
         for block in self._pending:
             for name, r in block.items():
                 if len(r):
                     merged.setdefault(name, []).append(r)
-        size = sum(r.values.nbytes + r.stamp_ns.nbytes for p in merged.values() for r in p)
-        if not wait and size + (len(self.log) - self._written) * len(COLUMNS) * 8 > self.recorder.room():
-            return
-        self.recorder.call(_write, {n: Readings.concat(p) for n, p in merged.items()}, self.log.rows[self._written:])
+        self.recorder.call(_write, {n: Readings.concat(p) for n, p in merged.items()}, rows)
         self._pending, self._written, self._handed = [], len(self.log), time.monotonic()
 
     def finish(self, result: RunResult) -> None:

@@ -70,17 +70,17 @@ def ros2msg(definition: str, *dependencies: str) -> bytes:
 class Layout:
     """How one numeric topic is written: its ROS 2 type and the CDR payload, a template with slots.
 
-    ``floats`` makes the (n, len(slots) - 1) float64s of ``(stamps [ns], values (n, k))`` (the vilma message's
-    fields after ``stamp_ns``, in order; for a derived topic, its source's); ``fields`` names the vilma fields
-    read back (none for a derived topic).
+    ``floats`` makes a derived topic's (n, len(slots) - 1) float64s from its source's values (n, k); a vilma type
+    (``floats`` None) writes the values as they are: the message's fields after ``stamp_ns``, in order, which
+    ``fields`` names (none for a derived topic).
     """
 
     schema_name: str
     schema: bytes
     payload: bytes
     slots: tuple[int, ...]
-    floats: Callable[[np.ndarray, np.ndarray], np.ndarray]
     fields: tuple[str, ...]
+    floats: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         if any(b - a != 8 for a, b in zip(self.slots[1:], self.slots[2:], strict=False)):
@@ -90,7 +90,8 @@ class Layout:
                 ) -> np.ndarray:
         """The MCAP Message records of the rows on ``channel`` (bytes as uint8, each of :attr:`record_size`; in
         ``out`` if given)."""
-        return pack_records(self.payload, self.slots, channel, stamps, self.floats(stamps, values), out)
+        floats = values if self.floats is None else self.floats(values)
+        return pack_records(self.payload, self.slots, channel, stamps, floats, out)
 
     @property
     def record_size(self) -> int:
@@ -106,7 +107,7 @@ class Layout:
     def encode_one(self, stamp_ns: int, values: list[float]) -> bytes:
         """The payload of one message (fields after ``stamp_ns``), as :meth:`encode` writes it (without numpy
         for a vilma type: a live program's path, message by message)."""
-        row = values if self.floats is _same else self.floats(None, np.array([values], np.float64))[0].tolist()
+        row = values if self.floats is None else self.floats(np.array([values], np.float64))[0].tolist()
         out = bytearray(self.payload)
         struct.pack_into("<iI", out, self.slots[0], *divmod(stamp_ns, 1_000_000_000))
         struct.pack_into(f"<{len(row)}d", out, self.slots[1], *row)  # the float64 slots are side by side
@@ -123,21 +124,14 @@ class Layout:
         if bad is not None:
             raise ValueError(f"a {self.schema_name} message of {bad} bytes, not {size}")
         rows = np.frombuffer(b"".join(payloads), payload_dtype(self.payload, self.slots))
-        values = np.empty((len(rows), len(self.slots) - 1))
-        for j in range(values.shape[1]):
-            values[:, j] = rows[f"v{j}"]
-        return stamps_of(rows["sec"], rows["nanosec"]), values
-
-
-def _same(stamps: np.ndarray, values: np.ndarray) -> np.ndarray:
-    return values
+        return stamps_of(rows["sec"], rows["nanosec"]), rows["values"].astype(np.float64).reshape(len(rows), -1)
 
 
 def _vilma_layout(type_name: str, doc: str, fields: tuple[str, ...]) -> Layout:
     lines = [f"# {doc}", "builtin_interfaces/Time stamp  # sim time",
              *(f"float64 {f}" + (f"  # [{_UNITS[f]}]" if f in _UNITS else "") for f in fields)]
     payload, slots = CdrBody().time().float64(len(fields)).payload()
-    return Layout(f"vilma_msgs/msg/{type_name}", ros2msg("\n".join(lines), _TIME), payload, slots, _same, fields)
+    return Layout(f"vilma_msgs/msg/{type_name}", ros2msg("\n".join(lines), _TIME), payload, slots, fields)
 
 
 def _tf_layout(car: str) -> Layout:
@@ -145,10 +139,10 @@ def _tf_layout(car: str) -> Layout:
                   "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation")
     payload, slots = CdrBody().time().string("map").string(car).float64(7).payload()
 
-    def floats(st, v):
+    def floats(v):
         return np.column_stack([v[:, :3], *quaternion_from_euler(v[:, 3], v[:, 4], v[:, 5])])
     return Layout("foxglove_msgs/msg/FrameTransform", ros2msg(definition, _TIME, _VECTOR3, _QUATERNION),
-                  payload, slots, floats, ())
+                  payload, slots, (), floats)
 
 
 def _fix_layout() -> Layout:
@@ -157,9 +151,8 @@ def _fix_layout() -> Layout:
                   "uint8 DIAGONAL_KNOWN=2\nuint8 KNOWN=3\nuint8 position_covariance_type")
     payload, slots = CdrBody().time().string("gps").float64(3).zeros(9, 8).zeros(1, 1).payload()
 
-    def floats(st, v):
-        return v[:, :3]
-    return Layout("foxglove_msgs/msg/LocationFix", ros2msg(definition, _TIME), payload, slots, floats, ())
+    return Layout("foxglove_msgs/msg/LocationFix", ros2msg(definition, _TIME), payload, slots, (),
+                  lambda v: v[:, :3])
 
 
 def numeric_layouts(car: str) -> dict[str, Layout]:
