@@ -64,6 +64,9 @@ def _hour(tmp: Path) -> dict:
             "wall_s_files_with_recording": round(rec_s, 2),
             "recording_cost_pct_of_run_with_files": round(med(cost), 1),
             "recording_cost_pct_each": sorted(round(c, 1) for c in cost),
+            "recording_cost_pct_best_of_runs": round(100 * (min(w[0] for w in with_rec) / min(p[0] for p in plain)
+                                                            - 1), 1),
+            "wall_s_each": {"without": [round(p[0], 2) for p in plain], "with": [round(w[0], 2) for w in with_rec]},
             "recording_main_thread_cpu_pct": round(med(cpu), 1),
             "recording_cost_pct_of_compiled_loop_alone": round(100 * (rec_s - plain_s) / med(alone), 1),
             "closed_loop_alone_s": round(med(alone), 2), "run_mcap_mb": round(size / 2**20, 1),

@@ -3,6 +3,8 @@ caller vanishes, chunks on disk while it is quiet, and an error reported, not ra
 
 from __future__ import annotations
 
+import functools
+import os
 import signal
 import subprocess
 import sys
@@ -12,9 +14,14 @@ from pathlib import Path
 import numpy as np
 
 from vilma.core.messages import Pose
+from vilma.record import run as run_module
 from vilma.record.process import RecorderProcess
 from vilma.record.reader import RecordingError, read_recording
 from vilma.record.recorder import Recorder
+from vilma.record.run import RunRecorder
+from vilma.scenario import load_scenario
+from vilma.scenario.batch import BUNDLED
+from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.sensors import Readings
 
 STAMPS = np.arange(1, 201, dtype=np.int64) * 20_000_000
@@ -93,6 +100,44 @@ def test_calls_larger_than_the_ring_and_more_than_it_holds_arrive_whole(tmp_path
     assert rec.error is None and back.attachments["big.bin"] == bytes(range(256)) * (ring // 256)
     got = back.readings("pose")
     assert np.array_equal(got.values, np.tile(values, (7, 1))) and np.all(np.diff(got.stamp_ns) == 20_000_000)
+
+
+def test_a_run_hands_its_blocks_over_in_parts_the_ring_holds(tmp_path, monkeypatch):
+    """While the process starts, and whenever it is behind, a run keeps what the ring has no room for and hands
+    it over later, in parts: every reading and log row arrives, in order."""
+    monkeypatch.setattr(run_module, "RecorderProcess", functools.partial(RecorderProcess, ring=1 << 20))
+    monkeypatch.setattr(RunRecorder, "BLOCK", 100)  # a hand-over tried every other block
+    log = DriveLog(capacity=16)
+    rec = RunRecorder(tmp_path / "run.mcap", load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"), log)
+    rng = np.random.default_rng(2)
+    n, periods = 3000, 50  # a block: 168 kB of poses; the ring takes two or three at a time
+    values = rng.normal(size=(30 * n, 6))
+    rows = rng.normal(size=(30 * periods, len(COLUMNS)))
+    rows[:, 0] = np.arange(len(rows)) * 0.02  # sim time [s]
+    stamps = np.arange(1, 30 * n + 1, dtype=np.int64) * 1_000_000
+    for k in range(30):
+        log.extend(rows[k * periods:(k + 1) * periods])
+        part = slice(k * n, (k + 1) * n)
+        rec.add({"pose": Readings("pose", Pose, stamps[part], values[part])})
+    rec.abort()
+    back = read_recording(tmp_path / "run.mcap")
+    assert rec.recorder.error is None and back.complete
+    assert np.array_equal(back.readings("pose").values, values) and np.array_equal(back.readings("pose").stamp_ns,
+                                                                                   stamps)
+    assert np.array_equal(back.drive_log(), rows)
+
+
+def test_a_killed_child_stops_the_recording_and_nothing_else(tmp_path):
+    rec = RecorderProcess(tmp_path / "gone.mcap")
+    _poses(rec.call)
+    os.kill(rec._child.pid, signal.SIGKILL)
+    deadline = time.monotonic() + 30
+    while rec.ok:
+        assert time.monotonic() < deadline, "the recorder never noticed its process was gone"
+        time.sleep(0.05)
+    _poses(rec.call)  # dropped, no error raised
+    rec.close()
+    assert "ended early" in rec.error
 
 
 def test_a_failing_call_ends_the_recording_and_keeps_what_was_written(tmp_path):

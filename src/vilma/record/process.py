@@ -17,6 +17,7 @@ import fcntl
 import mmap
 import os
 import pickle
+import select
 import subprocess
 import sys
 import time
@@ -27,8 +28,11 @@ from typing import Any
 
 import numpy as np
 
-RING = 64 << 20
-"""Bytes of shared memory for the calls on their way, by default [bytes]."""
+RING = 8 << 20
+"""Bytes of shared memory for the calls on their way, by default [bytes] (small: each page costs the parent a
+fault the first time it writes there)."""
+_SLACK = 1 << 16
+"""Bytes of a call's room kept for its pickle stream and alignment [bytes]."""
 _HEADER = 64
 """Bytes before the ring: the child's progress (int64: bytes of the ring done with, counted from the start)."""
 _PIPE = 1 << 20
@@ -65,25 +69,30 @@ class RecorderProcess:
             os.close(fd)
         self._calls = Connection(calls_w, readable=False)
         self._replies = Connection(replies_r, writable=False)
+        self._replied = select.poll()  # a microsecond a look (Connection.poll takes a hundred)
+        self._replied.register(replies_r, select.POLLIN)
         self._head = 0
         self.error: str | None = None
         self._calls.send((Path(path), options))
 
     @property
     def ok(self) -> bool:
-        """Whether the recording is still going (false once the child reported an error, or after close)."""
-        if self.error is None and self._child is not None:
+        """Whether the recording is still going (false once the child reported an error, or after finish)."""
+        if self.error is None and not self._calls.closed:
             self.error = self._trouble()
-        return self.error is None and self._child is not None
+        return self.error is None and not self._calls.closed
 
     def _trouble(self) -> str | None:
-        """The error the child reported, or that it is gone; None while it is well."""
-        with contextlib.suppress(OSError, EOFError):
-            while self._replies.poll():
+        """The error the child reported, or that it is gone (its end of the replies closed); None while it is
+        well."""
+        try:
+            while self._replied.poll(0):
                 reply = self._replies.recv()
                 if reply:
                     return reply
-        return _GONE if self._child.poll() is not None else None
+        except (OSError, EOFError):
+            return _GONE
+        return None
 
     def call(self, fn: Callable[..., None], *args: Any) -> None:
         """Do ``fn(recorder, *args)`` in the child, after the calls before it (nothing once the recording stopped).
@@ -106,9 +115,16 @@ class RecorderProcess:
             at += _aligned(p.nbytes)
         self._send(("ring", start % len(self._ring), [p.nbytes for p in parts], start + total))
 
+    @property
+    def capacity(self) -> int:
+        """Bytes a call's arrays may take through the ring (a bigger call goes through the pipe)."""
+        return len(self._ring) // 2 - _SLACK
+
     def room(self) -> int:
         """Bytes a call's arrays may take now without waiting for the child (it may still be starting)."""
-        return min(len(self._ring) // 2, len(self._ring) - (self._head - int(self._done[0]))) - (1 << 16)
+        ring = len(self._ring)
+        free, tail = ring - (self._head - int(self._done[0])), ring - self._head % ring  # tail: to the ring's end
+        return min(self.capacity, max(min(free, tail), free - tail) - _SLACK)  # a call never straddles the end
 
     def _reserve(self, size: int) -> int | None:
         """Where ``size`` bytes of the ring go (counted from the start), once free; None if the child is gone."""
@@ -128,13 +144,19 @@ class RecorderProcess:
         except OSError:
             self.error = self.error or self._trouble() or _GONE
 
-    def close(self) -> None:
-        """Finish the file and wait for the child (the file is complete when this returns)."""
-        if self._child is None:
+    def finish(self) -> None:
+        """Have the child finish the file, without waiting for it (:meth:`close` waits); no calls after this."""
+        if self._calls.closed:
             return
         with contextlib.suppress(OSError):
             self._calls.send(("close",))
         self._calls.close()
+
+    def close(self) -> None:
+        """Finish the file and wait for the child (the file is complete when this returns)."""
+        if self._child is None:
+            return
+        self.finish()
         replies = []
         with contextlib.suppress(EOFError, OSError):
             while True:  # an error it reported earlier, then its answer to close, then the end of the pipe

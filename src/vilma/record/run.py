@@ -49,14 +49,18 @@ class RunRecorder:
         self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(scenario).encode())
         self.recorder.call(Recorder.add_metadata, "scenario",
                            {"name": scenario.name, "description": scenario.description})
-        self._written = 0
-        self._pending: list[dict[str, Readings]] = []
-        self._handed = time.monotonic()
+        self._row_bytes = log.rows.strides[0]
+        self._written = self._marked = self._tried = 0  # log rows handed over, added, at the last hand-over
+        self._pending: list[tuple[dict[str, Readings], int, int]] = []  # readings, log rows up to, bytes
+        self._tried_at = time.monotonic()
 
     def add(self, readings: dict[str, Readings]) -> None:
         """The readings of a block or period, after its rows went into the log."""
-        self._pending.append(readings)
-        if len(self.log) - self._written >= self.BLOCK or time.monotonic() - self._handed >= self.HAND_OVER_S:
+        marked, self._marked = self._marked, len(self.log)
+        size = (self._marked - marked) * self._row_bytes + sum(r.stamp_ns.nbytes + r.values.nbytes
+                                                               for r in readings.values())
+        self._pending.append((readings, self._marked, size))
+        if self._marked - self._tried >= self.BLOCK or time.monotonic() - self._tried_at >= self.HAND_OVER_S:
             self._hand_over(wait=False)
 
     def add_captures(self, captures: list[tuple[str, Message]]) -> None:
@@ -66,22 +70,32 @@ class RunRecorder:
             self.recorder.call(Recorder.add_message, name, msg)
 
     def _hand_over(self, wait: bool = True) -> None:
-        """The readings (joined a sensor each: fewer arrays to hand over) and log rows since the last hand-over
-        to the recorder's process; unless ``wait``, only if its ring has room (it may still be starting)."""
-        rows = self.log.rows[self._written:]
-        size = rows.nbytes + sum(r.values.nbytes + r.stamp_ns.nbytes for b in self._pending for r in b.values())
-        if not wait and self.recorder.ok and size > self.recorder.room():
-            return  # kept for the next hand-over
-        merged: dict[str, list[Readings]] = {}
-        for block in self._pending:
-            for name, r in block.items():
-                if len(r):
-                    merged.setdefault(name, []).append(r)
-        self.recorder.call(_write, {n: Readings.concat(p) for n, p in merged.items()}, rows)
-        self._pending, self._written, self._handed = [], len(self.log), time.monotonic()
+        """The readings (joined a sensor each: fewer arrays to hand over) and log rows pending, to the recorder's
+        process: as much as its ring has room for now, or, if ``wait``, all of it in turns."""
+        self._tried, self._tried_at = self._marked, time.monotonic()
+        while self._pending and self.recorder.ok:
+            room = self.recorder.capacity if wait else self.recorder.room()
+            take = size = 0
+            while take < len(self._pending) and (size + self._pending[take][2] <= room or (wait and not take)):
+                size += self._pending[take][2]
+                take += 1
+            if not take:
+                return  # the child is behind (or still starting): kept for the next hand-over
+            merged: dict[str, list[Readings]] = {}
+            for block, _, _ in self._pending[:take]:
+                for name, r in block.items():
+                    if len(r):
+                        merged.setdefault(name, []).append(r)
+            upto = self._pending[take - 1][1]
+            self.recorder.call(_write, {n: Readings.concat(p) for n, p in merged.items()},
+                               self.log.rows[self._written:upto])
+            del self._pending[:take]
+            self._written = upto
+        self._pending.clear()  # nothing more goes in once the recording stopped
 
     def finish(self, result: RunResult) -> None:
-        """Write what is left, the run's facts, the path and the scorecard, and close the file."""
+        """Hand over what is left, the run's facts, the path and the scorecard, and have the file finished
+        (:meth:`close` waits for it)."""
         self._hand_over()
         call = self.recorder.call
         call(Recorder.add_metadata, "run", {"t_start": result.t_start, "completed": result.metrics.get("completed"),
@@ -95,6 +109,10 @@ class RunRecorder:
             call(Recorder.add_attachment, "path.csv", "text/csv", buf.getvalue().encode())
         call(Recorder.add_attachment, "metrics.json", "application/json",
              (json.dumps(result.metrics, indent=2) + "\n").encode())
+        self.recorder.finish()
+
+    def close(self) -> None:
+        """Wait until the file is finished."""
         self.recorder.close()
 
     def abort(self) -> None:

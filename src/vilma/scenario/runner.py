@@ -125,10 +125,14 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
     finally:
         sim.close()
     if series is not None:
-        series.close()
-        write_outputs(result, out_dir)
         if rec is not None:
-            rec.finish(result)
+            rec.finish(result)  # the recorder's process finishes the file while the plots are drawn
+        try:
+            series.close()
+            write_outputs(result, out_dir)
+        finally:
+            if rec is not None:
+                rec.close()
     return result
 
 
