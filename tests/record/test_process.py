@@ -12,13 +12,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from vilma.core.messages import Pose
 from vilma.record import run as run_module
-from vilma.record.process import RecorderProcess
+from vilma.record.process import Joined, RecorderProcess
 from vilma.record.reader import RecordingError, read_recording
 from vilma.record.recorder import Recorder
-from vilma.record.run import RunRecorder
+from vilma.record.run import RunRecorder, _write
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import COLUMNS, DriveLog
@@ -50,7 +51,7 @@ def test_the_child_writes_the_file_the_recorder_writes(tmp_path):
 
 def test_the_file_is_finished_when_the_parent_is_killed(tmp_path):
     script = ("import os, signal; from pathlib import Path; from tests.record.test_process import _poses; "
-              "from vilma.record.process import RecorderProcess; from vilma.record.recorder import Recorder; "
+              "from vilma.record.process import Joined, RecorderProcess; from vilma.record.recorder import Recorder; "
               f"rec = RecorderProcess(Path({str(tmp_path)!r}) / 'orphan.mcap'); _poses(rec.call); "
               "rec.call(Recorder.add_metadata, 'run', {'completed': False}); os.kill(os.getpid(), signal.SIGKILL)")
     parent = subprocess.run([sys.executable, "-c", script], cwd=ROOT, timeout=60)
@@ -100,6 +101,20 @@ def test_calls_larger_than_the_ring_and_more_than_it_holds_arrive_whole(tmp_path
     assert rec.error is None and back.attachments["big.bin"] == bytes(range(256)) * (ring // 256)
     got = back.readings("pose")
     assert np.array_equal(got.values, np.tile(values, (7, 1))) and np.all(np.diff(got.stamp_ns) == 20_000_000)
+
+
+@pytest.mark.parametrize("ring", [1 << 20, 1 << 12])  # through the ring; too big for it: through the pipe
+def test_joined_and_plain_arrays_arrive_as_they_were(tmp_path, ring):
+    rec = RecorderProcess(tmp_path / "j.mcap", ring=ring)
+    rows = np.asfortranarray(np.arange(3.0 * len(COLUMNS)).reshape(3, len(COLUMNS)))  # not C-ordered: pickled
+    rows[:, 0] = [0.02, 0.04, 0.06]
+    rec.call(_write, {"pose": (Pose, Joined([STAMPS[:120], STAMPS[120:121], STAMPS[121:]]),
+                               Joined([VALUES[:120], VALUES[120:121], VALUES[121:]]))}, rows)
+    rec.close()
+    back = read_recording(tmp_path / "j.mcap")
+    assert rec.error is None and np.array_equal(back.drive_log(), rows)
+    assert np.array_equal(back.readings("pose").values, VALUES) and np.array_equal(back.readings("pose").stamp_ns,
+                                                                                   STAMPS)
 
 
 def test_a_run_hands_its_blocks_over_in_parts_the_ring_holds(tmp_path, monkeypatch):

@@ -2,9 +2,10 @@
 over its arrays and goes on, and shares no interpreter lock with the packing and the compression.
 
 The child is a fresh interpreter, not a fork (a forked copy of a large process makes the parent copy every
-page it writes afterwards). Each call is pickled with its arrays out of band (protocol 5) into a ring of
-shared memory, and a pipe carries where it lies; the child reads the arrays in place, does the call, then
-frees its part of the ring. The parent waits only when the ring is full. The child is in a session of its
+page it writes afterwards). Each call is pickled into a ring of shared memory with its numpy arrays beside
+the pickle, not in it (a :class:`Joined` list of arrays is joined there: one copy, no concatenation), and a
+pipe carries where it lies; the child reads the arrays in place, does the call, then frees its part of the
+ring. The parent waits only when the ring is full. The child is in a session of its
 own (Ctrl-C is the parent's to handle), closes a chunk that is a second old while nothing comes, and
 finishes the file when the parent closes it or vanishes. A call that fails ends the recording only, keeping
 what was written (:attr:`RecorderProcess.error` says why).
@@ -14,6 +15,8 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import io
+import math
 import mmap
 import os
 import pickle
@@ -44,6 +47,49 @@ _GONE = "the recording process ended early; the file may be incomplete"
 
 def _aligned(n: int) -> int:
     return (n + 63) & ~63
+
+
+class Joined:
+    """Arrays of one dtype and row shape that a call's function gets as one, ``np.concatenate(parts)``: they are
+    joined in the ring, where the call's arrays are copied anyway."""
+
+    __slots__ = ("parts", "dtype", "shape", "nbytes")
+
+    def __init__(self, parts: list[np.ndarray]) -> None:
+        self.parts = parts
+        self.dtype = parts[0].dtype
+        self.shape = (sum(len(a) for a in parts), *parts[0].shape[1:])
+        self.nbytes = self.dtype.itemsize * math.prod(self.shape)
+
+
+class _Pickler(pickle.Pickler):
+    """Pickles a call; its arrays (C-ordered, of a plain dtype; others go in the pickle) and :class:`Joined` lists
+    go to ``arrays``, each named in the pickle by its dtype and shape."""
+
+    def __init__(self, file: io.BytesIO, arrays: list[Joined]) -> None:
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.arrays = arrays
+
+    def persistent_id(self, obj: Any) -> tuple[str, tuple[int, ...]] | None:
+        if (type(obj) is np.ndarray and obj.ndim and obj.flags.c_contiguous and not obj.dtype.hasobject
+                and obj.dtype.fields is None):  # its dtype.str names it whole
+            obj = Joined([obj])
+        elif type(obj) is not Joined:
+            return None
+        self.arrays.append(obj)
+        return obj.dtype.str, obj.shape
+
+
+class _Unpickler(pickle.Unpickler):
+    """Unpickles a call whose arrays lie in ``arrays`` (buffers, in the order :class:`_Pickler` met them)."""
+
+    def __init__(self, stream: bytes, arrays: list) -> None:
+        super().__init__(io.BytesIO(stream))
+        self.arrays = iter(arrays)
+
+    def persistent_load(self, pid: tuple[str, tuple[int, ...]]) -> np.ndarray:
+        dtype, shape = pid
+        return np.frombuffer(next(self.arrays), dtype, math.prod(shape)).reshape(shape)
 
 
 class RecorderProcess:
@@ -96,24 +142,29 @@ class RecorderProcess:
 
     def call(self, fn: Callable[..., None], *args: Any) -> None:
         """Do ``fn(recorder, *args)`` in the child, after the calls before it (nothing once the recording stopped).
-        ``fn`` must be importable by name (a module's function, or a method of the recorder)."""
+        ``fn`` must be importable by name (a module's function, or a method of the recorder); a :class:`Joined`
+        in ``args`` reaches it as one array."""
         if not self.ok:
             return
-        buffers: list[pickle.PickleBuffer] = []
-        stream = pickle.dumps((fn, args), protocol=5, buffer_callback=buffers.append)
-        parts = [memoryview(stream), *(b.raw() for b in buffers)]
-        total = sum(_aligned(p.nbytes) for p in parts)
+        arrays: list[Joined] = []
+        file = io.BytesIO()
+        _Pickler(file, arrays).dump((fn, args))
+        stream = file.getbuffer()
+        sizes = [stream.nbytes, *(a.nbytes for a in arrays)]
+        total = sum(_aligned(n) for n in sizes)
         if total > len(self._ring) // 2:  # too big for the ring: through the pipe
-            self._send(("pipe", stream, [p.tobytes() for p in parts[1:]]))
+            self._send(("pipe", bytes(stream), [np.concatenate(a.parts).tobytes() for a in arrays]))
             return
         start = self._reserve(total)
         if start is None:
             return
         at = start % len(self._ring)
-        for p in parts:
-            self._ring[at:at + p.nbytes] = np.frombuffer(p, np.uint8)
-            at += _aligned(p.nbytes)
-        self._send(("ring", start % len(self._ring), [p.nbytes for p in parts], start + total))
+        self._ring[at:at + stream.nbytes] = np.frombuffer(stream, np.uint8)
+        at += _aligned(stream.nbytes)
+        for a in arrays:
+            np.concatenate(a.parts, out=self._ring[at:at + a.nbytes].view(a.dtype).reshape(a.shape))
+            at += _aligned(a.nbytes)
+        self._send(("ring", start % len(self._ring), sizes, start + total))
 
     @property
     def capacity(self) -> int:
@@ -204,9 +255,9 @@ def _serve(mem_fd: int, calls_fd: int, replies_fd: int) -> None:
             for n in sizes:
                 views.append(ring[at:at + n])
                 at += _aligned(n)
-            fn, args = pickle.loads(views[0], buffers=views[1:])
+            fn, args = _Unpickler(views[0], views[1:]).load()
         else:  # through the pipe
-            (fn, args), end = pickle.loads(message[1], buffers=message[2]), None
+            (fn, args), end = _Unpickler(message[1], message[2]).load(), None
         if error is None:
             try:
                 fn(recorder, *args)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.core.messages import Message
-from vilma.record.process import RecorderProcess
+from vilma.record.process import Joined, RecorderProcess
 from vilma.record.recorder import Recorder
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import Scenario, to_yaml
@@ -70,7 +70,7 @@ class RunRecorder:
             self.recorder.call(Recorder.add_message, name, msg)
 
     def _hand_over(self, wait: bool = True) -> None:
-        """The readings (joined a sensor each: fewer arrays to hand over) and log rows pending, to the recorder's
+        """The readings (joined a sensor each, in the ring) and log rows pending, to the recorder's
         process: as much as its ring has room for now, or, if ``wait``, all of it in turns."""
         self._tried, self._tried_at = self._marked, time.monotonic()
         while self._pending and self.recorder.ok:
@@ -87,8 +87,9 @@ class RunRecorder:
                     if len(r):
                         merged.setdefault(name, []).append(r)
             upto = self._pending[take - 1][1]
-            self.recorder.call(_write, {n: Readings.concat(p) for n, p in merged.items()},
-                               self.log.rows[self._written:upto])
+            joined = {n: (p[0].message, Joined([r.stamp_ns for r in p]), Joined([r.values for r in p]))
+                      for n, p in merged.items()}
+            self.recorder.call(_write, joined, self.log.rows[self._written:upto])
             del self._pending[:take]
             self._written = upto
         self._pending.clear()  # nothing more goes in once the recording stopped
@@ -121,7 +122,8 @@ class RunRecorder:
         self.recorder.close()
 
 
-def _write(recorder: Recorder, readings: dict[str, Readings], rows: np.ndarray) -> None:
-    """Readings of a stretch of sim time, and the log's rows of it."""
-    recorder.add_readings(readings)
+def _write(recorder: Recorder, readings: dict[str, tuple[type[Message], np.ndarray, np.ndarray]],
+           rows: np.ndarray) -> None:
+    """Readings of a stretch of sim time (message type, stamps and values by sensor), and the log's rows of it."""
+    recorder.add_readings({name: Readings(name, *r) for name, r in readings.items()})
     recorder.add_log_rows(rows)
