@@ -53,7 +53,7 @@ class Joined:
     """Arrays of one dtype and row shape that a call's function gets as one, ``np.concatenate(parts)``: they are
     joined in the ring, where the call's arrays are copied anyway."""
 
-    __slots__ = ("parts", "dtype", "shape", "nbytes")
+    __slots__ = ("dtype", "nbytes", "parts", "shape")
 
     def __init__(self, parts: list[np.ndarray]) -> None:
         self.parts = parts
