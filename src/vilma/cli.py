@@ -54,7 +54,7 @@ def _run(args: argparse.Namespace) -> int:
         live = foxglove_observer(args.foxglove, args.realtime, console.print)
     try:
         results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
-                                live.observe if live else None)
+                                live.observe if live else None, record=not args.no_record)
     finally:
         if live is not None:
             live.close()
@@ -215,6 +215,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="pace to K times real time (default: as fast as possible)")
     r.add_argument("--foxglove", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                    help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
+    r.add_argument("--no-record", action="store_true", help="write no run.mcap (the other files as usual)")
     r.set_defaults(func=_run)
     for name, helptext in (("sim", "the simulator as a server on Zenoh, paced to real time"),
                            ("drive", "the self-driver as its own process on Zenoh"),

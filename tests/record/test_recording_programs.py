@@ -14,6 +14,7 @@ from mcap.reader import make_reader
 
 from vilma import programs
 from vilma.bus.local import LocalBus
+from vilma.cli import main
 from vilma.record.reader import read_recording
 from vilma.scenario import load_scenario, to_yaml
 from vilma.scenario.batch import BUNDLED
@@ -49,6 +50,12 @@ def test_run_writes_run_mcap_equal_to_its_log_and_timeseries(tmp_path):
         summary = make_reader(f).get_summary()
     assert summary.statistics.message_count == sum(back.count(t) for t in back.topics)
     assert len(COLUMNS) == back.drive_log().shape[1]
+
+
+def test_run_no_record_writes_the_other_files_only(tmp_path):
+    assert main(["run", "paper_fig11_speed_10", "--no-record", "--out", str(tmp_path)]) == 0
+    assert not (tmp_path / "run.mcap").exists()
+    assert {"metrics.json", "timeseries.csv", "scenario.yaml", "speed.png"} <= {p.name for p in tmp_path.iterdir()}
 
 
 def test_up_records_every_topic_and_a_failing_path_does_not_stop_the_drive(tmp_path):

@@ -77,8 +77,9 @@ def find_scenario(name: str) -> Path:
 
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,
-            observe=None) -> list[RunResult]:
-    """Run the jobs in order with a progress bar, writing each run's files; returns the results.
+            observe=None, record: bool = True) -> list[RunResult]:
+    """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``);
+    returns the results.
 
     ``observe`` gets each run's sensor readings as they are made (see :func:`~vilma.scenario.runner.run`).
     """
@@ -87,7 +88,7 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
         task = bar.add_task("running", total=len(jobs))
         for job in jobs:
             bar.update(task, description=job.scenario.name + (f" {job.label}" if job.label else ""))
-            result = run(job.scenario, realtime, _out_dir(job, out, len(jobs)), observe=observe)
+            result = run(job.scenario, realtime, _out_dir(job, out, len(jobs)), record=record, observe=observe)
             results.append(result)
             bar.advance(task)
     return results
