@@ -3,9 +3,10 @@ the scorecard.
 
 The runner hands over each block of readings (the compiled loop's blocks, or
 the Python loop's periods, gathered ``BLOCK`` periods or ``HAND_OVER_S`` at a
-time) and its log grows in place; a recorder in a process of its own
-(:mod:`vilma.record.process`) joins, packs and compresses them on another
-core, and finishes the file even if the run is killed. The 3D plant's camera images and laser
+time, a sensor's joined as they are copied into shared memory) and the log's
+new rows; a recorder in a process of its own (:mod:`vilma.record.process`)
+packs and compresses them on another core, and finishes the file even if the
+run is killed. The 3D plant's camera images and laser
 scans are written as they come (:meth:`RunRecorder.add_captures`). ``run`` metadata and the
 ``scenario.yaml``, ``path.csv`` and ``metrics.json`` attachments let
 ``vilma report RUN.mcap`` score the run from the recording alone.
