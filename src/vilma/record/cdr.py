@@ -5,8 +5,8 @@ byte template with slots: the stamp (``builtin_interfaces/Time``: int32 sec,
 uint32 nanosec) and float64 values. :class:`CdrBody` lays out such a
 body as CDR does (little endian, each field aligned to its size from the body's
 start, after the 4-byte encapsulation header); :func:`pack_records` writes the
-MCAP records of a whole column of messages in one compiled loop that releases
-the GIL, so a recording thread packs on another core while the car drives.
+MCAP records of a whole column of messages in one compiled loop (in the
+recorder's process of a ``vilma run``, on another core than the car's loop).
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ _UNITS = {
     "altitude": "m", "fl": "rad/s", "fr": "rad/s", "rl": "rad/s", "rr": "rad/s", "speed": "m/s",
     "yaw_rate": "rad/s", "steer": "rad", "drive_force": "N", "brake_force": "N", "t": "s",
     "target_speed": "m/s", "measured_speed": "m/s", "est_x": "m", "est_y": "m", "est_yaw": "rad",
-    "cmd_steer": "rad", "cmd_drive": "N", "cmd_brake": "N", "controller_us": "us",
+    "cmd_steer": "rad", "controller_us": "us",  # cmd_drive, cmd_brake: in the command's own unit
 }
 DRIVE_LOG = "drive_log"
 """The runner's topic: one :data:`~vilma.scenario.drive_log.COLUMNS` row a control period (true plant + driver)."""
