@@ -5,8 +5,12 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import time
 
 from vilma.options import check_factor, scenario_or_default, zenoh_bus
+
+STARTED = time.perf_counter()
+"""When the command began (its imports aside: a few ms): the first run's ``wall_time_s`` counts from here."""
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -20,7 +24,7 @@ def _demo(args: argparse.Namespace) -> int:
     jobs = batch.plan(demo.scenario_names(), [])
     root = demo.out_root(Path(args.out) if args.out else None)
     console.print(f"vilma demo: {len(jobs)} bundled scenarios, headless, files in {root}", highlight=False)
-    results = batch.run_all(jobs, root, args.realtime, console)
+    results = batch.run_all(jobs, root, args.realtime, console, overwrite=args.overwrite, started=STARTED)
     console.print(demo.comparison_table({r.scenario.name: r for r in results}))
     return _report_failures(results, console)
 
@@ -42,6 +46,8 @@ def _report_failures(results, console) -> int:
 def _run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    from rich.text import Text
+
     from vilma.scenario import batch
 
     check_factor(args.realtime, "--realtime")
@@ -54,15 +60,17 @@ def _run(args: argparse.Namespace) -> int:
         live = foxglove_observer(args.foxglove, args.realtime, console.print)
     try:
         results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
-                                live.observe if live else None, record=not args.no_record)
+                                live.observe if live else None, record=not args.no_record, overwrite=args.overwrite,
+                                started=STARTED)
     finally:
         if live is not None:
             live.close()
     if len(results) == 1:
         console.print(batch.scorecard_table(results[0]))
     console.print(batch.summary_table(jobs, results))
-    for r in results:
-        console.print(f"{r.scenario.name}: files in {r.out_dir}", highlight=False)
+    for job, r in zip(jobs, results, strict=True):
+        console.print(Text(f"{job.scenario.file or job.scenario.name}{' ' + job.label if job.label else ''}: "
+                           f"files in {r.out_dir}"))
     return _report_failures(results, console)
 
 
@@ -202,6 +210,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("demo", help="the paper's figures and vilma's side by side: runs the bundled scenarios")
     d.add_argument("--out", metavar="DIR", help="where the runs' files go (default runs/demo-<timestamp>/)")
+    d.add_argument("--overwrite", action="store_true", help="replace the files of earlier runs in --out")
     d.add_argument("--realtime", type=float, default=None, metavar="K",
                    help="pace each run to K times real time (default: as fast as possible)")
     d.set_defaults(func=_demo)
@@ -216,6 +225,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--foxglove", nargs="?", type=int, const=8765, default=None, metavar="PORT",
                    help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
     r.add_argument("--no-record", action="store_true", help="write no run.mcap (the other files as usual)")
+    r.add_argument("--overwrite", action="store_true", help="replace the files of an earlier run in the --out folder "
+                   "(without it, a folder that holds anything is refused)")
     r.set_defaults(func=_run)
     for name, helptext in (("sim", "the simulator as a server on Zenoh, paced to real time"),
                            ("drive", "the self-driver as its own process on Zenoh"),
@@ -315,7 +326,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError) as e:
         print(f"vilma {args.command}: error: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
+        if str(e):  # a run says where it stopped and what it kept
+            print(f"vilma {args.command}: {e}", file=sys.stderr)
         return 130
 
 

@@ -13,6 +13,7 @@ from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.lockstep import compiled_ok
 from vilma.scenario.runner import run
+from vilma.scenario.spec import TIMING_KEYS
 from vilma.sensors.pose import PoseParams
 from vilma.sim import Simulator
 
@@ -23,9 +24,8 @@ def _same(a, b) -> None:
     keep = [i for i in range(len(COLUMNS)) if i not in TIMING]
     assert a.log.rows.shape == b.log.rows.shape
     assert np.array_equal(a.log.rows[:, keep], b.log.rows[:, keep], equal_nan=True)
-    timing = ("wall_time_s", "realtime_factor", "controller_time_per_step_us")
-    assert {k: v for k, v in a.metrics.items() if k not in timing} == \
-        {k: v for k, v in b.metrics.items() if k not in timing}
+    assert {k: v for k, v in a.metrics.items() if k not in TIMING_KEYS} == \
+        {k: v for k, v in b.metrics.items() if k not in TIMING_KEYS}
 
 
 @pytest.mark.parametrize(("name", "overrides"), [

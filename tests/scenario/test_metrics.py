@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
 
 from vilma.scenario.drive_log import COLUMNS, DriveLog
-from vilma.scenario.metrics import check_expectations, scorecard, step_response
-from vilma.scenario.spec import SCORECARD_KEYS, Bound, Scenario, TaskSpec
+from vilma.scenario.metrics import check_expectations, completion, coverage, scorecard, step_response, timing
+from vilma.scenario.spec import SCORECARD_KEYS, Bound, MetricsSpec, Scenario, TaskSpec
 from vilma.trajectory import Trajectory
 
 DT = 0.02
@@ -53,13 +54,13 @@ def test_straight_path_with_a_constant_offset_and_a_circle():
     log = _log(t, x=x, y=np.full_like(t, 0.3), vx=np.full_like(t, 5.0), target_speed=np.full_like(t, 5.0))
     path = Trajectory.from_points([(-10, 0), (100, 0)])
     scenario = Scenario(name="s", task=TaskSpec(course=((0, 0), (1, 0)), speed=5.0))
-    m = scorecard(log, scenario, path, 0.0, True, 0.5)
+    m = scorecard(log, scenario, path, 0.0)
     assert set(m) == set(SCORECARD_KEYS)
     assert m["lateral_error_rms_m"] == pytest.approx(0.3)
     assert m["lateral_error_max_m"] == pytest.approx(0.3) and m["lateral_error_p95_m"] == pytest.approx(0.3)
     assert m["heading_error_rms_rad"] == pytest.approx(0.0)
     assert m["distance_m"] == pytest.approx(5.0 * t[-1])
-    assert m["realtime_factor"] == pytest.approx(t[-1] / 0.5)
+    assert m["realtime_factor"] is None and m["wall_time_s"] is None  # timing is the runner's
     assert m["speed_error_rms_mps"] == pytest.approx(0.0)
     assert m["longitudinal_jerk_rms_mps3"] == pytest.approx(0.0, abs=1e-9)
     assert m["speed_rise_time_90_s"] is None  # not a speed step
@@ -72,7 +73,7 @@ def test_circle_lateral_acceleration_is_v2_over_r():
     yaw = v / r * t
     log = _log(t, x=r * np.sin(yaw), y=r * (1 - np.cos(yaw)), yaw=yaw, vx=np.full_like(t, v),
                steer=np.full_like(t, 0.1))
-    m = scorecard(log, Scenario(name="c", task=TaskSpec(speed=v)), None, 0.0, True, 1.0)
+    m = scorecard(log, Scenario(name="c", task=TaskSpec(speed=v)), None, 0.0)
     assert m["lateral_accel_max_mps2"] == pytest.approx(v * v / r, rel=1e-3)
     assert m["steering_rate_rms_radps"] == pytest.approx(0.0)
     assert m["lateral_error_rms_m"] is None  # no path
@@ -85,3 +86,104 @@ def test_expectations():
                                    "pose_error_rms_m": Bound(max=1.0)})
     assert fails == ["completed: expected false, got True", "lateral_error_rms_m: 0.2 is outside min 0.25 and max 0.3",
                      "pose_error_rms_m: None is outside max 1"]
+
+
+# -- completion: judged on the track against the path, with the stated tolerances ---------------------------
+
+LINE = Trajectory.from_points([(float(x), 0.0) for x in range(101)])  # 100 m east, a waypoint a metre
+PATH_TASK = Scenario(name="p", task=TaskSpec(course=((0, 0), (100, 0)), speed=5.0))
+
+
+def _drive(*legs, step=0.1) -> np.ndarray:
+    """Points every ``step`` [m] along straight legs between the corners given."""
+    pts = [np.asarray(legs[0], float)]
+    for a, b in itertools.pairwise(legs):
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        n = max(1, round(np.hypot(*(b - a)) / step))
+        pts += [a + (b - a) * k / n for k in range(1, n + 1)]
+    return np.array(pts)
+
+
+def _at_rest(xy: np.ndarray) -> np.ndarray:
+    return np.r_[np.full(len(xy) - 1, 5.0), 0.0]
+
+
+def test_a_drive_to_the_end_completes():
+    """0.3 m beside the line to its end, stopping there: 0.3 m from the end, all of it covered."""
+    xy = _drive((0, 0.3), (100, 0.3))
+    c = completion(PATH_TASK, xy, _at_rest(xy), LINE)
+    assert c == {"completed": True, "incomplete_reason": None, "end_error_m": pytest.approx(0.3),
+                 "path_progress": 1.0, "waypoints_skipped": 0}
+
+
+def test_stopping_short_within_the_end_tolerance_completes():
+    xy = _drive((0, 0), (99.5, 0))
+    c = completion(PATH_TASK, xy, _at_rest(xy), LINE)
+    assert c["completed"] and c["end_error_m"] == pytest.approx(0.5) and c["waypoints_skipped"] == 0
+
+
+def test_leaving_the_path_halfway_is_incomplete_and_says_why():
+    """Along the line to x = 50, then 35 m north: covered up to 50 m plus the 2 m tolerance; waypoints at
+    x = 53..100 skipped; 61 m from the end."""
+    xy = _drive((0, 0), (50, 0), (50, 35))
+    c = completion(PATH_TASK, xy, _at_rest(xy), LINE)
+    assert c["completed"] is False
+    assert c["path_progress"] == pytest.approx(0.52)
+    assert c["waypoints_skipped"] == 48
+    assert c["end_error_m"] == pytest.approx(math.hypot(50, 35))
+    assert "covered 52% of the path within 2 m (needs 95%)" in c["incomplete_reason"]
+    assert "ended 61 m from the end of the path (tolerance 1 m)" in c["incomplete_reason"]
+
+
+def test_still_moving_at_the_end_is_incomplete():
+    xy = _drive((0, 0), (100, 0))
+    c = completion(PATH_TASK, xy, np.full(len(xy), 5.0), LINE)
+    assert c["completed"] is False and c["incomplete_reason"].startswith("still moving at 5 m/s")
+
+
+def test_a_cut_corner_is_not_covered():
+    """On the L (0, 0) -> (50, 0) -> (50, 50), the chord from (40.5, 0) to (50, 9.5): a point (40.5 + u, u) of
+    it is u from the first leg (at s = 40.5 + u) and 9.5 - u from the second (at s = 50 + u), so with a 2 m
+    tolerance the arc from 42.5 + 2 to 57.5 - 2 m is not covered (11 of 100 m) nor the 11 waypoints on it."""
+    corner = Trajectory.from_points([(float(x), 0.0) for x in range(50)] + [(50.0, float(y)) for y in range(51)])
+    covered, reached = coverage(corner, _drive((0, 0), (40.5, 0), (50, 9.5), (50, 50), step=0.01), 2.0)
+    assert covered == pytest.approx(89.0, abs=0.05)
+    assert np.flatnonzero(~reached).tolist() == list(range(45, 56))
+
+
+def test_driving_the_path_backwards_covers_nothing():
+    xy = _drive((100, 0), (0, 0))
+    covered, reached = coverage(LINE, xy, 2.0)
+    assert covered == 0.0 and not reached.any()
+
+
+def test_go_to_needs_only_the_target():
+    task = Scenario(name="g", task=TaskSpec(go_to=(30.0, 40.0), speed=5.0), metrics=MetricsSpec(end_tolerance=0.5))
+    line = Trajectory.from_points([(0, 0), (30, 40)])
+    xy = _drive((0, 0), (0, 40), (29.8, 40))  # not along the line, but ends 0.2 m from the target
+    assert completion(task, xy, _at_rest(xy), line)["completed"] is True
+    xy = _drive((0, 0), (29, 40))
+    c = completion(task, xy, _at_rest(xy), line)
+    assert c["incomplete_reason"] == "ended 1 m from the target (tolerance 0.5 m)"
+
+
+def test_a_speed_task_completes_unless_it_breaks_down():
+    xy = _drive((0, 0), (10, 0))
+    task = Scenario(name="v", task=TaskSpec(speed=5.0))
+    assert completion(task, xy, _at_rest(xy), None)["completed"] is True
+    c = completion(task, xy, _at_rest(xy), None, broke_down="the watchdog stopped the car")
+    assert c == {"completed": False, "incomplete_reason": "the watchdog stopped the car"}
+
+
+def test_a_nan_state_or_a_cut_log_is_incomplete():
+    t = np.arange(0, 2, DT)
+    log = _log(t, x=5.0 * t, vx=np.full_like(t, 5.0))
+    task = Scenario(name="v", task=TaskSpec(speed=5.0))
+    assert scorecard(log, task, None, 0.0, truncated=True)["incomplete_reason"] == "the recording was cut short"
+    log.rows[-1, COLUMNS.index("vx")] = math.nan
+    assert scorecard(log, task, None, 0.0)["completed"] is False
+
+
+def test_timing_keys():
+    assert timing(34.0, 2.0, 0.02, 0.5) == {"wall_time_s": 2.0, "loop_wall_time_s": 0.02, "load_time_s": 0.5,
+                                            "realtime_factor": pytest.approx(1700.0)}

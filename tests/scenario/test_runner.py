@@ -4,18 +4,23 @@ from __future__ import annotations
 
 import json
 import math
+import resource
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
 
 from tests.control.speed.conftest import time_to
 from vilma.cli import main
+from vilma.record.reader import read_recording
 from vilma.scenario import SCORECARD_KEYS, load_scenario
 from vilma.scenario.batch import BUNDLED, find_scenario, parse_sets
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.runner import run
+from vilma.scenario.spec import TIMING_KEYS
 from vilma.trajectory import load_speed_log
 
 
@@ -44,12 +49,41 @@ def test_paper_fig11_at_10_ms_matches_the_original_log(tmp_path):
     assert len(imu) == 40 * 100 and len(driver) == len(r.log)  # IMU at 100 Hz, the driver every period
 
 
-def test_a_resolved_scenario_repeats_bit_for_bit(tmp_path):
+def test_a_resolved_scenario_repeats_byte_for_byte(tmp_path):
+    """Two runs differ only in the timing keys: the CSV, the resolved scenario and every other key are equal."""
     s = load_scenario(BUNDLED / "course_30kmh_ekf.yaml", {"duration": "12"})
-    first = run(s, out_dir=tmp_path)
-    again = run(load_scenario(tmp_path / "scenario.yaml"))
+    first = run(s, out_dir=tmp_path / "a", record=False)
+    again = run(load_scenario(tmp_path / "a" / "scenario.yaml"), out_dir=tmp_path / "b", record=False)
     keep = [i for i, c in enumerate(COLUMNS) if c != "controller_us"]
     assert np.array_equal(first.log.rows[:, keep], again.log.rows[:, keep], equal_nan=True)
+    csv = (tmp_path / "a" / "timeseries.csv").read_bytes()
+    assert csv == (tmp_path / "b" / "timeseries.csv").read_bytes() and b"controller_us" not in csv
+    a, b = (json.loads((tmp_path / d / "metrics.json").read_text()) for d in "ab")
+    assert {k: v for k, v in a.items() if k not in TIMING_KEYS} == {k: v for k, v in b.items() if k not in TIMING_KEYS}
+
+
+def test_the_timing_keys_say_what_they_measure(tmp_path):
+    """The loop's own time gives the real-time factor; loading compiled code is counted apart; the whole
+    command's share holds both and the files."""
+    m = run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml", {"duration": "6"}), out_dir=tmp_path, record=False).metrics
+    assert m["realtime_factor"] == pytest.approx(m["sim_time_s"] / m["loop_wall_time_s"])
+    assert m["load_time_s"] >= 0 and m["wall_time_s"] >= m["loop_wall_time_s"] + m["load_time_s"]
+
+
+def test_the_papers_steering_losing_the_recorded_track_is_not_completed(tmp_path):
+    """Turn-Wheels as shipped (original quirks) on the recorded curve, densified twice, unsmoothed: it drops
+    waypoint after waypoint and stops far from the end; the scorecard says so and the run does not pass."""
+    p = tmp_path / "lost.yaml"
+    p.write_text(f"task: {{follow: {BUNDLED / 'data' / 'PositionLog_curved.txt'}, densify: 2, speed: 5}}\n"
+                 "speed_controller: vilma_pid\npath_controller: {type: vilma_heading, original_quirks: true}\n"
+                 "duration: 120\nexpect: {completed: true}\n")
+    r = run(load_scenario(p))
+    m = r.metrics
+    end = np.array([r.log.column("x")[-1], r.log.column("y")[-1]])
+    assert m["end_error_m"] == pytest.approx(float(np.hypot(*(end - r.path.xy[-1]))))
+    assert m["completed"] is False and not r.passed
+    assert m["end_error_m"] > 1.0 and m["path_progress"] < 0.95 and m["waypoints_skipped"] > 0
+    assert r.failures[0].startswith("completed: no, covered") and "from the end of the path" in r.failures[0]
 
 
 def test_go_to_a_point_stops_on_it(tmp_path):
@@ -76,7 +110,75 @@ def test_cli_run_sweep_writes_a_folder_per_run(tmp_path, capsys):
     out = capsys.readouterr().out
     assert code == 0, out
     assert sorted(p.name for p in out_dir.iterdir()) == ["step-seed_1-task.speed_4", "step-seed_1-task.speed_6"]
-    assert "vilma run: summary" in out
+    assert "vilma run: summary" in out and "step [seed=1 task.speed=4]" in out  # not taken for markup
+
+
+def test_cli_run_never_mixes_with_an_earlier_run(tmp_path, capsys):
+    p = tmp_path / "step.yaml"
+    p.write_text("task: {speed: 5}\nduration: 2\n")
+    out = tmp_path / "o"
+    assert main(["run", str(p), "--out", str(out)]) == 0
+    (out / "notes.txt").write_text("mine")
+    capsys.readouterr()
+    assert main(["run", str(p), "--out", str(out), "--no-record"]) == 2
+    assert "o: holds an earlier run or other files" in capsys.readouterr().err
+    assert main(["run", str(p), "--out", str(out), "--no-record", "--overwrite"]) == 0
+    assert sorted(f.name for f in out.iterdir()) == ["cross_track.png", "effort.png", "metrics.json", "notes.txt",
+                                                      "path.png", "scenario.yaml", "speed.png", "timeseries.csv"]
+
+
+def test_cli_batch_of_runs_with_one_name_keeps_them_all(tmp_path):
+    p = tmp_path / "step.yaml"
+    p.write_text("task: {speed: 5}\nduration: 2\n")
+    assert main(["run", str(p), "--set", "seed=1,1", "--out", str(tmp_path / "o"), "--no-record"]) == 0
+    assert sorted(f.name for f in (tmp_path / "o").iterdir()) == ["step-seed_1", "step-seed_1-2"]
+
+
+def _vilma(*args, **kw) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "vilma.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+@pytest.fixture
+def processes():
+    started: list[subprocess.Popen] = []
+    yield started
+    for p in started:
+        if p.poll() is None:
+            p.kill()
+        p.communicate()
+
+
+def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, processes):
+    out = tmp_path / "o"
+    p = _vilma("run", "pi_ff_speed_5", "--realtime", "4", "--out", str(out))
+    processes.append(p)
+    part = out / "timeseries.csv.part"
+    deadline = time.monotonic() + 120
+    while not (part.exists() and part.stat().st_size > 2000) and p.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)  # the loop has written a block: it is driving
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert err.count("\n") == 1 and err.startswith("vilma run: interrupted at t=") and f"partial files in {out}" in err
+    assert sorted(f.name for f in out.iterdir()) == ["run.mcap", "timeseries.csv"]  # no scorecard: not a whole run
+    rec = read_recording(out / "run.mcap")
+    assert rec.complete and rec.count("pose") > 0
+
+
+def test_a_full_disk_names_the_file(tmp_path, processes):
+    """Files may grow to 64 kB only (RLIMIT_FSIZE, as a full disk for this process): one line names the file."""
+    run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml", {"duration": "1"}))  # numba's cache written beforehand
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64_000, 64_000))
+
+    p = _vilma("run", "pi_ff_speed_5", "--no-record", "--out", str(tmp_path / "o"), preexec_fn=limit)
+    processes.append(p)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert "File too large" in err and str(tmp_path / "o" / "timeseries.csv") in err
 
 
 def test_cli_run_exits_1_when_a_scenario_fails_its_expectations(tmp_path, capsys):

@@ -7,9 +7,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.control.conftest import LOGS
+from vilma.core import files
 from vilma.sensors.gps import GeodeticOrigin
 from vilma.trajectory import Trajectory, TrajectoryFileError, load_trajectory, save_trajectory
-from vilma.trajectory import io as tio
 
 
 def test_loads_the_original_logs():
@@ -84,7 +84,7 @@ def test_failed_save_keeps_the_old_file(tmp_path, monkeypatch):
     def boom(src, dst):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(tio.os, "replace", boom)
+    monkeypatch.setattr(files.os, "replace", boom)
     with pytest.raises(TrajectoryFileError, match="untouched"):
         save_trajectory(f, Trajectory.from_points([(5, 6)]))
     assert f.read_text() == "1 2\n" and os.listdir(tmp_path) == ["p.txt"]
@@ -118,3 +118,15 @@ def test_random_numeric_text(tmp_path, tokens, seps):
         return
     values = [float(x) for x in " ".join(tokens).split()]
     assert all(math.isfinite(v) for v in values) and len(values) == 2 * len(t)
+
+
+def test_a_saved_trajectory_has_the_mode_the_umask_gives(tmp_path):
+    f = tmp_path / "p.txt"
+    f.write_text("1 2\n")
+    f.chmod(0o644)
+    old = os.umask(0o022)
+    try:
+        save_trajectory(f, Trajectory.from_points([(5, 6), (7, 8)]))
+    finally:
+        os.umask(old)
+    assert f.stat().st_mode & 0o777 == 0o644  # not mkstemp's 0600

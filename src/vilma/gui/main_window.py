@@ -21,6 +21,7 @@ from PySide6.QtWidgets import (
 )
 
 from vilma import __version__
+from vilma.core.files import write_atomic
 from vilma.core.messages import DriverOrder
 from vilma.gui.auto_dock import AutoDock
 from vilma.gui.backend import default_scenario
@@ -32,7 +33,6 @@ from vilma.gui.status_dock import StatusDock
 from vilma.gui.waypoints import WaypointTable
 from vilma.scenario.fields import SpecError
 from vilma.scenario.spec import Scenario, TaskSpec, load_scenario, to_yaml
-from vilma.trajectory.io import write_atomic
 
 TEXT_INPUTS = (QLineEdit, QAbstractSpinBox, QTextEdit, QPlainTextEdit)
 """Widgets that keep the keys typed into them (no keyboard driving there)."""

@@ -26,13 +26,14 @@ from vilma.core.messages import Message
 from vilma.record.process import Joined, RecorderProcess
 from vilma.record.recorder import Recorder
 from vilma.scenario.drive_log import DriveLog
+from vilma.scenario.folder import RECORDING
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sensors import Readings
 
 if TYPE_CHECKING:
     from vilma.scenario.runner import RunResult
 
-RUN_FILE = "run.mcap"
+RUN_FILE = RECORDING
 """The recording's name in a run's output folder."""
 
 

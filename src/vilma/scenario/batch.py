@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,7 +14,8 @@ from rich.table import Table
 from rich.text import Text
 
 from vilma.scenario.fields import SpecError
-from vilma.scenario.runner import RunResult, default_out_dir, run
+from vilma.scenario.folder import claim, out_dirs
+from vilma.scenario.runner import RunResult, run
 from vilma.scenario.spec import Scenario, load_scenario
 
 BUNDLED = Path(__file__).resolve().parent.parent / "scenarios"
@@ -26,12 +28,18 @@ SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("late
 """Scorecard keys shown in the summary table, with their headings."""
 
 
+
 @dataclass(frozen=True, slots=True)
 class Job:
     """One run to make: a scenario and the ``--set`` values it was loaded with."""
 
     scenario: Scenario
-    label: str
+    overrides: tuple[tuple[str, str], ...] = ()
+
+    @property
+    def label(self) -> str:
+        """The ``--set`` values, ``key=value ...``."""
+        return " ".join(f"{k}={v}" for k, v in self.overrides)
 
 
 def parse_sets(items: Sequence[str]) -> list[dict[str, str]]:
@@ -59,8 +67,7 @@ def plan(files: Sequence[str], sets: Sequence[str]) -> list[Job]:
     for f in files:
         path = find_scenario(f)
         for overrides in parse_sets(sets):
-            label = " ".join(f"{k}={v}" for k, v in overrides.items())
-            jobs.append(Job(load_scenario(path, overrides), label))
+            jobs.append(Job(load_scenario(path, overrides), tuple(overrides.items())))
     return jobs
 
 
@@ -77,30 +84,27 @@ def find_scenario(name: str) -> Path:
 
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,
-            observe=None, record: bool = True) -> list[RunResult]:
-    """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``);
-    returns the results.
+            observe=None, record: bool = True, overwrite: bool = False,
+            started: float | None = None) -> list[RunResult]:
+    """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``)
+    into its own folder (:func:`out_dirs`); returns the results.
 
-    ``observe`` gets each run's sensor readings as they are made (see :func:`~vilma.scenario.runner.run`).
+    A folder that holds anything stops the batch before it runs, unless ``overwrite`` (then the earlier
+    run's files go first). ``observe`` gets each run's sensor readings as they are made (see
+    :func:`~vilma.scenario.runner.run`); ``started`` is when the command began (:func:`time.perf_counter`),
+    counted in the first run's ``wall_time_s``.
     """
+    dirs = out_dirs(jobs, out)
+    claim(dirs, overwrite)
     results = []
     with Progress(console=console, transient=True, disable=len(jobs) < 2) as bar:
         task = bar.add_task("running", total=len(jobs))
-        for job in jobs:
-            bar.update(task, description=job.scenario.name + (f" {job.label}" if job.label else ""))
-            result = run(job.scenario, realtime, _out_dir(job, out, len(jobs)), record=record, observe=observe)
-            results.append(result)
+        for job, out_dir in zip(jobs, dirs, strict=True):
+            bar.update(task, description=Text(job.scenario.name + (f" {job.label}" if job.label else "")))
+            results.append(run(job.scenario, realtime, out_dir, record=record, observe=observe, started=started))
+            started = time.perf_counter()  # each run's share of the command starts where the last one's ended
             bar.advance(task)
     return results
-
-
-def _out_dir(job: Job, out: Path | None, n: int) -> Path:
-    if out is None:
-        return default_out_dir(job.scenario)
-    if n == 1:
-        return out
-    suffix = "-".join(job.label.replace("=", "_").split()) if job.label else ""
-    return out / (job.scenario.name + (f"-{suffix}" if suffix else ""))
 
 
 def scorecard_table(result: RunResult) -> Table:
@@ -120,9 +124,13 @@ def summary_table(jobs: list[Job], results: list[RunResult]) -> Table:
     for _, heading in SUMMARY:
         table.add_column(Text(heading), justify="right")
     table.add_column("pass", justify="right")
+    why = any(r.metrics["incomplete_reason"] for r in results)
+    if why:
+        table.add_column("why not done")
     for job, r in zip(jobs, results, strict=True):
         name = r.scenario.name + (f" [{job.label}]" if job.label else "")
-        table.add_row(name, *(_fmt(r.metrics[k]) for k, _ in SUMMARY), "yes" if r.passed else "NO")
+        table.add_row(Text(name), *(_fmt(r.metrics[k]) for k, _ in SUMMARY), "yes" if r.passed else "NO",
+                      *([Text(r.metrics["incomplete_reason"] or "")] if why else []))
     return table
 
 

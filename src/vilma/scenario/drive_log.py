@@ -9,11 +9,13 @@ long the drive.
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import msgspec
 import numpy as np
 
+from vilma.core.files import write_error
 from vilma.sensors import Readings, Sensor
 
 COLUMNS = (
@@ -28,6 +30,9 @@ COLUMNS = (
 """Columns of :attr:`DriveLog.rows`, with units."""
 PLANT_COLUMNS = COLUMNS[1:COLUMNS.index("target_speed")]
 """The columns of the true plant (``car.*`` in the CSV); the rest are the driver's (``driver.*``)."""
+SIM_COLUMNS = COLUMNS.index("controller_us")
+"""The columns before this one are sim-time values; ``controller_us`` (wall clock) stays out of the CSV, so
+that two runs of one scenario write the same bytes."""
 
 _json = msgspec.json.Encoder()
 
@@ -83,7 +88,7 @@ class TimeseriesWriter:
         self._names = sorted(s.name for s in sensors)
         fields = {s.name: s.message.__struct_fields__[1:] for s in sensors}
         self._widths = [len(fields[n]) for n in self._names]
-        driver = COLUMNS[1 + len(PLANT_COLUMNS):]
+        driver = COLUMNS[1 + len(PLANT_COLUMNS):SIM_COLUMNS]
         header = (["t_s"] + [f"car.{c}" for c in PLANT_COLUMNS] + [f"driver.{c}" for c in driver]
                   + [f"{n}.{f}" for n in self._names for f in fields[n]])
         self._width = len(header)
@@ -103,7 +108,7 @@ class TimeseriesWriter:
     def _flush(self) -> None:
         rows = self.log.rows[self._written:]
         self._written += len(rows)
-        groups = [(np.round(rows[:, 0] * 1e9).astype(np.int64), rows[:, 1:])]
+        groups = [(np.round(rows[:, 0] * 1e9).astype(np.int64), rows[:, 1:SIM_COLUMNS])]
         for name, width in zip(self._names, self._widths, strict=True):
             parts = self._readings[name]
             r = Readings.concat(parts) if parts else None
@@ -115,20 +120,27 @@ class TimeseriesWriter:
         for st, values in groups:
             table[np.searchsorted(stamps, st), col:col + values.shape[1]] = values
             col += values.shape[1]
-        self._file.write(csv_text(table))
         for parts in self._readings.values():
             parts.clear()
+        try:
+            self._file.write(csv_text(table))
+        except OSError as e:
+            raise write_error(self.path, e) from None
 
     def close(self) -> Path:
         """Write what is left and put the file in place; returns its path."""
         self._flush()
-        self._file.close()
-        self._part.replace(self.path)
+        try:
+            self._file.close()
+            self._part.replace(self.path)
+        except OSError as e:
+            raise write_error(self.path, e) from None
         return self.path
 
     def abort(self) -> None:
         """Drop the partial file (the run failed)."""
-        self._file.close()
+        with contextlib.suppress(OSError):  # what could not be written is dropped with it
+            self._file.close()
         self._part.unlink(missing_ok=True)
 
 

@@ -5,8 +5,17 @@ driver believed), against the reference path by projection from the centre of
 mass. Path and speed-tracking errors are counted after ``MetricsSpec.skip``
 seconds. The speed-step keys (rise, overshoot, settling, steady state) apply to
 a ``speed`` task, a constant target from rest, as the paper's Figure 11.
-``controller_time_per_step_us`` is the mean wall time of the driver per period;
-in the compiled loop, of the whole loop per period (an upper bound).
+
+``completed`` says the task was done, judged on the track alone (:func:`completion`):
+a speed task when the run lasted without breaking down; a go-to when the car came
+to rest within ``MetricsSpec.end_tolerance`` of the target; a path when, besides,
+it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`).
+``incomplete_reason`` says why not, in words.
+
+The timing keys (:data:`~vilma.scenario.spec.TIMING_KEYS`) are the caller's
+(:func:`timing`); ``controller_time_per_step_us`` is the mean wall time of the
+driver per period; in the compiled loop, of the whole loop per period (an upper
+bound).
 """
 
 from __future__ import annotations
@@ -16,24 +25,31 @@ import math
 import numpy as np
 
 from vilma.core.geometry import wrap_angle
-from vilma.scenario.drive_log import DriveLog
+from vilma.scenario.drive_log import PLANT_COLUMNS, DriveLog
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, Scenario
 from vilma.trajectory import Trajectory
 
 
-def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_start: float, completed: bool,
-              wall_time: float) -> dict:
-    """The scorecard of a drive: ``t_start`` [s] is when the task began, ``wall_time`` [s] what it took."""
+def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_start: float,
+              broke_down: str | None = None, truncated: bool = False) -> dict:
+    """The scorecard of a drive, without the timing keys; ``t_start`` [s] is when the task began.
+
+    ``broke_down`` is why the run stopped early if the caller knows (a watchdog stop), ``truncated`` that the
+    log was cut short (a killed recording); either makes the task incomplete.
+    """
     c = log.column
     t, x, y, yaw = c("t"), c("x"), c("y"), c("yaw")
     speed = np.hypot(c("vx"), c("vy")) * np.sign(c("vx"))
     m = scenario.metrics
     counted = t >= t_start + m.skip
-    sim_time = float(t[-1]) if len(t) else 0.0
     out: dict = dict.fromkeys(SCORECARD_KEYS)
-    out.update(completed=bool(completed), sim_time_s=sim_time, wall_time_s=wall_time,
-               realtime_factor=sim_time / wall_time if wall_time > 0 else None,
+    out.update(truncated=truncated, sim_time_s=float(t[-1]) if len(t) else 0.0,
                distance_m=float(np.sum(np.hypot(np.diff(x), np.diff(y)))))
+    if not np.isfinite(log.rows[:, 1:1 + len(PLANT_COLUMNS)]).all():
+        broke_down = "the car's state became NaN or infinite"
+    elif truncated:
+        broke_down = "the recording was cut short"
+    out.update(completion(scenario, np.column_stack([x, y]), speed, path, broke_down))
     if path is not None and counted.any():
         proj = path.project_track(np.column_stack([x, y]))
         e = np.abs(proj[counted, 1])
@@ -56,9 +72,79 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
         if est.any():
             out["pose_error_rms_m"] = _rms(np.hypot(c("est_x")[est] - x[est], c("est_y")[est] - y[est]))
     us = c("controller_us")
-    if len(us):
-        out["controller_time_per_step_us"] = float(np.mean(us))
+    if len(us) and not np.isnan(us).all():
+        out["controller_time_per_step_us"] = float(np.nanmean(us))
     return {k: _plain(v) for k, v in out.items()}
+
+
+def timing(sim_time: float, wall: float, loop: float | None, load: float | None) -> dict:
+    """The wall-clock keys: ``wall`` [s] the whole command's share, ``loop`` [s] the closed loop's own time
+    (``realtime_factor`` is sim time over it), ``load`` [s] the one-off loading of compiled code."""
+    factor = sim_time / loop if loop else None
+    return {k: _plain(v) for k, v in (("wall_time_s", wall), ("loop_wall_time_s", loop), ("load_time_s", load),
+                                      ("realtime_factor", factor))}
+
+
+def completion(scenario: Scenario, xy: np.ndarray, speed: np.ndarray, path: Trajectory | None,
+               broke_down: str | None = None) -> dict:
+    """``completed``, ``incomplete_reason``, ``end_error_m``, ``path_progress`` and ``waypoints_skipped`` of a
+    drive ``xy`` (n, 2) [m] at ``speed`` (n,) [m/s] on the task's ``path`` (for a go-to, the line to the target)."""
+    m, kind = scenario.metrics, scenario.task.kind
+    out: dict = {}
+    why = [broke_down] if broke_down else []
+    if not len(xy):
+        why.append("the run has no samples")
+    elif kind != "speed" and path is not None:
+        end = float(np.hypot(*(xy[-1] - path.xy[-1])))
+        out["end_error_m"] = end
+        covered, reached = coverage(path, xy, m.path_tolerance)
+        out["path_progress"] = covered / path.length if path.length > 0 else 1.0
+        out["waypoints_skipped"] = int(len(reached) - reached.sum())
+        target = "target" if kind == "go_to" else "end of the path"
+        if kind != "go_to" and out["path_progress"] < m.min_progress:
+            why.append(f"covered {out['path_progress']:.0%} of the path within {m.path_tolerance:g} m "
+                       f"(needs {m.min_progress:.0%}), skipping {out['waypoints_skipped']} of {len(reached)} "
+                       "waypoints")
+        if end > m.end_tolerance:
+            why.append(f"ended {end:.3g} m from the {target} (tolerance {m.end_tolerance:g} m)")
+        elif abs(speed[-1]) >= scenario.driver.rest_speed:
+            why.append(f"still moving at {abs(speed[-1]):.3g} m/s at the {target} when the run ended "
+                       f"({scenario.duration:g} s)")
+    out.update(completed=not why, incomplete_reason="; ".join(why) or None)
+    return out
+
+
+def coverage(path: Trajectory, xy: np.ndarray, tolerance: float) -> tuple[float, np.ndarray]:
+    """How much of ``path`` the drive ``xy`` (n, 2) [m] covered in order: (arc length [m], reached (len(path),)).
+
+    The drive is projected in order (:meth:`~vilma.trajectory.Trajectory.project_track`); each step between
+    two samples within ``tolerance`` [m] of their projections that moves forward along the path, by no more
+    than the distance driven plus twice the tolerance, covers the arc between the projections, widened by
+    the tolerance at both ends. A waypoint is reached when its arc length is covered.
+    """
+    s = path.project_track(xy)[:, 0] if len(path) > 1 else np.zeros(len(xy))
+    near = np.hypot(xy[:, 0] - np.interp(s, path.s, path.xy[:, 0]),
+                    xy[:, 1] - np.interp(s, path.s, path.xy[:, 1])) <= tolerance
+    ds, moved = np.diff(s), np.hypot(*np.diff(xy, axis=0).T)
+    step = near[:-1] & near[1:] & (ds >= 0) & (ds <= moved + 2 * tolerance)
+    lo = np.clip(s[:-1][step] - tolerance, 0.0, path.length)
+    hi = np.clip(s[1:][step] + tolerance, 0.0, path.length)
+    lo, hi = _union(lo, hi)
+    i = np.searchsorted(lo, path.s, side="right") - 1
+    reached = (i >= 0) & (path.s <= hi[np.maximum(i, 0)]) if len(lo) else np.zeros(len(path), bool)
+    return float(np.sum(hi - lo)), reached
+
+
+def _union(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The union of the intervals ``[lo, hi]`` as sorted disjoint intervals."""
+    if not len(lo):
+        return lo, hi
+    order = np.argsort(lo, kind="stable")
+    lo, hi = lo[order], np.maximum.accumulate(hi[order])
+    start = np.concatenate([[True], lo[1:] > hi[:-1]])  # a gap before this interval
+    first = np.flatnonzero(start)
+    last = np.concatenate([first[1:] - 1, [len(lo) - 1]])
+    return lo[first], hi[last]
 
 
 def _rms(a: np.ndarray) -> float:
@@ -67,8 +153,10 @@ def _rms(a: np.ndarray) -> float:
 
 def _plain(v):
     """JSON-ready: NaN and infinity become None (a key that cannot be measured), numpy scalars floats."""
-    if isinstance(v, bool) or v is None:
+    if isinstance(v, bool | str) or v is None:
         return v
+    if isinstance(v, int | np.integer):
+        return int(v)
     v = float(v)
     return v if math.isfinite(v) else None
 
@@ -102,6 +190,13 @@ def step_response(t: np.ndarray, v: np.ndarray, target: float, band: float, wind
     if len(t):
         out["speed_steady_state_error_mps"] = float(abs(np.mean(v[tail]) - target))
     return out
+
+
+def expectation_failures(metrics: dict, scenario: Scenario) -> list[str]:
+    """What a run's scorecard fails of its scenario's ``expect`` (completion unless it says
+    ``completed: false``), one line each; an incomplete task says why."""
+    failed = check_expectations(metrics, {"completed": True, **scenario.expect})
+    return [f"completed: no, {metrics['incomplete_reason']}" if f.startswith("completed:") else f for f in failed]
 
 
 def check_expectations(metrics: dict, expect: dict[str, Bound | bool]) -> list[str]:

@@ -11,17 +11,18 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from vilma.core.files import atomic_path
+
 if TYPE_CHECKING:
     from vilma.scenario.runner import RunResult
 
-PLOTS = ("path.png", "speed.png", "cross_track.png", "effort.png")
-"""The files :func:`plot_run` writes."""
 MAX_POINTS = 20_000
 """Points drawn per line at most (every k-th sample of longer runs: a PNG cannot show more)."""
 
 
 def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-    """Write :data:`PLOTS` into ``out_dir``; ``speed_log`` (times [s], speeds [m/s]) is overlaid on the speed."""
+    """Write the plots (:data:`vilma.scenario.folder.PLOTS`) into ``out_dir``; ``speed_log`` (times [s], speeds
+    [m/s]) is overlaid on the speed."""
     log, name = result.log, result.scenario.name
     every = max(1, -(-len(log) // MAX_POINTS))
 
@@ -86,5 +87,8 @@ def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.n
 
 def _save(fig, path: Path) -> None:
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
+    finally:
+        plt.close(fig)

@@ -13,16 +13,17 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import datetime
 from pathlib import Path
 
 import numpy as np
+from numba.core.event import TimingListener, install_listener
 
 from vilma.control.driver import Driver
-from vilma.scenario.drive_log import PLANT_COLUMNS, DriveLog, TimeseriesWriter
+from vilma.core.files import write_atomic
+from vilma.scenario.drive_log import DriveLog, TimeseriesWriter
 from vilma.scenario.fields import SpecError
 from vilma.scenario.lockstep import compiled_ok, run_compiled
-from vilma.scenario.metrics import check_expectations, scorecard
+from vilma.scenario.metrics import expectation_failures, scorecard, timing
 from vilma.scenario.spec import Scenario, beside, to_yaml
 from vilma.sensors import Readings
 from vilma.sim import Pacer, Simulator
@@ -63,7 +64,7 @@ def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
 
 def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None = None,
         compiled: bool = True, record: bool = True,
-        observe: Callable[[dict[str, Readings]], None] | None = None) -> RunResult:
+        observe: Callable[[dict[str, Readings]], None] | None = None, started: float | None = None) -> RunResult:
     """Drive ``scenario`` to its end; ``realtime`` paces it to that many times real time.
 
     Unpaced runs that qualify (:func:`~vilma.scenario.lockstep.compiled_ok`) run compiled, unless
@@ -71,11 +72,43 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
 
     With ``out_dir``, the run's files go there (:func:`write_outputs`), the timeseries and the recording
     ``run.mcap`` (:mod:`vilma.record.run`, unless ``record`` is False) streamed as it runs. ``observe`` gets
-    the sensor readings as they are made (a live view).
+    the sensor readings as they are made (a live view). ``started`` is the :func:`time.perf_counter` reading
+    the run's share of the command began at (``wall_time_s``; default: now).
 
     Raises:
         SpecError: the scenario's files cannot be used (a bad trajectory file, an impossible order).
+        Interrupted: Ctrl-C; the files so far are kept, the recording finished.
     """
+    started = time.perf_counter() if started is None else started
+    with _LoadTimer() as loading:
+        return _run(scenario, realtime, out_dir, compiled, record, observe, started, loading)
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C during a run: where the sim clock was and where the partial files are."""
+
+    def __init__(self, t: float, out_dir: Path | None) -> None:
+        super().__init__(f"interrupted at t={t:.2f} s" + (f": partial files in {out_dir}" if out_dir else ""))
+
+
+class _LoadTimer(TimingListener):
+    """Wall time [s] spent loading (or compiling) numba code while active: under numba's compiler lock."""
+
+    def __enter__(self) -> _LoadTimer:
+        self._scope = install_listener("numba:compiler_lock", self)
+        self._scope.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._scope.__exit__(*exc)
+
+    @property
+    def seconds(self) -> float:
+        return self.duration if self.done else 0.0
+
+
+def _run(scenario: Scenario, realtime: float | None, out_dir: Path | None, compiled: bool, record: bool,
+         observe, started: float, loading: _LoadTimer) -> RunResult:
     path = scenario.reference_path()
     sim = Simulator(scenario.sim)
     sim.reset(initial_state(scenario, path))
@@ -115,7 +148,13 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
             rec.add_captures(captures)
 
     try:
-        result = _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled)
+        result = _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled, loading)
+    except KeyboardInterrupt:
+        if series is not None:  # keep what was made: the timeseries so far, the recording finished
+            series.close()
+            if rec is not None:
+                rec.abort()
+        raise Interrupted(sim.time_ns * 1e-9, out_dir) from None
     except BaseException:
         if series is not None:
             series.abort()
@@ -133,14 +172,18 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
         finally:
             if rec is not None:
                 rec.close()
+    m = result.metrics
+    m.update(timing(m["sim_time_s"], time.perf_counter() - started, m["loop_wall_time_s"], loading.seconds))
+    if out_dir is not None:
+        write_metrics(result, out_dir)  # last: a folder with metrics.json holds a whole run
     return result
 
 
 def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, path: Trajectory | None, step,
-           on_block, realtime: float | None, compiled: bool) -> RunResult:
+           on_block, realtime: float | None, compiled: bool, loading: _LoadTimer) -> RunResult:
     """The loop of :func:`run`: start the task, step until it is done or time is up, score."""
     period = driver.period_ticks
-    wall0 = time.perf_counter()
+    wall0, load0 = time.perf_counter(), loading.seconds
     step(sim.advance(period))  # the first readings: the estimator starts
     task = start_task(driver, scenario, path)
     t_start = sim.time_ns * 1e-9
@@ -163,17 +206,11 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
     else:
         Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(remaining, on_period=step,
                                                                          should_stop=finished)
-    wall = time.perf_counter() - wall0
-    rows = log.rows
-    healthy = bool(np.isfinite(rows[:, 1:1 + len(PLANT_COLUMNS)]).all()) and not sim.watchdog_tripped
-    completed = healthy and (finished() if follows else True)
-    metrics = scorecard(log, scenario, path, t_start, completed, wall)
-    metrics["collisions"] = sim.collisions[0]
-    failures = check_expectations(metrics, {"completed": True, **scenario.expect})
-    if not completed and scenario.expect.get("completed") is not False:
-        failures[0] = (f"completed: the task did not finish within {scenario.duration:g} s" if healthy
-                       else "completed: the run broke down (NaN or watchdog stop)")
-    return RunResult(scenario, metrics, failures, log, path, t_start)
+    loop = time.perf_counter() - wall0 - (loading.seconds - load0)
+    stop = "the watchdog stopped the car (the driver sent no command in time)" if sim.watchdog_tripped else None
+    metrics = scorecard(log, scenario, path, t_start, broke_down=stop)
+    metrics.update(collisions=sim.collisions[0], loop_wall_time_s=loop)
+    return RunResult(scenario, metrics, expectation_failures(metrics, scenario), log, path, t_start)
 
 
 def start_task(driver: Driver, scenario: Scenario, path: Trajectory | None) -> Trajectory | None:
@@ -195,21 +232,21 @@ def start_task(driver: Driver, scenario: Scenario, path: Trajectory | None) -> T
 # -- files -----------------------------------------------------------------------------------------------
 
 
-def default_out_dir(scenario: Scenario, root: Path = Path("runs")) -> Path:
-    """``runs/<name>-<timestamp>/``."""
-    return root / f"{scenario.name}-{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}"
-
-
 def write_outputs(result: RunResult, out_dir: Path) -> Path:
-    """Write ``metrics.json``, ``scenario.yaml`` and the PNG plots into ``out_dir`` (the timeseries streams)."""
+    """Write ``scenario.yaml`` and the PNG plots into ``out_dir`` (the timeseries streams; :func:`write_metrics`
+    comes last)."""
     from vilma.scenario.report import plot_run  # matplotlib only when files are written
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "metrics.json").write_text(json.dumps(result.metrics, indent=2) + "\n", encoding="utf-8")
-    (out_dir / "scenario.yaml").write_text(to_yaml(result.scenario), encoding="utf-8")
+    write_atomic(out_dir / "scenario.yaml", to_yaml(result.scenario))
     plot_run(result, out_dir, speed_log(result.scenario))
     result.out_dir = out_dir
     return out_dir
+
+
+def write_metrics(result: RunResult, out_dir: Path) -> Path:
+    """``metrics.json``: the scorecard."""
+    return write_atomic(out_dir / "metrics.json", json.dumps(result.metrics, indent=2) + "\n")
 
 
 def speed_log(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:

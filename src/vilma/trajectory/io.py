@@ -16,13 +16,13 @@ import csv
 import io
 import math
 import os
-import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pymap3d
 
+from vilma.core.files import write_atomic
 from vilma.sensors.gps import GeodeticOrigin
 from vilma.trajectory.trajectory import Trajectory
 
@@ -159,23 +159,7 @@ def save_trajectory(path: str | os.PathLike, path_: Trajectory) -> None:
         text = ",".join(cols) + "\n" + "".join(",".join(f"{v:.6f}" for v in row) + "\n" for row in data)
     else:
         text = "".join(f"{x:f}\t{y:f}\n" for x, y in path_.xy)
-    write_atomic(path, text)
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename; errors name the file."""
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        write_atomic(path, text)
     except OSError as e:
-        raise _fail(path, None, f"cannot write there ({e.strerror}); choose another folder") from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException as e:
-        Path(tmp).unlink(missing_ok=True)
-        if isinstance(e, OSError):
-            raise _fail(path, None, f"save failed ({e.strerror}); the previous file is untouched") from None
-        raise
+        raise _fail(path, None, f"cannot save it ({e.strerror}); choose another folder") from None
