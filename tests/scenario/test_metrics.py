@@ -180,7 +180,7 @@ def test_a_nan_state_or_a_cut_log_is_incomplete():
     log = _log(t, x=5.0 * t, vx=np.full_like(t, 5.0))
     task = Scenario(name="v", task=TaskSpec(speed=5.0))
     assert scorecard(log, task, None, 0.0, truncated=True)["incomplete_reason"] == "the recording was cut short"
-    log.rows[-1, COLUMNS.index("vx")] = math.nan
+    log.rows[-1, COLUMNS.index("x")] = math.nan
     assert scorecard(log, task, None, 0.0)["completed"] is False
 
 

@@ -23,7 +23,7 @@ import numpy as np
 from vilma.record.reader import Recording, RecordingError, read_recording
 from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.scenario.fields import load_yaml
-from vilma.scenario.metrics import check_expectations, scorecard
+from vilma.scenario.metrics import expectation_failures, scorecard
 from vilma.scenario.runner import RunResult
 from vilma.scenario.spec import Scenario, parse_scenario
 from vilma.trajectory import Trajectory
@@ -114,12 +114,10 @@ def report(recording: Path | Recording, out_dir: Path | None = None) -> RunResul
     log.extend(rows)
     run = rec.meta("run")
     t_start = float(run.get("t_start", rows[0, 0]))
-    completed = bool(run.get("completed", True))
-    wall = run.get("wall_time_s")
     trajectory = path_of(rec, scenario)
-    metrics = scorecard(log, scenario, trajectory, t_start, completed, float(wall) if wall else 0.0)
+    metrics = scorecard(log, scenario, trajectory, t_start)
     metrics["collisions"] = collisions_of(rec)
-    failures = check_expectations(metrics, {"completed": True, **scenario.expect})
+    failures = expectation_failures(metrics, scenario)
     result = RunResult(scenario, metrics, failures, log, trajectory, t_start)
     out = Path(out_dir) if out_dir is not None else Path(path).with_name(Path(path).stem + "-report")
     out.mkdir(parents=True, exist_ok=True)

@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from vilma.core.geometry import wrap_angle
-from vilma.scenario.drive_log import PLANT_COLUMNS, DriveLog
+from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, Scenario
 from vilma.trajectory import Trajectory
 
@@ -45,11 +45,11 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
     out: dict = dict.fromkeys(SCORECARD_KEYS)
     out.update(truncated=truncated, sim_time_s=float(t[-1]) if len(t) else 0.0,
                distance_m=float(np.sum(np.hypot(np.diff(x), np.diff(y)))))
-    if not np.isfinite(log.rows[:, 1:1 + len(PLANT_COLUMNS)]).all():
+    if not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(yaw).all()):  # a blow-up reaches these
         broke_down = "the car's state became NaN or infinite"
     elif truncated:
         broke_down = "the recording was cut short"
-    out.update(completion(scenario, np.column_stack([x, y]), speed, path, broke_down))
+    out.update(completion(scenario, np.column_stack([x, y]), c("vx"), path, broke_down))
     if path is not None and counted.any():
         proj = path.project_track(np.column_stack([x, y]))
         e = np.abs(proj[counted, 1])
@@ -85,10 +85,11 @@ def timing(sim_time: float, wall: float, loop: float | None, load: float | None)
                                       ("realtime_factor", factor))}
 
 
-def completion(scenario: Scenario, xy: np.ndarray, speed: np.ndarray, path: Trajectory | None,
+def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Trajectory | None,
                broke_down: str | None = None) -> dict:
     """``completed``, ``incomplete_reason``, ``end_error_m``, ``path_progress`` and ``waypoints_skipped`` of a
-    drive ``xy`` (n, 2) [m] at ``speed`` (n,) [m/s] on the task's ``path`` (for a go-to, the line to the target)."""
+    drive ``xy`` (n, 2) [m] at longitudinal speed ``vx`` (n,) [m/s] on the task's ``path`` (for a go-to, the
+    line to the target); at rest means below the driver's ``rest_speed``, as the driver and the runner judge."""
     m, kind = scenario.metrics, scenario.task.kind
     out: dict = {}
     why = [broke_down] if broke_down else []
@@ -107,9 +108,8 @@ def completion(scenario: Scenario, xy: np.ndarray, speed: np.ndarray, path: Traj
                        "waypoints")
         if end > m.end_tolerance:
             why.append(f"ended {end:.3g} m from the {target} (tolerance {m.end_tolerance:g} m)")
-        elif abs(speed[-1]) >= scenario.driver.rest_speed:
-            why.append(f"still moving at {abs(speed[-1]):.3g} m/s at the {target} when the run ended "
-                       f"({scenario.duration:g} s)")
+        elif abs(vx[-1]) >= scenario.driver.rest_speed:
+            why.append(f"still moving at {abs(vx[-1]):.3g} m/s at the {target} when the run ended")
     out.update(completed=not why, incomplete_reason="; ".join(why) or None)
     return out
 

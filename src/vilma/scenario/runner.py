@@ -163,8 +163,14 @@ def _run(scenario: Scenario, realtime: float | None, out_dir: Path | None, compi
         raise
     finally:
         sim.close()
+    m = result.metrics
+
+    def clock_out() -> None:
+        m.update(timing(m["sim_time_s"], time.perf_counter() - started, m["loop_wall_time_s"], loading.seconds))
+
     if series is not None:
         if rec is not None:
+            clock_out()  # the recording's scorecard has the time so far
             rec.finish(result)  # the recorder's process finishes the file while the plots are drawn
         try:
             series.close()
@@ -172,8 +178,7 @@ def _run(scenario: Scenario, realtime: float | None, out_dir: Path | None, compi
         finally:
             if rec is not None:
                 rec.close()
-    m = result.metrics
-    m.update(timing(m["sim_time_s"], time.perf_counter() - started, m["loop_wall_time_s"], loading.seconds))
+    clock_out()
     if out_dir is not None:
         write_metrics(result, out_dir)  # last: a folder with metrics.json holds a whole run
     return result

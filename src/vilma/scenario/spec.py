@@ -418,7 +418,7 @@ def _expect(raw: Any, src: Source) -> dict[str, Bound | bool]:
             raise src.error(("expect", k), "wall-clock figures vary with the machine and are not pass criteria; "
                             "see benchmarks/ for speed targets")
         if k not in keys:
-            raise src.error(("expect", k), f"not a scorecard criterion; use one of {', '.join(keys)}")
+            raise src.error(("expect", k), f"not a scorecard key; use one of {', '.join(keys)}")
         if k in ("completed", "truncated"):
             out[k] = convert(bool, v, src, ("expect", k))
         else:
