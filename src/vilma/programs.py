@@ -166,7 +166,7 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
             server = MorseServer(host=morse.host, service_port=morse.service_port, stream_port=morse.stream_port,
                                  on_command=node.command, on_reset=node.reset, on_quit=stop.set,
                                  time_ns=lambda: sim.time_ns, allow_commands_from=morse.allow_commands_from,
-                                 vehicle=sim.config.vehicle, world_topics=world,
+                                 vehicle=sim.config.vehicle, sensors=sim.config.sensors, world_topics=world,
                                  laser_range=laser.max_range if laser is not None else LASER_RANGE)
             server.start()
             node.on_frame, node.on_captures = server.publish, server.publish_captures

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from vilma.bus import Latest, LocalBus, topic
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.control.driver import Driver
-from vilma.core.messages import DriverOrder, SimControl
+from vilma.core.messages import ActuatorCommand, DriverOrder, Longitudinal, SimControl
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import initial_state, run, start_task
@@ -103,3 +103,19 @@ def test_any_tune_order_is_answered_and_a_refused_one_changes_nothing(gains):
     for name, fields in gains.items() if reply.ok else ():
         for field, value in fields.items():
             assert getattr(getattr(drv.driver.params, name), field) == value
+
+
+def test_a_reset_calls_back_once_the_car_is_back_at_its_start():
+    sim = Simulator()
+    node = SimNode(sim, LocalBus())
+    node.command(ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=2.0))
+    for _ in range(100):  # 2 s at 2 m/s^2 (less the actuator's lag): a few metres
+        node.frame(sim.advance(2))
+    assert sim.state.x > 1.0
+    seen = []
+    node.reset(lambda: seen.append((sim.time_ns, sim.state)))
+    assert seen == []  # a reset applies at the start of the next frame
+    node.apply_pending()
+    assert seen == [(0, sim.config.initial)]
+    node.apply_pending()
+    assert len(seen) == 1  # once

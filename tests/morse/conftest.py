@@ -13,10 +13,17 @@ from vilma.bus.local import LocalBus
 from vilma.bus.nodes import SimNode
 from vilma.morse import MorseServer
 from vilma.programs import run_paced
-from vilma.sim import Simulator
+from vilma.sensors import SensorSuite
+from vilma.sensors.imu import ImuParams
+from vilma.sim import SimConfig, Simulator
+from vilma.vehicle.state import VehicleState
 
 SPEED = 4.0
 """The served simulator runs this many times faster than real time (MORSE's time services use sim time)."""
+START = VehicleState(x=3.0, y=-2.0, yaw=0.5)
+"""Where the car of the ``scene`` fixture starts."""
+IMU_AT = (0.5, 0.2, 0.3)
+"""Where its IMU is mounted, in the body frame from the centre of mass [m]."""
 
 
 @dataclass
@@ -32,9 +39,9 @@ class Served:
         return self.server.service_address[1]
 
 
-def serve(speed: float = SPEED, **kw) -> Served:
-    """A paced simulator with its MORSE server on free loopback ports (stop with ``.stop.set()``)."""
-    sim = Simulator()
+def serve(speed: float = SPEED, config: SimConfig | None = None, **kw) -> Served:
+    """A paced simulator (of ``config``) with its MORSE server on free loopback ports (stop with ``.stop.set()``)."""
+    sim = Simulator(config)
     node = SimNode(sim, LocalBus())
     stop = threading.Event()
     commands: list = []
@@ -44,7 +51,7 @@ def serve(speed: float = SPEED, **kw) -> Served:
         node.command(cmd)
 
     server = MorseServer(service_port=0, stream_port=0, on_command=on_command, on_reset=node.reset,
-                         on_quit=stop.set, time_ns=lambda: sim.time_ns, **kw)
+                         on_quit=stop.set, time_ns=lambda: sim.time_ns, sensors=sim.config.sensors, **kw)
     server.start()
     node.on_frame = server.publish
     threading.Thread(target=run_paced, args=(sim, node, speed, float("inf"), stop), daemon=True).start()
@@ -54,6 +61,15 @@ def serve(speed: float = SPEED, **kw) -> Served:
 @pytest.fixture
 def served() -> Iterator[Served]:
     s = serve()
+    yield s
+    s.stop.set()
+    s.server.stop()
+
+
+@pytest.fixture
+def scene() -> Iterator[Served]:
+    """The served simulator with its car starting at :data:`START` and its IMU at :data:`IMU_AT`."""
+    s = serve(config=SimConfig(initial=START, sensors=SensorSuite(imu=ImuParams(offset=IMU_AT))))
     yield s
     s.stop.set()
     s.server.stop()
@@ -81,6 +97,18 @@ class LineClient:
     def ask(self, request: bytes) -> bytes:
         self.send(request)
         return self.line()
+
+    def skip_received(self) -> None:
+        """Drop every complete line received so far (what was sent before now); the next ``line()`` comes later."""
+        self.sock.setblocking(False)
+        try:
+            while chunk := self.sock.recv(65536):
+                self.buf += chunk
+        except BlockingIOError:
+            pass
+        finally:
+            self.sock.settimeout(10.0)
+        self.buf = self.buf[self.buf.rfind(b"\n") + 1:]
 
     def close(self) -> None:
         self.sock.close()

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
 import pymorse
 import pytest
 
-from tests.morse.conftest import serve
+from tests.morse.conftest import IMU_AT, START, LineClient, serve
 from tests.record.world_messages import WALL, wall_rays, wall_scan
+from vilma.morse import COMPONENTS
 
 
 @pytest.fixture
@@ -94,17 +96,53 @@ def test_services_futures_time_and_errors(sim, served):
         sim.rpc("vilma", "steer", 1, float("nan"))
 
 
-def test_reset_then_quit_ends_the_simulator(served, fixed_close):
-    with pymorse.Morse("127.0.0.1", served.port) as m:
+def test_a_second_sleep_fails_while_one_runs(sim, served):
+    raw = LineClient(served.port)
+    assert raw.ask(b"long time sleep [1000.0]\nfence time mode\n").startswith(b"fence SUCCESS")
+    with pytest.raises(pymorse.MorseServiceFailed, match=r"^A service \(sleep\) is already running\. I do not know"):
+        sim.sleep(0.1)
+    raw.send(b"long cancel\n")
+    assert raw.line() == b"long PREEMPTED\n"  # the first sleep was still running
+    assert sim.sleep(0.1) is None
+    raw.close()
+
+
+def test_time_statistics(sim):
+    sim.sleep(0.1)  # five frames of 20 ms
+    stats = sim.rpc("time", "statistics")
+    assert set(stats) == {"mean_time", "variance_time", "diff_real_time"}  # MORSE's fixed-step figures
+    assert stats["mean_time"] > 0 and stats["variance_time"] >= 0
+
+
+def test_reset_then_quit_ends_the_simulator(scene, fixed_close):
+    start = pytest.approx((START.x, START.y, START.yaw), abs=1e-9)
+    with pymorse.Morse("127.0.0.1", scene.port) as m:
         m.vilma.steer_force.publish({"steer": 0.0, "force": -20.0, "brake": 0.0})
         m.sleep(2.0)
-        assert m.vilma.pose.get()["x"] > 1.0
+        moved = m.vilma.pose.get()
+        assert math.hypot(moved["x"] - START.x, moved["y"] - START.y) > 1.0
         m.vilma.steer_force.publish({"steer": 0.0, "force": 0.0, "brake": 0.0})
-        m.reset()
-        m.sleep(0.2)
-        assert m.vilma.pose.get()["x"] == pytest.approx(served.sim.config.initial.x, abs=0.05)
+        assert m.reset() == "Objects restored to initial position"
+        local = m.vilma.pose.get_local_data().result()
+        assert (local["x"], local["y"], local["yaw"]) == start
+        streamed = m.vilma.pose.get(timeout=5)
+        assert (streamed["x"], streamed["y"], streamed["yaw"]) == start
         m.quit()
-    assert served.stop.wait(2.0)
+    assert scene.stop.wait(2.0)
+
+
+def test_component_services_and_scene_objects(scene, fixed_close):
+    with pymorse.Morse("127.0.0.1", scene.port) as m:
+        assert m.vilma.pose.get_properties().result() == {"properties": {}}
+        assert m.vilma.imu.get_properties().result()["properties"]["ComputationMode"][0] == "Velocity"
+        placed = m.vilma.imu.get_configurations().result()["configurations"]["object_to_robot"]
+        assert placed == {"rotation": [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], "translation": list(IMU_AT)}
+        m.vilma.pose.get(timeout=5)  # a pose has been measured
+        children, position, quaternion = m.rpc("simulation", "get_scene_objects")["vilma"]
+        assert position == pytest.approx([START.x, START.y, 0.0], abs=1e-9)
+        assert quaternion == pytest.approx([0.0, 0.0, math.sin(START.yaw / 2), math.cos(START.yaw / 2)], abs=1e-9)
+        assert set(children) == {f"vilma.{c.name}" for c in COMPONENTS}
+        m.quit()
 
 
 def test_pymorse_reads_the_laser_stream(fixed_close):

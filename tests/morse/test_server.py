@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import socket
+import statistics
 import threading
 import time
 
@@ -14,12 +16,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tests.morse.conftest import LineClient, serve
+from tests.morse.conftest import IMU_AT, START, LineClient, serve
 from tests.record.world_messages import WALL, red_square, wall_rays, wall_scan
 from vilma.core.messages import ActuatorCommand, Longitudinal, PointCloud, Pose
 from vilma.morse import COMPONENTS, MorseServer
+from vilma.morse.core import MAX_PENDING
 from vilma.morse.server import SERVICE_PORT_TRIES
 from vilma.sensors.base import Readings
+from vilma.sensors.gps import GpsParams
 
 
 def wait_for(cond, timeout=10.0):
@@ -101,6 +105,11 @@ def test_reset_and_quit_lines(served, client):
     (b"12 simulation set_object_position [\"vilma\", [0,0,0]]\n", b'12 FAILED "simulation set_object_position '
                                                                  b'is not supported'),
     (b"\xff\xfe 1 2\n", "\ufffd\ufffd FAILED".encode()),
+    (b"13 time statistics [1]\n", b'13 FAILED "Socket service manager: wrong # of parameters for service statistics.'),
+    (b"14 vilma.gps get_configurations [1, 2]\n", b'14 FAILED "Socket service manager: wrong # of parameters for '
+                                                 b'service get_configurations.'),
+    (b'15 simulation get_scene_objects "all"\n', b'15 FAILED "Invalid request syntax: error while parsing the '
+                                                 b'parameters: <\\"all\\">. The parameters must be a JSON array'),
 ])
 def test_bad_requests_get_failed_and_the_server_keeps_serving(served, client, request_line, reply_start):
     reply = client.ask(request_line)
@@ -389,3 +398,181 @@ def test_a_laser_range_must_be_positive_metres():
         with pytest.raises(ValueError, match="laser_range must be a positive number of metres"):
             MorseServer(service_port=0, stream_port=0, on_command=lambda c: None, time_ns=lambda: 0,
                         world_topics=("laser",), laser_range=bad)
+
+
+BUSY = b'FAILED "A service (sleep) is already running. I do not know what to do."\n'
+"""MORSE's reply to a ``time sleep`` while one runs (``AbstractObject.set_service_callback``)."""
+
+
+@pytest.fixture
+def clocked():
+    """A MORSE server without a simulator: its sim time [ns] and wall time [ns] are set by the test."""
+    clock = {"sim": 0, "wall": 0}
+    server = MorseServer(service_port=0, stream_port=0, on_command=lambda c: None, time_ns=lambda: clock["sim"],
+                         wall_ns=lambda: clock["wall"])
+    server.start()
+    yield server, clock
+    server.stop()
+
+
+def test_a_second_sleep_fails_as_in_morse_and_the_first_still_answers(clocked):
+    server, clock = clocked
+    a, b = LineClient(server.service_address[1]), LineClient(server.service_address[1])
+    a.send(b"1 time sleep [1.0]\n2 time sleep [0.5]\n")  # the same connection
+    assert a.line() == b"2 " + BUSY
+    assert b.ask(b"3 time sleep [0.5]\n") == b"3 " + BUSY  # another connection: MORSE's time component is one
+    clock["sim"] = 999_999_999
+    assert a.ask(b"m time mode\n").startswith(b"m SUCCESS")  # not due yet: nothing came before this reply
+    clock["sim"] = 1_000_000_000
+    assert a.line() == b"1 SUCCESS\n"  # the first sleep kept running and ends after its 1.0 s
+    b.send(b"4 time sleep [0.5]\n4 cancel\n5 time sleep [0.5]\nf time mode\n")  # once one has ended or is
+    assert b.line() == b"4 PREEMPTED\n"                                              # cancelled, the next runs
+    assert b.line().startswith(b"f SUCCESS")
+    clock["sim"] = 1_500_000_000
+    assert b.line() == b"5 SUCCESS\n"
+    a.close()
+    b.close()
+
+
+def sleep_started(c: LineClient, rid: bytes) -> bool:
+    """Ask ``<rid> time sleep [0.5]``; True once it runs (no reply before the fence), False when refused busy."""
+    c.send(rid + b" time sleep [0.5]\nfence time mode\n")
+    first = c.line()
+    if first.startswith(b"fence "):
+        return True
+    assert first == rid + b" " + BUSY and c.line().startswith(b"fence ")
+    return False
+
+
+def test_a_closed_connection_frees_the_sleep_it_ran(clocked):
+    server, clock = clocked
+    gone = LineClient(server.service_address[1])
+    assert gone.ask(b"1 time sleep [9.0]\nx time mode\n").startswith(b"x SUCCESS")
+    gone.close()
+    c = LineClient(server.service_address[1])
+    wait_for(lambda: sleep_started(c, b"2"))  # refused until the server has seen the connection close
+    clock["sim"] = 500_000_000
+    assert c.line() == b"2 SUCCESS\n"
+    c.close()
+
+
+def test_time_statistics_are_morses_fixed_step_figures(clocked):
+    server, clock = clocked
+    c = LineClient(server.service_address[1])
+    assert c.ask(b"0 time statistics\n") == \
+        b'0 SUCCESS {"mean_time": 0.0, "variance_time": 0.0, "diff_real_time": 0.0}\n'  # no frame yet
+    intervals = [0.010, 0.012, 0.008, 0.014]  # wall time between frames [s]
+    for dt in [0.0, *intervals]:
+        clock["wall"] += round(dt * 1e9)
+        clock["sim"] += 20_000_000
+        server.publish({})
+    clock["wall"] += 5_000_000  # asked 5 ms after the last frame
+    stats = json.loads(c.ask(b"1 time statistics []\n")[len(b"1 SUCCESS "):])
+    # MORSE's FixedSimulationStepStrategy: mean and variance (Welford, n - 1) of the wall time between frames, and
+    # the simulated time minus the real time, both since the first frame: 4 frames of 20 ms against 49 ms
+    assert stats == pytest.approx({"mean_time": statistics.mean(intervals),
+                                   "variance_time": statistics.variance(intervals),
+                                   "diff_real_time": 4 * 0.020 - (sum(intervals) + 0.005)})
+    clock["sim"] = 20_000_000  # a reset: sim time starts again, and real time is counted from there
+    clock["wall"] += 10_000_000
+    server.publish({})
+    clock["wall"] += 2_000_000
+    stats = json.loads(c.ask(b"2 time statistics\n")[len(b"2 SUCCESS "):])
+    assert stats["diff_real_time"] == pytest.approx(-0.002)
+    assert stats["mean_time"] == pytest.approx(statistics.mean([*intervals, 0.015]))
+    c.close()
+
+
+IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+
+
+def result(reply: bytes, rid: bytes) -> object:
+    assert reply.startswith(rid + b" SUCCESS "), reply
+    return json.loads(reply[len(rid) + len(b" SUCCESS "):])
+
+
+def test_after_reset_objects_the_next_pose_read_is_the_reset_pose(scene):
+    c = LineClient(scene.port)
+    stream = LineClient(scene.server.stream_ports["vilma.pose"])
+    assert c.ask(b"a vilma controlpower [1,1000,5]\n") == b"a SUCCESS\n"
+    assert c.ask(b"w time sleep [2.0]\n") == b"w SUCCESS\n"
+    moved = result(c.ask(b"p vilma.pose get_local_data\n"), b"p")
+    assert math.hypot(moved["x"] - START.x, moved["y"] - START.y) > 1.0
+    assert c.ask(b"r simulation reset_objects\n") == b'r SUCCESS "Objects restored to initial position"\n'
+    after = result(c.ask(b"q vilma.pose get_local_data\n"), b"q")
+    assert after["timestamp"] < moved["timestamp"]  # read after the reset (its sim time starts again)
+    assert (after["x"], after["y"], after["yaw"]) == pytest.approx((START.x, START.y, START.yaw), abs=1e-9)
+    stream.skip_received()
+    line = json.loads(stream.line())
+    assert (line["x"], line["y"], line["yaw"]) == pytest.approx((START.x, START.y, START.yaw), abs=1e-9)
+    for x in (c, stream):
+        x.close()
+
+
+def test_component_properties_and_configurations_as_morse(scene):
+    """``get_properties`` -> ``{"properties": {name: [value, type, doc, python name]}}`` and ``get_configurations`` ->
+    ``{"configurations": {name: value, "object_to_robot": {"rotation", "translation"}}}`` (MORSE's Object)."""
+    c = LineClient(scene.port)
+    assert c.ask(b"1 vilma.pose get_properties\n") == b'1 SUCCESS {"properties": {}}\n'  # MORSE's Pose has none
+    mode = result(c.ask(b"2 vilma.imu get_properties []\n"), b"2")["properties"]
+    assert list(mode) == ["ComputationMode"]
+    # MORSE's IMU and Velocity resolve "Automatic" to "Velocity" on a robot with physics
+    assert [mode["ComputationMode"][i] for i in (0, 1, 3)] == ["Velocity", "string", "_type"]
+    assert result(c.ask(b"3 vilma.velocity get_properties\n"), b"3")["properties"] == mode
+    control = result(c.ask(b"4 vilma.motion get_properties\n"), b"4")["properties"]["ControlType"]
+    assert [control[i] for i in (0, 1, 3)] == ["Velocity", "string", "_type"]
+    assert result(c.ask(b"5 vilma.gps get_configurations\n"), b"5") == {"configurations": {
+        "object_to_robot": {"rotation": IDENTITY, "translation": list(GpsParams().offset)}}}
+    assert result(c.ask(b"6 vilma.imu get_configurations\n"), b"6") == {"configurations": {
+        "ComputationMode": "Velocity", "object_to_robot": {"rotation": IDENTITY, "translation": list(IMU_AT)}}}
+    assert result(c.ask(b"7 vilma.pose get_configurations\n"), b"7") == {"configurations": {
+        "object_to_robot": {"rotation": IDENTITY, "translation": [0.0, 0.0, 0.0]}}}  # the robot's own pose
+    assert c.ask(b"8 vilma.steer_force get_properties\n") == \
+        b'8 FAILED "The request get_properties has not been registered in Socket service manager"\n'  # stream only
+    assert c.ask(b"9 vilma.imu get_properties [1]\n").startswith(
+        b'9 FAILED "Socket service manager: wrong # of parameters for service get_properties.')
+    details = result(c.ask(b"d simulation details\n"), b"d")["robots"][0]["components"]
+    assert details["vilma.pose"]["services"] == ["get_local_data", "get_properties", "get_configurations"]
+    c.close()
+
+
+def test_scene_objects_are_the_robot_and_its_components_where_they_are(scene):
+    c = LineClient(scene.port)
+    wait_for(lambda: scene.sim.time_ns > 0.1e9)
+    objects = result(c.ask(b"1 simulation get_scene_objects\n"), b"1")
+    assert list(objects) == ["vilma"]
+    children, position, quaternion = objects["vilma"]
+    q = [0.0, 0.0, math.sin(START.yaw / 2), math.cos(START.yaw / 2)]
+    assert position == pytest.approx([START.x, START.y, 0.0], abs=1e-9)
+    assert quaternion == pytest.approx(q, abs=1e-9)
+    assert list(children) == [f"vilma.{c.name}" for c in COMPONENTS]
+    cy, sy = math.cos(START.yaw), math.sin(START.yaw)
+
+    def at(mount):  # a point of the body frame in the world
+        return pytest.approx([START.x + cy * mount[0] - sy * mount[1], START.y + sy * mount[0] + cy * mount[1],
+                              mount[2]], abs=1e-9)
+
+    assert children["vilma.gps"] == [{}, at(GpsParams().offset), pytest.approx(q, abs=1e-9)]
+    assert children["vilma.imu"] == [{}, at(IMU_AT), pytest.approx(q, abs=1e-9)]
+    assert children["vilma.steer_force"] == [{}, at((0.0, 0.0, 0.0)), pytest.approx(q, abs=1e-9)]
+    c.close()
+
+
+def test_resets_waiting_for_a_stalled_simulator_are_bounded():
+    asked = []
+    server = MorseServer(service_port=0, stream_port=0, on_command=lambda c: None, time_ns=lambda: 0,
+                         on_reset=asked.append)  # a simulator that never gets to reset
+    server.start()
+    try:
+        c = LineClient(server.service_address[1])
+        c.send(b"".join(b"%d simulation reset_objects\n" % i for i in range(MAX_PENDING + 1)) + b"x time mode\n")
+        assert c.line() == b'%d FAILED "%d reset_objects requests already wait for the simulator to reset; wait for ' \
+            b'their replies"\n' % (MAX_PENDING, MAX_PENDING)
+        assert c.line().startswith(b"x SUCCESS") and len(asked) == MAX_PENDING
+        asked[0]()  # the simulator has reset: the replies go out with its next readings
+        server.publish({})
+        assert [c.line() for _ in range(MAX_PENDING)] == \
+            [b'%d SUCCESS "Objects restored to initial position"\n' % i for i in range(MAX_PENDING)]
+        c.close()
+    finally:
+        server.stop()

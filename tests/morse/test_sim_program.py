@@ -26,6 +26,10 @@ def test_vilma_sim_serves_morse_until_quit():
         assert c.ask(b"a vilma controlpower [1,1000,3]\n") == b"a SUCCESS\n"
         c.ask(b"w time sleep [3.0]\n")
         assert json.loads(c.ask(b"s vilma status []\n").split(b" ", 2)[2]) > 1.0
+        assert c.ask(b"r simulation reset_objects\n") == b'r SUCCESS "Objects restored to initial position"\n'
+        assert float((c.ask(b"t vilma status\n").split(b" ", 2)[2:] or [0.0])[0]) < 0.2  # at rest again
+        assert c.ask(b"b vilma controlpower [1,1000,3]\n") == b"b SUCCESS\n"
+        c.ask(b"w time sleep [3.0]\n")
         assert c.ask(b"q simulation quit []\n") == b"q SUCCESS\n"
         out, err = p.communicate(timeout=5)
         c.close()

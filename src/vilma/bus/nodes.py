@@ -50,6 +50,7 @@ class SimNode:
         self._pending: list[ActuatorCommand] = []
         self._lock = threading.Lock()
         self._reset = False
+        self._reset_done: list[Callable[[], None]] = []
         self.real_time_factor = math.nan
         self.frame_ns = 0
         """Sim time the last frame advanced [ns]."""
@@ -63,10 +64,13 @@ class SimNode:
         with self._lock:
             self._pending.append(cmd)
 
-    def reset(self) -> None:
-        """Put the car back at its start pose at the start of the next frame (any thread)."""
+    def reset(self, on_done: Callable[[], None] | None = None) -> None:
+        """Put the car back at its start pose at the start of the next frame (any thread); ``on_done`` is then
+        called on the simulator's thread, before that frame's readings go out."""
         with self._lock:
             self._reset = True
+            if on_done is not None:
+                self._reset_done.append(on_done)
 
     def _order(self, order: SimControl) -> Reply:
         if order.action == "reset":
@@ -96,8 +100,11 @@ class SimNode:
         with self._lock:
             pending, self._pending = self._pending, []
             reset, self._reset = self._reset, False
+            done, self._reset_done = self._reset_done, []
         if reset:
             self.sim.reset(self.start)
+            for on_done in done:
+                on_done()
         for cmd in pending:
             if cmd.stamp_ns:
                 if self.sim.time_ns - cmd.stamp_ns <= self.frame_ns:

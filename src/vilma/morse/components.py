@@ -48,6 +48,10 @@ Actuators (IN datastreams, sticky: the last command holds until the next):
   clamped to the car's accel/decel limits, sent in ``accel`` mode (``force`` mode with m a plus the
   rolling/drag feed-forward when reversing). Services ``set_speed [v, w]`` and ``stop``.
 
+Every component with socket services but the laser also answers MORSE's object services
+(:data:`OBJECT_SERVICES`): ``get_properties`` (its MORSE class's properties, e.g. :data:`COMPUTATION_MODE`)
+and ``get_configurations`` (their values, and where it sits on the robot: :func:`mounts`).
+
 The original program's services on the robot (``VilmaClass``; ``reference/vilma-original.md`` 5):
 see :class:`OriginalCar`.
 """
@@ -72,6 +76,7 @@ from vilma.core.messages import (
     Velocity,
     WheelSpeeds,
 )
+from vilma.sensors import SensorSuite
 from vilma.sensors.base import Readings
 from vilma.vehicle.params import VehicleParams
 
@@ -95,27 +100,49 @@ STREAM_MANAGER = "morse.middleware.socket_datastream.SocketDatastreamManager"
 SERVICE_MANAGER = "morse.middleware.socket_request_manager.SocketRequestManager"
 
 
+Property = tuple[str, tuple[Any, str, str, str]]
+"""A MORSE component property (``add_property``): its name, and its value, type name, documentation and Python
+attribute, the tuple MORSE's ``get_properties`` answers."""
+
+COMPUTATION_MODE: Property = ("ComputationMode", (
+    "Velocity", "string", "Kind of computation, can be one of ['Velocity', 'Position']. Only robot with dynamic and "
+    "Velocity control can choose Velocity computation. Default choice is Velocity for robot with physics, and "
+    "Position for others", "_type"))
+"""MORSE's ``Velocity`` and ``IMU`` property, which they resolve to ``Velocity`` on a robot with physics: vilma's
+velocities and accelerations also come from the car's dynamics, not from differenced positions."""
+CONTROL_TYPE: Property = ("ControlType", (
+    "Velocity", "string", "Kind of control, can be one of ['Velocity', 'Position']", "_type"))
+"""MORSE's ``MotionVW`` property: ``v`` and ``w`` are speeds."""
+
+OBJECT_SERVICES = ("get_properties", "get_configurations")
+"""MORSE's services of every object with a socket service interface (``morse.core.object.Object``), but
+``set_property``: vilma's properties are its configuration, fixed while it runs."""
+_SENSOR_SERVICES = ("get_local_data", *OBJECT_SERVICES)
+
+
 @dataclass(frozen=True, slots=True)
 class ComponentSpec:
     """One MORSE component of the robot: ``name`` (after ``robot.``), MORSE ``type``, stream direction
-    (``OUT`` sensor, ``IN`` actuator), the vilma reading it streams (sensors), its socket services."""
+    (``OUT`` sensor, ``IN`` actuator), the vilma reading it streams (sensors), its socket services, its MORSE
+    properties."""
 
     name: str
     type: str
     direction: str
     reading: str | None = None
     services: tuple[str, ...] = ()
+    properties: tuple[Property, ...] = ()
 
 
 COMPONENTS: tuple[ComponentSpec, ...] = (
-    ComponentSpec("pose", "Pose", "OUT", "pose", ("get_local_data",)),
-    ComponentSpec("velocity", "Velocity", "OUT", "velocity", ("get_local_data",)),
-    ComponentSpec("gps", "GPS", "OUT", "gps", ("get_local_data",)),
-    ComponentSpec("imu", "IMU", "OUT", "imu", ("get_local_data",)),
-    ComponentSpec("wheelspeed", "Wheelspeed", "OUT", "wheel_speed", ("get_local_data",)),
-    ComponentSpec("odometry", "IntegratedOdometry", "OUT", "odometry", ("get_local_data",)),
+    ComponentSpec("pose", "Pose", "OUT", "pose", _SENSOR_SERVICES),
+    ComponentSpec("velocity", "Velocity", "OUT", "velocity", _SENSOR_SERVICES, (COMPUTATION_MODE,)),
+    ComponentSpec("gps", "GPS", "OUT", "gps", _SENSOR_SERVICES),
+    ComponentSpec("imu", "IMU", "OUT", "imu", _SENSOR_SERVICES, (COMPUTATION_MODE,)),
+    ComponentSpec("wheelspeed", "Wheelspeed", "OUT", "wheel_speed", _SENSOR_SERVICES),
+    ComponentSpec("odometry", "IntegratedOdometry", "OUT", "odometry", _SENSOR_SERVICES),
     ComponentSpec("steer_force", "SteerForce", "IN"),
-    ComponentSpec("motion", "MotionVW", "IN", None, ("set_speed", "stop")),
+    ComponentSpec("motion", "MotionVW", "IN", None, ("set_speed", "stop", *OBJECT_SERVICES), (CONTROL_TYPE,)),
 )
 """The components in registration order: stream ports are given in this order (60000, 60001, ...)."""
 WORLD_COMPONENTS: tuple[ComponentSpec, ...] = (
@@ -132,6 +159,18 @@ def components(world_topics: Collection[str] = ()) -> tuple[ComponentSpec, ...]:
     :data:`WORLD_COMPONENTS` whose topic is in ``world_topics`` (other world topics, cameras, are not served)."""
     return COMPONENTS + tuple(c for c in WORLD_COMPONENTS if c.reading in world_topics)
 
+
+def mounts(sensors: SensorSuite) -> dict[str, tuple[float, float, float]]:
+    """Where the components of :data:`COMPONENTS` sit in the robot's frame (body x forward, y left, z up, from the
+    centre of mass, which the pose reports) [m], by name: the GPS antenna and the IMU at their offsets, the others
+    at the centre of mass (what they measure, or act on). Every component's axes are the body's."""
+    at = dict.fromkeys((c.name for c in COMPONENTS), (0.0, 0.0, 0.0))
+    for name, params in (("gps", sensors.gps), ("imu", sensors.imu)):
+        if params is not None:
+            at[name] = tuple(map(float, params.offset))
+    return at
+
+
 ROBOT_TYPE = "VilmaClass"
 """The robot's MORSE type (the original's ``classpath="VilmaClass.VilmaClass"``)."""
 ROBOT_SERVICES = ("steer", "controlpower", "power", "brake", "autonomous", "status")
@@ -145,17 +184,22 @@ def _index(message: type) -> dict[str, int]:
     return {name: i for i, name in enumerate(message.__struct_fields__[1:])}
 
 
-def _rotate_into_body(q: tuple[float, float, float, float], v: tuple[float, float, float]) -> list[float]:
-    """World vector ``v`` in the body frame of orientation ``q`` = (x, y, z, w): R(q)^T v."""
+def rotate(q: tuple[float, float, float, float], v: tuple[float, float, float]) -> list[float]:
+    """Vector ``v`` rotated by the orientation ``q`` = (x, y, z, w), normalised first: R(q) v (body -> world)."""
     x, y, z, w = q
     n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
-    x, y, z, w = -x / n, -y / n, -z / n, w / n  # the conjugate rotates world -> body
+    x, y, z, w = x / n, y / n, z / n, w / n
     vx, vy, vz = v
     # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
     cx, cy, cz = y * vz - z * vy, z * vx - x * vz, x * vy - y * vx
     return [vx + 2.0 * (w * cx + y * cz - z * cy),
             vy + 2.0 * (w * cy + z * cx - x * cz),
             vz + 2.0 * (w * cz + x * cy - y * cx)]
+
+
+def _rotate_into_body(q: tuple[float, float, float, float], v: tuple[float, float, float]) -> list[float]:
+    """World vector ``v`` in the body frame of orientation ``q`` = (x, y, z, w): R(q)^T v."""
+    return rotate((-q[0], -q[1], -q[2], q[3]), v)  # the conjugate rotates world -> body
 
 
 def _wrap(a: float) -> float:

@@ -4,7 +4,8 @@
 original services, component services), turns actuator datastream lines and
 service calls into :class:`~vilma.core.messages.ActuatorCommand` and sensor
 readings and laser scans into MORSE dicts. :class:`~vilma.morse.server.MorseServer` runs it on
-sockets; everything here runs on the server's one event-loop thread.
+sockets; everything here runs on the server's one event-loop thread, but what the simulator's thread
+reports (frame times, resets applied), which is behind locks.
 """
 
 from __future__ import annotations
@@ -13,10 +14,13 @@ import ipaddress
 import json
 import logging
 import math
+import threading
+import time
 from collections.abc import Callable, Collection, Container, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from vilma.core.geometry import quaternion_from_euler
 from vilma.core.messages import ActuatorCommand, Message
 from vilma.morse import protocol as p
 from vilma.morse.components import (
@@ -34,8 +38,11 @@ from vilma.morse.components import (
     laser_dict,
     motion_command,
     motion_target,
+    mounts,
+    rotate,
     steer_force_command,
 )
+from vilma.sensors import SensorSuite
 from vilma.sensors.base import Readings
 from vilma.vehicle.params import VehicleParams, vilma
 
@@ -44,10 +51,16 @@ log = logging.getLogger(__name__)
 ENVIRONMENT = "vilma/flat"
 """The ``environment`` of ``simulation details``: vilma's flat ground."""
 MAX_PENDING = 256
-"""Most asynchronous requests (``time sleep``) one connection may have running."""
+"""Most ``reset_objects`` requests waiting at once for the simulator to reset."""
+SLEEP_BUSY = "A service (sleep) is already running. I do not know what to do."
+"""MORSE's reply to a ``time sleep`` while one runs (its ``time`` component runs one asynchronous service)."""
+RESET_DONE = "Objects restored to initial position"
+"""MORSE's reply to ``reset_objects``."""
+IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+"""The rotation from every component's frame to the robot's (their axes are the body's), as rows."""
 
 UNSUPPORTED = (
-    "suspend_dynamics", "restore_dynamics", "set_log_level", "get_scene_objects", "set_object_position",
+    "suspend_dynamics", "restore_dynamics", "set_log_level", "set_object_position",
     "set_object_visibility", "set_object_dynamics", "set_camarafp_far_clip", "set_camarafp_position",
     "set_camarafp_transform", "set_camarafp_projection_matrix", "get_camarafp_projection_matrix",
 )
@@ -74,9 +87,12 @@ class _Service:
 
 @dataclass(slots=True)
 class _Pending:
+    """A request answered later: ``time sleep`` once the sim time reaches ``due`` [ns], ``reset_objects`` once
+    readings come after ``due`` resets applied in all."""
+
     peer: Peer
     id: str
-    deadline_ns: int
+    due: int
 
 
 _ASYNC = object()
@@ -98,6 +114,52 @@ def parse_networks(allow: Collection[str] | None) -> tuple[ipaddress.IPv4Network
     return tuple(nets)
 
 
+class FrameTimes:
+    """The wall-clock time between the simulator's frames, MORSE's ``time statistics`` in fixed-step mode.
+
+    ``mean_time`` and ``variance_time`` are the mean [s] and sample variance [s^2] of the intervals (MORSE's
+    ``Stats``: Welford; the variance is 0 before two intervals). ``diff_real_time`` is the simulated time minus
+    the real time, both since the first frame after the start or the last reset (vilma's clock then starts
+    again) [s]: positive when the simulation runs ahead of real time. Frames come from the simulator's thread,
+    questions from the server's.
+
+    Args:
+        time_ns: sim time [ns].
+        wall_ns: a monotonic wall clock [ns].
+    """
+
+    def __init__(self, time_ns: Callable[[], int], wall_ns: Callable[[], int] = time.monotonic_ns) -> None:
+        self._time_ns, self._wall_ns = time_ns, wall_ns
+        self._lock = threading.Lock()
+        self._n, self._mean, self._m2 = 0, 0.0, 0.0
+        self._last: tuple[int, int] | None = None  # (wall, sim) [ns] of the last frame
+        self._origin: tuple[int, int] | None = None  # of the first frame since the start or the last reset
+
+    def frame(self) -> None:
+        """Note a frame, now."""
+        wall, sim = self._wall_ns(), int(self._time_ns())
+        with self._lock:
+            if self._last is not None:
+                dt = (wall - self._last[0]) / 1e9
+                self._n += 1
+                delta = dt - self._mean
+                self._mean += delta / self._n
+                self._m2 += delta * (dt - self._mean)
+            if self._last is None or sim < self._last[1]:
+                self._origin = (wall, sim)
+            self._last = (wall, sim)
+
+    def statistics(self) -> dict[str, float]:
+        """``{"mean_time", "variance_time", "diff_real_time"}`` (see the class docstring)."""
+        wall = self._wall_ns()
+        with self._lock:
+            diff = 0.0
+            if self._last is not None and self._origin is not None:
+                diff = ((self._last[1] - self._origin[1]) - (wall - self._origin[0])) / 1e9
+            return {"mean_time": self._mean, "variance_time": self._m2 / (self._n - 1) if self._n > 1 else 0.0,
+                    "diff_real_time": diff}
+
+
 class MorseCore:
     """State and services of one robot on a MORSE socket interface.
 
@@ -112,13 +174,20 @@ class MorseCore:
         shutdown: called after ``quit`` has been answered, before ``on_quit`` (the server closes its sockets).
         world_topics: the simulator's world sensor topics; ``laser`` adds the ``laser`` component.
         laser_range: the laser's reach [m], reported for a ray without a hit (as MORSE).
+        sensors: the car's sensors (where the GPS and IMU are mounted); default :class:`SensorSuite`'s.
+        wall_ns: a monotonic wall clock [ns] (``time statistics``).
+
+    ``on_reset`` gets a function to call (on any thread) once the simulator has put the car back, before its
+    next readings come: ``reset_objects`` answers then, so that what is read after its reply is the reset state.
     """
 
     def __init__(self, *, robot: str = "vilma", on_command: Callable[[ActuatorCommand], None],
-                 on_reset: Callable[[], None] | None = None, on_quit: Callable[[], None] | None = None,
-                 time_ns: Callable[[], int], allow_commands_from: Collection[str] | None = None,
-                 vehicle: VehicleParams | None = None, shutdown: Callable[[], None] | None = None,
-                 world_topics: Collection[str] = (), laser_range: float = LASER_RANGE) -> None:
+                 on_reset: Callable[[Callable[[], None]], None] | None = None,
+                 on_quit: Callable[[], None] | None = None, time_ns: Callable[[], int],
+                 allow_commands_from: Collection[str] | None = None, vehicle: VehicleParams | None = None,
+                 shutdown: Callable[[], None] | None = None, world_topics: Collection[str] = (),
+                 laser_range: float = LASER_RANGE, sensors: SensorSuite | None = None,
+                 wall_ns: Callable[[], int] = time.monotonic_ns) -> None:
         if not robot or not robot.replace("_", "").isalnum() or not robot.isascii():
             raise ValueError(f"robot name {robot!r} must be letters, digits and '_' (it prefixes 'robot.pose')")
         self.robot = robot
@@ -131,6 +200,7 @@ class MorseCore:
             raise ValueError(f"laser_range must be a positive number of metres, got {laser_range!r}")
         self.laser_range = laser_range
         self.specs: dict[str, ComponentSpec] = {f"{robot}.{c.name}": c for c in components(world_topics)}
+        self.mounts = mounts(sensors or SensorSuite())
         self.by_reading = {c.reading: fqn for fqn, c in self.specs.items() if c.reading}
         self.stream_ports: dict[str, int] = {}
         self.active = dict.fromkeys(self.specs, True)
@@ -141,8 +211,13 @@ class MorseCore:
         self.mapper = SensorMapper()
         self._motion: tuple[float, float] | None = None
         self._speed = 0.0
-        self._pending: list[_Pending] = []
+        self._sleeping: _Pending | None = None
         self._last_now: int | None = None
+        self._resetting: list[_Pending] = []
+        self._resets_lock = threading.Lock()
+        self._resets_applied = 0  # counted on the simulator's thread
+        self._resets_seen = 0
+        self.frames = FrameTimes(time_ns, wall_ns)
         self._quitting = False
         self._services = self._registry()
 
@@ -236,15 +311,17 @@ class MorseCore:
             ("simulation", "list_streams"): _Service(lambda: list(self.stream_ports)),
             ("simulation", "get_stream_port"): _Service(self._get_stream_port, ("component",)),
             ("simulation", "get_all_stream_ports"): _Service(lambda: dict(self.stream_ports)),
-            ("simulation", "reset_objects"): _Service(self._reset, command=True),
+            ("simulation", "reset_objects"): _Service(self._reset, command=True, is_async=True),
             ("simulation", "quit"): _Service(self._quit, command=True),
             ("simulation", "terminate"): _Service(self._quit, command=True),
             ("simulation", "activate"): _Service(lambda c: self._activate(c, True), ("component",), command=True),
             ("simulation", "deactivate"): _Service(lambda c: self._activate(c, False), ("component",),
                                                    command=True),
+            ("simulation", "get_scene_objects"): _Service(self._scene_objects),
             ("time", "now"): _Service(lambda: self._now() / 1e9),
             ("time", "sleep"): _Service(self._sleep, ("time",), is_async=True),
             ("time", "mode"): _Service(lambda: "Fixed Simulation Step"),
+            ("time", "statistics"): _Service(self.frames.statistics),
             (r, "steer"): _Service(self._car_call(self.car.steer), ("Steering", "steeringAmount"), command=True),
             (r, "controlpower"): _Service(self._car_call(self.car.controlpower),
                                           ("controlPower", "powerAmount", "velocityAmount"), command=True),
@@ -257,8 +334,10 @@ class MorseCore:
             (f"{r}.motion", "stop"): _Service(lambda: self._set_speed(0.0, 0.0), command=True),
         }
         for fqn, spec in self.specs.items():
-            if "get_local_data" in spec.services:
-                reg[(fqn, "get_local_data")] = _Service(lambda fqn=fqn: self._local_data(fqn))
+            calls = {"get_local_data": lambda fqn=fqn: self._local_data(fqn),
+                     "get_properties": lambda spec=spec: {"properties": dict(spec.properties)},
+                     "get_configurations": lambda spec=spec: self._configurations(spec)}
+            reg.update({(fqn, name): _Service(call) for name, call in calls.items() if name in spec.services})
         return reg
 
     # -- simulation and time services -----------------------------------------------------------------------
@@ -290,18 +369,66 @@ class MorseCore:
             raise p.RequestError(f"Component {component!r} not found. Can't {verb}")
         self.active[component] = on
 
-    def _reset(self) -> str:
+    def _scene_objects(self) -> dict[str, Any]:
+        """``{robot: [children, [x, y, z], [qx, qy, qz, qw]]}``: the robot where its pose sensor last put it,
+        its components at their mounts (``{fqn: [{}, position, quaternion]}``); vilma's flat ground has no
+        objects (the 3D plant's obstacles and laser are not listed)."""
+        pose = self._local_data(f"{self.robot}.pose")
+        at = [pose["x"], pose["y"], pose["z"]]
+        q = tuple(float(v) for v in quaternion_from_euler(pose["roll"], pose["pitch"], pose["yaw"]))
+        children = {}
+        for fqn, spec in self.specs.items():
+            if spec.name in self.mounts:
+                offset = rotate(q, self.mounts[spec.name])
+                children[fqn] = [{}, [a + d for a, d in zip(at, offset, strict=True)], list(q)]
+        return {self.robot: [children, at, list(q)]}
+
+    def _configurations(self, spec: ComponentSpec) -> dict[str, Any]:
+        """MORSE's ``get_configurations``: the properties' values and where the component sits on the robot."""
+        return {"configurations": {**{name: value[0] for name, value in spec.properties},
+                                   "object_to_robot": {"rotation": IDENTITY,
+                                                       "translation": list(self.mounts[spec.name])}}}
+
+    def _reset(self, peer: Peer, rid: str) -> object:
         if self._on_reset is None:
             raise p.RequestError("simulation reset_objects is not available: this vilma simulator was started "
                                  "without a reset handler; reset it from its own controls")
+        if len(self._resetting) >= MAX_PENDING:
+            raise p.RequestError(f"{MAX_PENDING} reset_objects requests already wait for the simulator to reset; "
+                                 f"wait for their replies")
+        self._resetting.append(_Pending(peer, rid, self.resets_applied + 1))  # counted before the reset can apply
         try:
-            self._on_reset()
+            self._on_reset(self._reset_applied)
         except Exception as e:
+            self._resetting.pop()
             log.exception("on_reset failed")
             raise p.RequestError(f"vilma could not reset the simulation: {e}") from e
         self.car = OriginalCar()
         self._motion = None
-        return "Objects restored to initial position"
+        return _ASYNC
+
+    def _reset_applied(self) -> None:
+        with self._resets_lock:
+            self._resets_applied += 1
+
+    @property
+    def resets_applied(self) -> int:
+        """The resets of ``reset_objects`` the simulator has applied so far (read it from any thread)."""
+        with self._resets_lock:
+            return self._resets_applied
+
+    def catch_up(self, resets_applied: int) -> None:
+        """What comes next was published after ``resets_applied`` (:attr:`resets_applied` then): after a new
+        reset, forget what was measured before it and answer the ``reset_objects`` it served."""
+        if resets_applied <= self._resets_seen:
+            return
+        self._resets_seen = resets_applied
+        self.latest.clear()
+        self.mapper.reset()
+        done = [q for q in self._resetting if q.due <= resets_applied]
+        self._resetting = [q for q in self._resetting if q.due > resets_applied]
+        for q in done:
+            q.peer.send(p.format_reply(q.id, p.SUCCESS, RESET_DONE))
 
     def _quit(self) -> None:
         if self._on_quit is None:
@@ -313,48 +440,39 @@ class MorseCore:
         return int(self._time_ns())
 
     def _sleep(self, peer: Peer, rid: str, seconds: Any) -> object:
+        if self._sleeping is not None:
+            raise p.RequestError(SLEEP_BUSY)
         s = finite("time", seconds)
-        if sum(1 for q in self._pending if q.peer is peer) >= MAX_PENDING:
-            raise p.RequestError(f"too many running requests on this connection (at most {MAX_PENDING}); "
-                                 f"wait for some to finish or cancel them")
-        self._pending.append(_Pending(peer, rid, self._now() + round(min(s, 1e12) * 1e9)))  # 1e12 s: never
+        self._sleeping = _Pending(peer, rid, self._now() + round(min(s, 1e12) * 1e9))  # 1e12 s: never
         self.check_pending()
         return _ASYNC
 
     def _cancel(self, peer: Peer, rid: str) -> None:
-        """Preempt the running requests ``rid`` of ``peer``; an unknown id is ignored (as MORSE)."""
-        keep = []
-        for q in self._pending:
-            if q.peer is peer and q.id == rid:
-                peer.send(p.format_reply(rid, p.PREEMPTED))
-            else:
-                keep.append(q)
-        self._pending = keep
+        """Preempt the running ``time sleep`` if it is ``rid`` of ``peer``; anything else is ignored (as MORSE)."""
+        q = self._sleeping
+        if q is not None and q.peer is peer and q.id == rid:
+            self._sleeping = None
+            peer.send(p.format_reply(rid, p.PREEMPTED))
 
     def check_pending(self) -> None:
-        """Answer the ``time sleep`` requests whose sim time has come (sim time going back shifts them)."""
-        if not self._pending:
+        """Answer the running ``time sleep`` once its sim time has come (sim time going back shifts it)."""
+        q = self._sleeping
+        if q is None:
             self._last_now = None
             return
         now = self._now()
         if self._last_now is not None and now < self._last_now:  # the simulation was reset
-            for q in self._pending:
-                q.deadline_ns += now - self._last_now
+            q.due += now - self._last_now
         self._last_now = now
-        due = [q for q in self._pending if q.deadline_ns <= now]
-        if due:
-            self._pending = [q for q in self._pending if q.deadline_ns > now]
-            for q in due:
-                q.peer.send(p.format_reply(q.id, p.SUCCESS))
-
-    @property
-    def pending_count(self) -> int:
-        """Running asynchronous requests."""
-        return len(self._pending)
+        if q.due <= now:
+            self._sleeping = None
+            q.peer.send(p.format_reply(q.id, p.SUCCESS))
 
     def peer_gone(self, peer: Peer) -> None:
-        """Forget the requests of a closed connection."""
-        self._pending = [q for q in self._pending if q.peer is not peer]
+        """Forget the requests of a closed connection (its ``time sleep`` no longer blocks others')."""
+        if self._sleeping is not None and self._sleeping.peer is peer:
+            self._sleeping = None
+        self._resetting = [q for q in self._resetting if q.peer is not peer]
 
     # -- robot and component services ------------------------------------------------------------------------
 

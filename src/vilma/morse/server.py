@@ -6,10 +6,12 @@ never blocks); actuator streams and the robot's services
 call ``on_command`` (on the server thread). Topology and lines: ``reference/morse-protocol.md``;
 component fields and units: :mod:`vilma.morse.components`.
 
-Deviations from MORSE, all more tolerant: blank request lines are ignored; several
-``time sleep`` may run at once; ``<id> cancel`` only reaches requests of the same
-connection; actuator messages may leave fields out (they default to 0); ``time now``
-counts from the start of the run (MORSE's ``use_relative_time``).
+Deviations from MORSE, all more tolerant: blank request lines are ignored; ``<id> cancel``
+only reaches requests of the same connection, and a closed connection's ``time sleep`` ends
+with it (in MORSE it blocks every other until its time is up); actuator messages may leave
+fields out (they default to 0); ``time now`` counts from the start of the run (MORSE's
+``use_relative_time``); ``reset_objects`` answers once the simulator has put the car back (its
+next frame) rather than at once, so that every reading served after its reply is of the reset car.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import contextlib
 import logging
 import socket
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Collection, Iterable, Mapping
 from typing import TYPE_CHECKING, Any
@@ -31,6 +34,7 @@ from vilma.morse.core import MorseCore
 from vilma.vehicle.params import VehicleParams
 
 if TYPE_CHECKING:
+    from vilma.sensors import SensorSuite
     from vilma.sensors.base import Readings
 
 log = logging.getLogger(__name__)
@@ -192,7 +196,9 @@ class MorseServer:
             :data:`~vilma.morse.components.COMPONENTS` order, then ``laser`` if there is one; 0: any free.
         robot: the robot's name; components are ``<robot>.pose`` ...
         on_command: gets every actuator command, on the server thread (queue it; keep it cheap).
-        on_reset: called by ``simulation reset_objects`` (None: that service answers FAILED).
+        on_reset: called by ``simulation reset_objects`` with a function to call (any thread) once the car is
+            back, before the simulator's next :meth:`publish` (``SimNode.reset`` does); the reply waits for it.
+            None: that service answers FAILED.
         on_quit: called after ``simulation quit`` is answered and the sockets close (None: FAILED).
         time_ns: current sim time [ns] (``time now``, ``time sleep``, command stamps).
         allow_commands_from: addresses or networks whose commands (actuator streams, the robot's
@@ -203,14 +209,19 @@ class MorseServer:
             ``laser``, the robot has a ``laser`` component (MORSE's ``LaserScanner``) fed by
             :meth:`publish_captures`; cameras are not served.
         laser_range: the laser's reach [m]: the range of a ray without a hit (MORSE's, not inf).
+        sensors: the car's sensors, for where the GPS and IMU sit (``get_configurations``,
+            ``get_scene_objects``); default :class:`~vilma.sensors.SensorSuite`'s.
+        wall_ns: a monotonic wall clock [ns], which times the frames for ``time statistics``.
     """
 
     def __init__(self, *, host: str = "127.0.0.1", service_port: int = 4000, stream_port: int = 60000,
                  robot: str = "vilma", on_command: Callable[[ActuatorCommand], None],
-                 on_reset: Callable[[], None] | None = None, on_quit: Callable[[], None] | None = None,
-                 time_ns: Callable[[], int], allow_commands_from: Collection[str] | None = None,
-                 vehicle: VehicleParams | None = None, stream_buffer_limit: int = 64 * 1024,
-                 world_topics: Collection[str] = (), laser_range: float = LASER_RANGE) -> None:
+                 on_reset: Callable[[Callable[[], None]], None] | None = None,
+                 on_quit: Callable[[], None] | None = None, time_ns: Callable[[], int],
+                 allow_commands_from: Collection[str] | None = None, vehicle: VehicleParams | None = None,
+                 stream_buffer_limit: int = 64 * 1024, world_topics: Collection[str] = (),
+                 laser_range: float = LASER_RANGE, sensors: SensorSuite | None = None,
+                 wall_ns: Callable[[], int] = time.monotonic_ns) -> None:
         for name, port in (("service_port", service_port), ("stream_port", stream_port)):
             if not 0 <= port <= 65535:
                 raise ValueError(f"{name} must be in 0..65535 (0: any free port), got {port}")
@@ -218,7 +229,8 @@ class MorseServer:
         self.stream_buffer_limit = stream_buffer_limit
         self.core = MorseCore(robot=robot, on_command=on_command, on_reset=on_reset, on_quit=on_quit,
                               time_ns=time_ns, allow_commands_from=allow_commands_from, vehicle=vehicle,
-                              shutdown=self._close_sockets, world_topics=world_topics, laser_range=laser_range)
+                              shutdown=self._close_sockets, world_topics=world_topics, laser_range=laser_range,
+                              sensors=sensors, wall_ns=wall_ns)
         self.stream_ports: dict[str, int] = {}
         self._address: tuple[str, int] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -229,7 +241,7 @@ class MorseServer:
         self._out: dict[str, set[_OutConn]] = {f: set() for f, s in self.core.specs.items() if s.direction == "OUT"}
         self._stats = {f: {"sent": 0, "dropped": 0, "max_buffered": 0} for f in self._out}
         self._lock = threading.Lock()
-        self._queue: deque[tuple[Callable[[Any, set[str]], dict[str, bytes]], Any]] = deque()
+        self._queue: deque[tuple[Callable[[Any, set[str]], dict[str, bytes]], Any, int]] = deque()
         self._scheduled = False
         self._open = False
         self.publish_dropped = 0
@@ -379,8 +391,11 @@ class MorseServer:
     # -- data --------------------------------------------------------------------------------------------
 
     def publish(self, readings: dict[str, Readings]) -> None:
-        """Stream a batch of readings (by vilma sensor name): one JSON line per reading on its component's
-        datastream. Thread-safe, never blocks; ignored before start and after stop."""
+        """Stream a frame's readings (by vilma sensor name): one JSON line per reading on its component's
+        datastream. Call it once a frame: that times the frames (``time statistics``). Thread-safe, never
+        blocks; ignored before start and after stop."""
+        if self._open:
+            self.core.frames.frame()
         self._enqueue(self.core.readings, readings)
 
     def publish_captures(self, captures: Mapping[str, Message] | Iterable[tuple[str, Message]]) -> None:
@@ -391,15 +406,17 @@ class MorseServer:
         self._enqueue(self.core.captures, captures if isinstance(captures, Mapping) else list(captures))
 
     def _enqueue(self, lines: Callable[[Any, set[str]], dict[str, bytes]], batch: Any) -> None:
-        """Queue ``batch`` for the server thread, which turns it into lines with ``lines(batch, wanted)``."""
+        """Queue ``batch`` for the server thread, which turns it into lines with ``lines(batch, wanted)``; the
+        resets applied so far go with it (what was measured before one is stale: see ``MorseCore.catch_up``)."""
         loop = self._loop
         if loop is None or not self._open:
             return
+        resets = self.core.resets_applied
         with self._lock:
             if len(self._queue) >= PUBLISH_BACKLOG:
                 self._queue.popleft()
                 self.publish_dropped += 1
-            self._queue.append((lines, batch))
+            self._queue.append((lines, batch, resets))
             if self._scheduled:
                 return
             self._scheduled = True
@@ -414,8 +431,9 @@ class MorseServer:
         if not self._open:
             return
         wanted = {fqn for fqn, conns in self._out.items() if conns}
-        for lines_of, batch in batches:
+        for lines_of, batch, resets in batches:
             try:
+                self.core.catch_up(resets)
                 lines = lines_of(batch, wanted)
             except Exception:
                 log.exception("MORSE: could not stream a batch of readings")
