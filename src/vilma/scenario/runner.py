@@ -80,7 +80,8 @@ def run(scenario: Scenario, realtime: float | None = None, out_dir: Path | None 
         Interrupted: Ctrl-C; the files so far are kept, the recording finished.
     """
     started = time.perf_counter() if started is None else started
-    with _LoadTimer() as loading:
+    loading = _LoadTimer()
+    with install_listener("numba:compiler_lock", loading):
         return _run(scenario, realtime, out_dir, compiled, record, observe, started, loading)
 
 
@@ -92,15 +93,7 @@ class Interrupted(KeyboardInterrupt):
 
 
 class _LoadTimer(TimingListener):
-    """Wall time [s] spent loading (or compiling) numba code while active: under numba's compiler lock."""
-
-    def __enter__(self) -> _LoadTimer:
-        self._scope = install_listener("numba:compiler_lock", self)
-        self._scope.__enter__()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self._scope.__exit__(*exc)
+    """Wall time [s] spent loading (or compiling) numba code: under numba's compiler lock (numba's event API)."""
 
     @property
     def seconds(self) -> float:
