@@ -47,3 +47,11 @@ def test_smooth_of_a_device_is_refused_unread(capsys, tmp_path):
                                        "pipe); give a trajectory file\n")
     assert not (tmp_path / "out.txt").exists()
 
+
+def test_drive_data_dir_must_be_a_folder(capsys, tmp_path):
+    with pytest.raises(SystemExit) as e:
+        main(["drive", "--data-dir", str(tmp_path / "nope")])
+    assert e.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (f"vilma drive: error: argument --data-dir: "
+                                                        f"'{tmp_path / 'nope'}' is not a folder; create it or give "
+                                                        "another")
