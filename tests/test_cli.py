@@ -39,3 +39,19 @@ def test_bad_input_is_one_line_and_exit_2(args, message, capsys, tmp_path, monke
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not (tmp_path / "out.txt").exists()
+
+
+def test_smooth_of_a_device_is_refused_unread(capsys, tmp_path):
+    assert main(["trajectory", "smooth", "/dev/zero", str(tmp_path / "out.txt")]) == 2  # reading it would never end
+    assert capsys.readouterr().err == ("vilma trajectory: error: /dev/zero: not a regular file (a folder, device or "
+                                       "pipe); give a trajectory file\n")
+    assert not (tmp_path / "out.txt").exists()
+
+
+def test_drive_data_dir_must_be_a_folder(capsys, tmp_path):
+    with pytest.raises(SystemExit) as e:
+        main(["drive", "--data-dir", str(tmp_path / "nope")])
+    assert e.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (f"vilma drive: error: argument --data-dir: "
+                                                        f"'{tmp_path / 'nope'}' is not a folder; create it or give "
+                                                        "another")

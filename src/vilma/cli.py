@@ -145,7 +145,7 @@ def _drive(args: argparse.Namespace) -> int:
     print(f"vilma drive: {'task of ' + scenario.name if scenario else 'waiting for orders on vilma/vilma/driver/cmd'}"
           f"; Zenoh connects to {', '.join(cfg.connect) or '-'}", flush=True)
     try:
-        return programs.drive_program(scenario, bus, print)
+        return programs.drive_program(scenario, bus, print, args.data_dir)
     finally:
         bus.close()
 
@@ -201,6 +201,14 @@ def _plant(name: str) -> str:
     return name
 
 
+def _folder(name: str):
+    from pathlib import Path
+
+    if not Path(name).is_dir():
+        raise argparse.ArgumentTypeError(f"{name!r} is not a folder; create it or give another")
+    return Path(name)
+
+
 def _parser() -> argparse.ArgumentParser:
     from vilma import __version__
     from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
@@ -248,6 +256,9 @@ def _parser() -> argparse.ArgumentParser:
                            help="Zenoh endpoint to connect to (repeatable)")
             q.add_argument("--zenoh-config", metavar="FILE",
                            help="YAML file with listen, connect (lists of endpoints) and multicast_scouting")
+        if name == "drive":
+            q.add_argument("--data-dir", type=_folder, metavar="DIR", help="follow orders on driver/cmd may name "
+                           "trajectory files in DIR (default: none, orders carry their points)")
         if name == "sim":
             q.add_argument("--morse-host", default="127.0.0.1", metavar="ADDR",
                            help="address of the MORSE socket interface (default 127.0.0.1; others are exposed)")

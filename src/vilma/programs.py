@@ -81,9 +81,11 @@ def run_paced(sim: Simulator, node: SimNode, speed: float, duration: float, stop
             every()
 
 
-def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Scenario | None) -> DriverNode:
-    """The driver node on ``bus``; with a scenario, its task starts once the driver knows where the car is."""
-    node = DriverNode(driver, bus, car, step_ns)
+def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Scenario | None,
+                 data_dir: Path | None = None) -> DriverNode:
+    """The driver node on ``bus`` (following orders may name the trajectory files in ``data_dir``); with a
+    scenario, its task starts once the driver knows where the car is."""
+    node = DriverNode(driver, bus, car, step_ns, data_dir)
     if scenario is not None:
         node.on_pose = lambda: start_task(driver, scenario, scenario.reference_path())
     return node
@@ -187,13 +189,15 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     return 0
 
 
-def drive_program(scenario: Scenario | None, bus: Bus, report: Callable[[str], None]) -> int:
-    """``vilma drive``: the self-driver on ``bus`` until stopped; a scenario's task starts on the first pose."""
+def drive_program(scenario: Scenario | None, bus: Bus, report: Callable[[str], None],
+                  data_dir: Path | None = None) -> int:
+    """``vilma drive``: the self-driver on ``bus`` until stopped; a scenario's task starts on the first pose, and
+    follow orders may name the trajectory files in ``data_dir``."""
     params = scenario.driver if scenario is not None else None
     step = scenario.sim.step if scenario is not None else 0.01
     vehicle = scenario.sim.vehicle if scenario is not None else Simulator().config.vehicle
     driver = Driver(vehicle, params, step=step)
-    node = serve_driver(driver, bus, "vilma", round(step * 1e9), scenario)
+    node = serve_driver(driver, bus, "vilma", round(step * 1e9), scenario, data_dir)
     with stop_on_signals() as stop:
         while not stop.wait(1.0):
             pass

@@ -10,9 +10,21 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vilma.bus.codec import SCHEMA_VERSION, DecodeError, decode, encode
+from vilma.bus.codec import MAX_FRAME_BYTES, MAX_WORLD_FRAME_BYTES, SCHEMA_VERSION, DecodeError, decode, encode
 from vilma.bus.topics import TOPICS, message_type, topic
-from vilma.core.messages import ActuatorCommand, DriverOrder, GpsFix, Longitudinal, Pose, Reply
+from vilma.core.messages import (
+    MAX_FILE_NAME_CHARS,
+    MAX_GAINS,
+    MAX_NAME_CHARS,
+    MAX_ORDER_POINTS,
+    ActuatorCommand,
+    DriverOrder,
+    GpsFix,
+    Image,
+    Longitudinal,
+    Pose,
+    Reply,
+)
 
 
 @pytest.mark.parametrize("msg", [
@@ -32,7 +44,8 @@ def test_every_topic_type_round_trips():
         fields = {f.name: f.default for f in msgspec.structs.fields(cls) if f.default is not msgspec.NODEFAULT}
         required = [f for f in msgspec.structs.fields(cls) if f.default is msgspec.NODEFAULT
                     and f.default_factory is msgspec.NODEFAULT]
-        sample = {f.name: {int: 1, float: 1.5, str: "x", bool: True}.get(f.type, 1) for f in required}
+        sample = {f.name: {int: 1, float: 1.5, str: "x", bool: True}.get(getattr(f.type, "__origin__", f.type), 1)
+                  for f in required}  # (a capped str is Annotated[str, ...])
         msg = cls(**{**fields, **sample})
         assert encode(decode(encode(msg), message_type(topic(name)))) == encode(msg)
 
@@ -46,6 +59,36 @@ def test_wrong_version_shape_or_type_is_a_decode_error():
         decode(msgspec.msgpack.encode((SCHEMA_VERSION, ["Pose", "late", 1.0])))
     with pytest.raises(DecodeError, match="not a vilma frame"):
         decode(b"\x00garbage")
+
+
+def test_a_frame_over_its_limit_is_refused_unread():
+    garbage = b"\xc1" * (MAX_FRAME_BYTES + 1)  # (0xc1 is never msgpack: a frame read would fail otherwise)
+    with pytest.raises(DecodeError, match=f"a frame of {MAX_FRAME_BYTES + 1} bytes, over the 4 MiB limit of "
+                                          "DriverOrder; send less in one message"):
+        decode(garbage, DriverOrder)
+    with pytest.raises(DecodeError, match="not a vilma frame"):  # an image may be larger
+        decode(garbage, Image)
+    with pytest.raises(DecodeError, match="over the 64 MiB limit of Image"):
+        decode(garbage + bytes(MAX_WORLD_FRAME_BYTES - MAX_FRAME_BYTES), Image)
+
+
+def _word(i: int) -> str:
+    """A name at the cap in the widest UTF-8 (4 bytes a character), different for each ``i``."""
+    return chr(0x10000 + i) * MAX_NAME_CHARS
+
+
+def test_the_largest_order_fits_a_frame_and_one_more_point_or_name_is_refused():
+    largest = DriverOrder(
+        action=_word(0), points=[(1e300, -1e300)] * MAX_ORDER_POINTS, speeds=[1e300] * MAX_ORDER_POINTS,
+        file=chr(0x10000) * MAX_FILE_NAME_CHARS, speed_controller=_word(1), path_controller=_word(2),
+        gains={_word(i): {_word(j): _word(j) for j in range(MAX_GAINS)} for i in range(MAX_GAINS)})
+    frame = encode(largest)
+    assert len(frame) <= MAX_FRAME_BYTES and decode(frame, DriverOrder).points == largest.points
+    for field, value in (("points", [(0.0, 0.0)] * (MAX_ORDER_POINTS + 1)), ("speeds", [1.0] * (MAX_ORDER_POINTS + 1)),
+                         ("file", "a" * (MAX_FILE_NAME_CHARS + 1)), ("action", "a" * (MAX_NAME_CHARS + 1)),
+                         ("gains", {str(i): {} for i in range(MAX_GAINS + 1)})):
+        with pytest.raises(DecodeError, match=f"of length <= .* - at `{field}`$"):
+            decode(encode(msgspec.structs.replace(largest, **{field: value})), DriverOrder)
 
 
 @given(st.binary(max_size=200))

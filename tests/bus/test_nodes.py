@@ -2,20 +2,31 @@
 
 from __future__ import annotations
 
+import logging
 import math
+import time
+import tracemalloc
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tests.bus.conftest import SECRET, data_folder, driver_on, free_endpoint
 from vilma.bus import Latest, LocalBus, topic
 from vilma.bus.nodes import DriverNode, SimNode
+from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
 from vilma.control.driver import Driver
-from vilma.core.messages import ActuatorCommand, DriverOrder, Longitudinal, SimControl
+from vilma.core.messages import MAX_ORDER_POINTS, ActuatorCommand, DriverOrder, Longitudinal, Reply, SimControl
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import initial_state, run, start_task
 from vilma.sim import Simulator
+from vilma.trajectory.io import MAX_FILE_BYTES
+
+ORDERS = topic("driver/cmd")
+FILES_OFF = ("follow: file orders are off: start the driver with --data-dir DIR to follow files in DIR, or send "
+             "the points")
 
 
 def _nodes(scenario):
@@ -56,8 +67,6 @@ def test_orders_and_reset_over_the_bus():
     bad = bus.request(order, DriverOrder(action="set_speed"))
     assert not bad.ok and bad.error == "set_speed: give speed"
     assert bus.request(order, DriverOrder(action="fly")).error.startswith("unknown order 'fly'")
-    assert bus.request(order, DriverOrder(action="follow", file="/nonexistent.txt", speed=3.0)).error == \
-        "follow: /nonexistent.txt: no such file; check the path"
     assert bus.request(topic("sim/cmd"), SimControl(action="reset")).ok
     sim_node.frame(sim.advance(2))  # the reset applies at the end of this frame
     assert sim.state.speed == 0.0 and (sim.state.x, sim.state.y) == (path.xy[0, 0], path.xy[0, 1])
@@ -119,3 +128,116 @@ def test_a_reset_calls_back_once_the_car_is_back_at_its_start():
     assert seen == [(0, sim.config.initial)]
     node.apply_pending()
     assert len(seen) == 1  # once
+
+
+def _request_peak(bus, order: DriverOrder) -> tuple[Reply, int]:
+    """The reply to ``order`` and the most memory Python held while it was answered [bytes]."""
+    tracemalloc.start()
+    try:
+        return bus.request(ORDERS, order), tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_file_orders_are_off_without_a_data_folder():
+    bus = LocalBus()
+    drv = driver_on(bus)
+    for name in ("/etc/passwd", "/dev/zero", "track.csv"):
+        reply, peak = _request_peak(bus, DriverOrder(action="follow", file=name, speed=3.0))
+        assert reply.error == FILES_OFF and peak < MAX_FILE_BYTES  # refused unread
+    assert drv.driver.task.path is None
+
+
+def _outside(name: str) -> str:
+    return (f"follow: file {name!r} is not in the driver's data folder; name a file in it (no leading '/', no '..', "
+            "no link out of it)")
+
+
+@pytest.mark.parametrize(("name", "error"), [
+    *((name, _outside(name)) for name in ("/etc/passwd", "/dev/zero", "../secret.txt", "secret.txt", "zero",
+                                          "sub/../good.csv", "good.csv\0")),
+    ("pipe", "follow: file 'pipe': not a regular file (a folder, device or pipe); give a trajectory file"),
+    ("sub", "follow: file 'sub': not a regular file (a folder, device or pipe); give a trajectory file"),
+    ("missing.csv", "follow: file 'missing.csv': no such file; check the path"),
+    ("loop", "follow: file 'loop': cannot read it (Too many levels of symbolic links); check permissions"),
+    ("big.txt", f"follow: file 'big.txt': {MAX_FILE_BYTES + 1} bytes, over the {MAX_FILE_BYTES // 2**20} MiB a "
+                "trajectory file may hold; keep fewer points (every n-th line)"),
+    ("bad.txt", "follow: file 'bad.txt' line 2: not a trajectory file (the driver's log says why)"),
+])
+def test_file_orders_take_only_regular_files_of_the_data_folder_and_never_quote_them(tmp_path, caplog, name, error):
+    bus = LocalBus()
+    drv = driver_on(bus, data_folder(tmp_path))
+    with caplog.at_level(logging.WARNING):
+        reply, peak = _request_peak(bus, DriverOrder(action="follow", file=name, speed=3.0))
+    assert reply.error == error and peak < MAX_FILE_BYTES  # (so the large file was not read either)
+    assert (SECRET in caplog.text) == (name == "bad.txt")  # why a file in the folder does not parse: the log only
+    assert drv.driver.task.path is None and bus.request(ORDERS, DriverOrder(action="set_speed", speed=2.0)).ok
+
+
+@pytest.mark.parametrize("name", ["good.csv", "same.csv", "./good.csv"])
+def test_a_trajectory_file_of_the_data_folder_is_followed(tmp_path, name):
+    bus = LocalBus()
+    drv = driver_on(bus, data_folder(tmp_path))
+    assert bus.request(ORDERS, DriverOrder(action="follow", file=name)).ok
+    path = drv.driver.task.path
+    assert np.array_equal(path.xy, [(0, 0), (30, 0)]) and np.array_equal(path.speed, [2, 2])
+
+
+def test_an_order_of_too_many_points_is_refused_and_the_node_keeps_serving():
+    bus = LocalBus()
+    drv = driver_on(bus)
+    straight = [(float(i), 0.0) for i in range(MAX_ORDER_POINTS + 1)]
+    reply = bus.request(ORDERS, DriverOrder(action="follow", points=straight, speed=3.0))
+    assert reply.error == (f"follow: {MAX_ORDER_POINTS + 1} points, over the {MAX_ORDER_POINTS} an order may carry; "
+                           "resample the path coarser (vilma trajectory resample)")
+    assert drv.driver.task.path is None
+    assert bus.request(ORDERS, DriverOrder(action="follow", points=straight[:-1], speed=3.0)).ok
+    assert len(drv.driver.task.path) == MAX_ORDER_POINTS
+
+
+@pytest.fixture(scope="module", params=["local", "zenoh"])
+def orders_bus(request, tmp_path_factory):
+    """The bus to send orders on to a driver node with a data folder: the same local bus, or a Zenoh session
+    connected to the node's."""
+    data = data_folder(tmp_path_factory.mktemp("orders"))
+    if request.param == "local":
+        bus = LocalBus()
+        node = driver_on(bus, data)
+        yield bus
+    else:
+        endpoint = free_endpoint()
+        server, bus = ZenohBus(ZenohConfig(listen=(endpoint,))), ZenohBus(ZenohConfig(connect=(endpoint,)))
+        node = driver_on(server, data)
+        deadline = time.monotonic() + 20
+        while not bus.request(ORDERS, DriverOrder(action="manual"), timeout=0.5).ok:  # until the peers meet
+            assert time.monotonic() < deadline, "the Zenoh sessions never met"
+        yield bus
+        server.close()
+    node.close()
+    bus.close()
+
+
+_words = st.one_of(st.sampled_from(["manual", "set_speed", "hold_speed", "go_to", "follow", "tune", "stanley",
+                                    "vilma_pid", "gain", "kp", "point"]), st.text(max_size=70))
+_many = st.integers(0, 2 * MAX_ORDER_POINTS)  # up to 5.6 MB of points and speeds on the wire
+_orders = st.builds(
+    DriverOrder, action=_words, speed=st.floats(), x=st.floats(), y=st.floats(),
+    points=st.one_of(st.lists(st.tuples(st.floats(), st.floats()), max_size=6),
+                     _many.map(lambda n: [(float(i), 0.0) for i in range(n)])),
+    speeds=st.one_of(st.lists(st.floats(), max_size=6), _many.map(lambda n: [1.0] * n)),
+    file=st.one_of(st.sampled_from(["", "good.csv", "bad.txt", "big.txt", "pipe", "sub", "zero", "loop", "secret.txt",
+                                    "../secret.txt", "/dev/zero", "/etc/passwd"]),
+                   st.text(max_size=40), st.integers(0, 5000).map(lambda n: "a" * n)),
+    speed_controller=_words, path_controller=_words,
+    gains=st.one_of(st.dictionaries(_words, st.dictionaries(_words, st.one_of(
+        st.floats(), st.integers(-2**63, 2**64 - 1), st.booleans(), st.text(max_size=70)), max_size=4), max_size=4),
+        st.integers(0, 40).map(lambda n: {f"c{i}": {} for i in range(n)})))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(order=_orders)
+def test_any_order_gets_a_one_line_answer_and_the_node_keeps_serving(orders_bus, order):
+    reply = orders_bus.request(ORDERS, order, timeout=30)
+    assert isinstance(reply, Reply) and (reply.ok or reply.error) and "\n" not in reply.error
+    assert SECRET not in reply.error and "nobody answered" not in reply.error
+    assert orders_bus.request(ORDERS, DriverOrder(action="set_speed", speed=1.0), timeout=30).ok

@@ -14,9 +14,11 @@ import time
 import pytest
 import zenoh
 
+from tests.bus.conftest import data_folder
 from vilma.bus import Latest, topic
-from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
-from vilma.core.messages import Pose
+from vilma.bus.codec import MAX_FRAME_BYTES, decode
+from vilma.bus.zenoh_bus import MAX_MESSAGE_BYTES, ZenohBus, ZenohConfig
+from vilma.core.messages import MAX_ORDER_POINTS, DriverOrder, Pose, Reply
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import run
@@ -157,3 +159,47 @@ def test_zenoh_config_file_and_its_errors(tmp_path):
                        text=True, timeout=60)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert f"{bad}:1: listen: expected a list" in r.stderr
+
+
+@pytest.fixture
+def drive_with_data(tmp_path):
+    """``vilma drive --data-dir`` (a :func:`data_folder`) connected to a Zenoh session of the test's; yields the
+    session and the process (killed at the end if the test did not stop it)."""
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    bus = ZenohBus(ZenohConfig(listen=(endpoint,)))
+    drive = _vilma("drive", "--connect", endpoint, "--data-dir", str(data_folder(tmp_path)))
+    deadline = time.monotonic() + 30
+    while not bus.request(topic("driver/cmd"), DriverOrder(action="manual"), timeout=0.5).ok:
+        assert time.monotonic() < deadline and drive.poll() is None, "the driver never answered"
+    yield bus, drive
+    if drive.poll() is None:
+        drive.kill()
+    drive.communicate()
+    bus.close()
+
+
+def _ask(bus: ZenohBus, payload: bytes) -> list[Reply]:
+    """The replies to a raw request on driver/cmd (none if it was dropped)."""
+    return [decode(r.ok.payload.to_bytes(), Reply) for r in bus.session.get(topic("driver/cmd"), payload=payload,
+                                                                            timeout=5) if r.ok is not None]
+
+
+@pytest.mark.slow
+def test_a_driver_process_refuses_hostile_orders_unread_and_keeps_serving(drive_with_data):
+    bus, drive = drive_with_data
+    key = topic("driver/cmd")
+    for name in ("/etc/passwd", "/dev/zero", "zero", "../secret.txt"):
+        assert bus.request(key, DriverOrder(action="follow", file=name, speed=3.0)).error == \
+            f"follow: file {name!r} is not in the driver's data folder; name a file in it (no leading '/', no '..', " \
+            "no link out of it)"
+    bad = bus.request(key, DriverOrder(action="follow", file="bad.txt", speed=3.0))
+    assert bad.error == "follow: file 'bad.txt' line 2: not a trajectory file (the driver's log says why)"
+    assert bus.request(key, DriverOrder(action="follow", file="good.csv")).ok
+    too_many = bus.request(key, DriverOrder(action="follow", points=[(0.0, 0.0)] * (MAX_ORDER_POINTS + 1)))
+    assert too_many.error == f"{key}: malformed message: Expected `array` of length <= {MAX_ORDER_POINTS} - at `points`"
+    over = MAX_FRAME_BYTES + 1
+    assert [r.error for r in _ask(bus, b"\xc1" * over)] == \
+        [f"{key}: a frame of {over} bytes, over the 4 MiB limit of DriverOrder; send less in one message"]
+    assert _ask(bus, bytes(MAX_MESSAGE_BYTES + 1)) == []  # Zenoh drops it before it reaches vilma
+    assert bus.request(key, DriverOrder(action="set_speed", speed=2.0)).ok
+    _stop(drive)  # and it stops cleanly

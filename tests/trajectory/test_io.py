@@ -1,5 +1,6 @@
 import math
 import os
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ from tests.control.conftest import LOGS
 from vilma.core import files
 from vilma.sensors.gps import GeodeticOrigin
 from vilma.trajectory import Trajectory, TrajectoryFileError, load_trajectory, save_trajectory
+from vilma.trajectory.io import MAX_FILE_BYTES
 
 
 def test_loads_the_original_logs():
@@ -67,6 +69,35 @@ def test_missing_and_binary_files(tmp_path):
     f.write_bytes(b"1 2\n\xff\xfe")
     with pytest.raises(TrajectoryFileError, match=r"b\.txt:2: not UTF-8"):
         load_trajectory(f)
+
+
+def test_devices_pipes_folders_and_large_files_are_refused_unread(tmp_path):
+    os.mkfifo(tmp_path / "pipe")  # opening it would wait for a writer
+    big = tmp_path / "big.txt"
+    with open(big, "wb") as f:  # sparse: takes no disk
+        f.truncate(MAX_FILE_BYTES + 1)
+    link = tmp_path / "zero.txt"
+    link.symlink_to("/dev/zero")  # reading it would never end
+    cases = [(p, "not a regular file (a folder, device or pipe); give a trajectory file")
+             for p in (tmp_path / "pipe", tmp_path, link, "/dev/zero")]
+    cases.append((big, f"{MAX_FILE_BYTES + 1} bytes, over the {MAX_FILE_BYTES >> 20} MiB a trajectory file "
+                       "may hold; keep fewer points (every n-th line)"))
+    for path, what in cases:
+        tracemalloc.start()
+        try:
+            with pytest.raises(TrajectoryFileError) as e:
+                load_trajectory(path)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert str(e.value) == f"{path}: {what}" and peak < MAX_FILE_BYTES
+
+
+def test_a_file_at_the_cap_is_read(tmp_path):
+    f = tmp_path / "full.txt"
+    points = b"0 0\n3 4\n"
+    f.write_bytes(points + b" " * (MAX_FILE_BYTES - len(points)))
+    assert load_trajectory(f).length == 5.0
 
 
 @pytest.mark.parametrize("name", ["p.txt", "p.csv"])

@@ -9,7 +9,9 @@ commands that arrive on ``cmd`` at the start of the next frame. It answers
 :class:`DriverNode` collects the readings of each frame, runs the driver
 once per driver period of sim time when a frame ends, publishes the command
 on ``cmd`` and its status on ``driver/status``, and takes orders on
-``driver/cmd``.
+``driver/cmd``. A ``follow`` order may name a trajectory file only in the data
+folder the driver was given (none: file orders are refused), and the reply
+never quotes a file: a peer is not a user of this machine.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import os
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -27,10 +30,10 @@ import numpy as np
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, topic
 from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, Driver, DriverMode, DriverParams
-from vilma.core.messages import ActuatorCommand, DriverOrder, Message, Reply, SimControl, SimStatus
+from vilma.core.messages import MAX_ORDER_POINTS, ActuatorCommand, DriverOrder, Message, Reply, SimControl, SimStatus
 from vilma.sensors import Readings
 from vilma.sim import Simulator
-from vilma.trajectory import Trajectory, TrajectoryFileError, load_trajectory
+from vilma.trajectory import Trajectory, TrajectoryFileError, check_trajectory_file, load_trajectory
 from vilma.vehicle.actuators import CommandError
 from vilma.vehicle.state import VehicleState
 
@@ -141,8 +144,11 @@ def readings_of(name: str, messages: list[Message]) -> Readings:
 class DriverNode:
     """The self-driver on a bus (see the module docstring)."""
 
-    def __init__(self, driver: Driver, bus: Bus, car: str = "vilma", step_ns: int = 10_000_000) -> None:
+    def __init__(self, driver: Driver, bus: Bus, car: str = "vilma", step_ns: int = 10_000_000,
+                 data_dir: Path | None = None) -> None:
         self.driver, self.bus, self.car = driver, bus, car
+        self.data_dir = data_dir.resolve() if data_dir is not None else None
+        """The folder whose trajectory files ``follow`` orders may name (None: no file orders)."""
         self.period_ns = driver.period_ticks * step_ns
         self._inbox: dict[str, list[Message]] = {name: [] for name in SENSOR_TOPICS}
         self._lock = threading.Lock()
@@ -199,7 +205,7 @@ class DriverNode:
             elif a == "go_to":
                 d.go_to(order.x, order.y, _need(speed, "speed"))
             elif a == "follow":
-                d.follow(_path_of(order), speed)
+                d.follow(_path_of(order, self.data_dir), speed)
             elif a == "tune":
                 self.set_params(_tuned(d.params, order))
             else:
@@ -238,12 +244,42 @@ def _need(value: float | None, name: str) -> float:
     return value
 
 
-def _path_of(order: DriverOrder) -> Trajectory:
+def _path_of(order: DriverOrder, data_dir: Path | None) -> Trajectory:
     if order.file:
-        return load_trajectory(Path(order.file))
+        return _data_file(data_dir, order.file)
+    if len(order.points) > MAX_ORDER_POINTS:  # (a decoder refuses them first; this is for in-process senders)
+        raise ValueError(f"{len(order.points)} points, over the {MAX_ORDER_POINTS} an order may carry; resample "
+                         "the path coarser (vilma trajectory resample)")
     if len(order.points) < 2:
         raise ValueError("give a trajectory file or at least 2 points")
     return Trajectory.from_points(order.points, order.speeds or None)
+
+
+def _data_file(folder: Path | None, name: str) -> Trajectory:
+    """The trajectory in the regular file ``name`` of the data ``folder`` (resolved), links followed.
+
+    Raises:
+        ValueError: no folder, a name out of it, or a file that is not a trajectory; the message never quotes
+            the file (why it does not parse goes to the log).
+    """
+    if folder is None:
+        raise ValueError("file orders are off: start the driver with --data-dir DIR to follow files in DIR, or send "
+                         "the points")
+    relative = Path(name)  # (realpath, not resolve: a link loop is left to the check below, which names it)
+    if "\0" in name or relative.is_absolute() or ".." in relative.parts or \
+            not (path := Path(os.path.realpath(folder / relative))).is_relative_to(folder):
+        raise ValueError(f"file {name!r} is not in the driver's data folder; name a file in it (no leading '/', "
+                         "no '..', no link out of it)")
+    try:
+        check_trajectory_file(path)
+    except TrajectoryFileError as e:
+        raise ValueError(f"file {name!r}: {e.what}") from None
+    try:
+        return load_trajectory(path)
+    except TrajectoryFileError as e:
+        log.warning("follow order: %s", e)
+        raise ValueError(f"file {name!r}{f' line {e.line}' if e.line else ''}: not a trajectory file (the driver's "
+                         "log says why)") from None
 
 
 def _tuned(base: DriverParams, order: DriverOrder) -> DriverParams:

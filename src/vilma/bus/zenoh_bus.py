@@ -9,7 +9,8 @@ backlog). Every message goes on one priority, so a frame's readings stay ahead
 of its ``sim/status``, and none is express: Zenoh batches only what is already
 queued (no wait for a batch to fill), so latency is that of express (p50 0.54
 ms at 100 Hz on loopback) while a flood goes four times faster than one write
-per message (220 000 against 54 000 messages/s).
+per message (220 000 against 54 000 messages/s). Zenoh stops reassembling a message once it outgrows the
+largest frame (with its key and headers) and drops it, so no peer can make another hold more.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 
 import zenoh
 
-from vilma.bus.codec import DecodeError, decode, encode
+from vilma.bus.codec import MAX_WORLD_FRAME_BYTES, DecodeError, decode, encode
 from vilma.bus.topics import SENSOR_TOPICS, WORLD_TOPICS, message_type
 from vilma.core.messages import Message, Reply
 from vilma.core.net import is_loopback
@@ -30,6 +31,8 @@ log = logging.getLogger(__name__)
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where ``vilma sim`` listens and the other programs connect by default."""
+MAX_MESSAGE_BYTES = MAX_WORLD_FRAME_BYTES + 2**20
+"""The largest Zenoh message taken [bytes]: the largest frame, with room for its key and Zenoh's headers."""
 LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
 """Where the other programs listen by default: peers that meet through the simulator learn of each other
 (gossip) and connect directly, so a driver's status reaches a GUI without passing through the simulator."""
@@ -59,6 +62,7 @@ class ZenohConfig:
         cfg.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
         cfg.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         cfg.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast_scouting))
+        cfg.insert_json5("transport/link/rx/max_message_size", str(MAX_MESSAGE_BYTES))
         for key, value in self.extra:
             cfg.insert_json5(key, value)
         return cfg

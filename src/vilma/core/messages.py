@@ -10,10 +10,23 @@ from __future__ import annotations
 
 import math
 from enum import StrEnum
+from typing import Annotated
 
 import msgspec
 
 from vilma.core.geometry import quaternion_from_euler
+
+MAX_ORDER_POINTS = 100_000
+"""The most points (and speeds) in one order: a 50 km path at 0.5 m spacing."""
+MAX_NAME_CHARS = 64
+"""The longest action, controller name, gain name or text value in an order [characters]."""
+MAX_FILE_NAME_CHARS = 4096
+"""The longest file name in an order [characters] (Linux's ``PATH_MAX``)."""
+MAX_GAINS = 32
+"""The most controllers in a ``tune`` order, and the most fields of one (vilma's have at most 16)."""
+
+_Name = Annotated[str, msgspec.Meta(max_length=MAX_NAME_CHARS)]
+_Gains = Annotated[dict[_Name, bool | int | float | _Name], msgspec.Meta(max_length=MAX_GAINS)]
 
 
 class Message(msgspec.Struct, frozen=True, tag=True, array_like=True):
@@ -192,29 +205,31 @@ class DriverOrder(Message, frozen=True, kw_only=True):
     """An order to the self-driver (the original GUI's Automatic Driving buttons).
 
     ``action``: ``manual``, ``set_speed`` (``speed`` [m/s]), ``hold_speed``, ``go_to`` (``x``, ``y`` [m],
-    ``speed``), ``follow`` (``points`` [[x, y], ...] [m] with their ``speeds`` [m/s], or a trajectory
-    ``file``; ``speed``, or NaN for the points' or the file's own speeds), ``tune`` (the driver's
-    ``speed_controller`` and ``path_controller`` by name, and ``gains``: controller name -> {field: value}).
+    ``speed``), ``follow`` (``points`` [[x, y], ...] [m] with their ``speeds`` [m/s], or the name of a
+    trajectory ``file`` in the driver's data folder; ``speed``, or NaN for the points' or the file's own speeds),
+    ``tune`` (the driver's ``speed_controller`` and ``path_controller`` by name, and ``gains``: controller name
+    -> {field: value}). Sizes are capped (``MAX_ORDER_POINTS``, ``MAX_NAME_CHARS``, ``MAX_FILE_NAME_CHARS``,
+    ``MAX_GAINS``): a decoder refuses more before building anything.
     """
 
     stamp_ns: int = 0
-    action: str
+    action: _Name
     speed: float = math.nan
     x: float = math.nan
     y: float = math.nan
-    points: list[tuple[float, float]] = []
-    speeds: list[float] = []
-    file: str = ""
-    speed_controller: str = ""
-    path_controller: str = ""
-    gains: dict[str, dict[str, bool | int | float | str]] = {}
+    points: Annotated[list[tuple[float, float]], msgspec.Meta(max_length=MAX_ORDER_POINTS)] = []
+    speeds: Annotated[list[float], msgspec.Meta(max_length=MAX_ORDER_POINTS)] = []
+    file: Annotated[str, msgspec.Meta(max_length=MAX_FILE_NAME_CHARS)] = ""
+    speed_controller: _Name = ""
+    path_controller: _Name = ""
+    gains: Annotated[dict[_Name, _Gains], msgspec.Meta(max_length=MAX_GAINS)] = {}
 
 
 class SimControl(Message, frozen=True, kw_only=True):
     """An order to the simulator: ``action`` ``reset`` (to the start pose) or ``status``."""
 
     stamp_ns: int = 0
-    action: str
+    action: _Name
 
 
 class Reply(Message, frozen=True, kw_only=True):

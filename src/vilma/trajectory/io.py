@@ -16,6 +16,7 @@ import csv
 import io
 import math
 import os
+import stat
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -26,13 +27,21 @@ from vilma.core.files import write_atomic
 from vilma.sensors.gps import GeodeticOrigin
 from vilma.trajectory.trajectory import Trajectory
 
+MAX_FILE_BYTES = 8 * 2**20
+"""The largest trajectory file read [bytes]: 8 MiB, about 400 000 points in the original's format (``%f\\t%f``
+lines of 20-24 bytes); a larger file is refused before it is read (parsing takes up to 40 times its size)."""
+
 
 class TrajectoryFileError(ValueError):
-    """A trajectory file that cannot be read or written."""
+    """A trajectory file that cannot be read or written: ``what`` is wrong at ``line`` (None: the whole file)."""
+
+    def __init__(self, path: Path, line: int | None, what: str) -> None:
+        super().__init__(f"{path}:{line}: {what}" if line else f"{path}: {what}")
+        self.line, self.what = line, what
 
 
 def _fail(path: Path, line: int | None, what: str) -> TrajectoryFileError:
-    return TrajectoryFileError(f"{path}:{line}: {what}" if line else f"{path}: {what}")
+    return TrajectoryFileError(path, line, what)
 
 
 def _number(token: str, path: Path, line: int, what: str) -> float:
@@ -45,11 +54,32 @@ def _number(token: str, path: Path, line: int, what: str) -> float:
     return v
 
 
-def _read_text(path: Path) -> str:
+def check_trajectory_file(path: Path) -> int:
+    """The size of the trajectory file ``path`` [bytes], checked without opening it: a regular file (a device or a
+    pipe could block, never end, or act when opened) of at most :data:`MAX_FILE_BYTES`.
+
+    Raises:
+        TrajectoryFileError: missing, unreadable, not a regular file, or too large (never quoting the file).
+    """
     try:
-        data = path.read_bytes()
+        st = path.stat()
     except FileNotFoundError:
         raise _fail(path, None, "no such file; check the path") from None
+    except OSError as e:
+        raise _fail(path, None, f"cannot read it ({e.strerror}); check permissions") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise _fail(path, None, "not a regular file (a folder, device or pipe); give a trajectory file")
+    if st.st_size > MAX_FILE_BYTES:
+        raise _fail(path, None, f"{st.st_size} bytes, over the {MAX_FILE_BYTES >> 20} MiB a trajectory file may "
+                                "hold; keep fewer points (every n-th line)")
+    return st.st_size
+
+
+def _read_text(path: Path) -> str:
+    size = check_trajectory_file(path)
+    try:  # non-blocking, and no more than was checked: what is put in its place since cannot hang or flood us
+        with os.fdopen(os.open(path, os.O_RDONLY | os.O_NONBLOCK), "rb") as f:
+            data = f.read(size)
     except OSError as e:
         raise _fail(path, None, f"cannot read it ({e.strerror}); check permissions") from None
     try:
