@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 from pathlib import Path
 
@@ -11,9 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vilma.control.speed import PiFfParams
+from vilma.options import zenoh_bus
 from vilma.scenario import SpecError, load_scenario, parse_scenario, to_yaml
 from vilma.scenario.batch import BUNDLED
-from vilma.scenario.fields import load_yaml
+from vilma.scenario.fields import MAX_YAML_VALUES, load_yaml
 from vilma.scenario.spec import Bound
 from vilma.sensors import SensorSuite
 from vilma.vehicle.params import vilma
@@ -159,3 +161,14 @@ def test_random_scenarios_load_or_fail_cleanly(data):
         assert str(e).startswith("r.yaml")
         return
     assert s.task.kind in ("speed", "go_to", "follow", "course")
+
+
+def test_other_yaml_files_have_the_same_limits(tmp_path):
+    """Vehicle parameter files and Zenoh configs go through the same bounded reader as scenarios."""
+    lol = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]", *(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]"
+                                                      for i in range(1, 6))]
+    bomb = _write(tmp_path, "\n".join(lol), "bomb.yaml")
+    with pytest.raises(SpecError, match=rf"bomb\.yaml:5: more than {MAX_YAML_VALUES} values"):
+        load_scenario(_write(tmp_path, "task: {speed: 5}\nvehicle: bomb.yaml\n"))
+    with pytest.raises(SpecError, match=rf"bomb\.yaml:5: more than {MAX_YAML_VALUES} values"):
+        zenoh_bus(argparse.Namespace(zenoh_config=str(bomb), listen=None, connect=None), (), ())
