@@ -1,4 +1,4 @@
-"""The ``vilma trajectory`` tools from the shell."""
+"""The ``vilma`` command from the shell: the trajectory tools, option values and hostile scenarios."""
 
 from __future__ import annotations
 
@@ -7,7 +7,9 @@ import pytest
 
 from vilma.cli import main
 from vilma.scenario.batch import BUNDLED
+from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory
+from vilma.trajectory.densify import MAX_POINTS
 
 CURVED = BUNDLED / "data" / "PositionLog_curved.txt"
 
@@ -32,6 +34,13 @@ def test_info_densify_smooth_resample(tmp_path, capsys):
     (["trajectory", "smooth", str(CURVED), "out.txt", "--beta", "-1"], "beta >= 0"),
     (["trajectory", "resample", str(CURVED), "out.txt", "--spacing", "0"], "spacing must be a positive"),
     (["trajectory", "info", "missing.txt"], "missing.txt: no such file"),
+    # 357 points: (357 - 1) 2^12 + 1 > 1e6 points; 168.8 m at 1e-12 m is 1.7e14 points
+    (["trajectory", "densify", str(CURVED), "out.txt", "--times", "12"],
+     f"densifying 357 points 12 times makes more than {MAX_POINTS} points, the limit of a path; densify fewer times"),
+    (["trajectory", "densify", str(CURVED), "out.txt", "--times", "1000000000"], "357 points 1000000000 times"),
+    (["trajectory", "resample", str(CURVED), "out.txt", "--spacing", "1e-12"],
+     f"resampling 168.8 m every 1e-12 m makes more than {MAX_POINTS} points, the limit of a path; use a spacing of "
+     "at least 0.000169 m"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, message, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -39,3 +48,22 @@ def test_bad_input_is_one_line_and_exit_2(args, message, capsys, tmp_path, monke
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not (tmp_path / "out.txt").exists()
+
+
+def test_hostile_scenarios_exit_2_with_one_line(tmp_path, capsys):
+    bomb = tmp_path / "bomb.yaml"
+    bomb.write_text("\n".join(['a0: &a0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]',
+                               *(f"a{i}: &a{i} [{','.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9))]))
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("task: " + "[" * 5000 + "]" * 5000 + "\n")
+    fast = tmp_path / "fast.yaml"
+    fast.write_text("task: {speed: 1e300}\n")
+    for args, message in ((["run", str(bomb)], f"{bomb}:6: more than {MAX_YAML_VALUES} values"),
+                          (["run", str(deep)], f"{deep}:1: nested more than {MAX_YAML_DEPTH} levels deep"),
+                          (["run", str(fast)], f"{fast}:1: task.speed: 1e+300 m/s is faster than the car's top"),
+                          (["run", "pi_ff_speed_5", "--set", "duration=1e9"],
+                           "--set duration=1e9: duration: 1000000000 s is more than")):
+        assert main([*args, "--out", str(tmp_path / "out")]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"vilma run: error: {message}") and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()

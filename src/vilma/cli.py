@@ -80,7 +80,7 @@ def _trajectory(args: argparse.Namespace) -> int:
     from vilma.scenario.spec import SmoothSpec
     from vilma.trajectory import (
         Trajectory,
-        increase_point_count,
+        densify,
         load_trajectory,
         resample,
         save_trajectory,
@@ -107,9 +107,7 @@ def _trajectory(args: argparse.Namespace) -> int:
               else smooth_banded(path.xy, sm.alpha, sm.beta))
         out = Trajectory(xy, path.speed)
     elif args.action == "densify":
-        out = path
-        for _ in range(args.times):
-            out = increase_point_count(out)
+        out = densify(path, args.times)
     else:
         out = resample(path, args.spacing)
     save_trajectory(args.output, out)

@@ -1,12 +1,12 @@
 """Trajectories: the type, files, the original's smoothing and point tools, resampling, recording."""
 
-from vilma.trajectory.densify import increase_point_count, resample
+from vilma.trajectory.densify import densify, increase_point_count, resample
 from vilma.trajectory.io import TrajectoryFileError, load_trajectory, save_trajectory
 from vilma.trajectory.profile import speed_profile
 from vilma.trajectory.recorder import SpeedRecorder, TrajectoryRecorder, load_speed_log
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 from vilma.trajectory.trajectory import Projection, Trajectory
 
-__all__ = ["Projection", "SpeedRecorder", "Trajectory", "TrajectoryFileError", "TrajectoryRecorder",
+__all__ = ["Projection", "SpeedRecorder", "Trajectory", "TrajectoryFileError", "TrajectoryRecorder", "densify",
            "increase_point_count", "load_speed_log", "load_trajectory", "resample", "save_trajectory",
            "smooth_banded", "smooth_iterative", "speed_profile"]
