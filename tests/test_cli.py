@@ -31,8 +31,6 @@ def test_info_densify_smooth_resample(tmp_path, capsys):
 
 @pytest.mark.parametrize(("args", "message"), [
     (["trajectory", "smooth", str(CURVED)], "give the output file"),
-    (["trajectory", "smooth", str(CURVED), "out.txt", "--beta", "-1"], "beta >= 0"),
-    (["trajectory", "resample", str(CURVED), "out.txt", "--spacing", "0"], "spacing must be a positive"),
     (["trajectory", "info", "missing.txt"], "missing.txt: no such file"),
     # 357 points: (357 - 1) 2^12 + 1 > 1e6 points; 168.8 m at 1e-12 m is 1.7e14 points
     (["trajectory", "densify", str(CURVED), "out.txt", "--times", "12"],
@@ -48,6 +46,42 @@ def test_bad_input_is_one_line_and_exit_2(args, message, capsys, tmp_path, monke
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
     assert not (tmp_path / "out.txt").exists()
+
+
+@pytest.mark.parametrize(("args", "option", "message"), [
+    (["run", "x.yaml", "--foxglove", "99999"], "--foxglove", "must be a TCP port, 1-65535, got 99999"),
+    (["sim", "--foxglove", "0"], "--foxglove", "must be a TCP port, 1-65535, got 0"),
+    (["up", "--foxglove", "http"], "--foxglove", "expected a whole number, got 'http'"),
+    (["sim", "--morse-port", "65536"], "--morse-port", "must be a TCP port, 1-65535, or 0 for any free port"),
+    (["sim", "--morse-stream-port", "-1"], "--morse-stream-port", "must be a TCP port, 1-65535, or 0 for any"),
+    (["sim", "--duration", "nan"], "--duration", "must be a number of seconds > 0 (inf: no end), got nan"),
+    (["up", "--duration", "0"], "--duration", "must be a number of seconds > 0"),
+    (["ros1-bridge", "--duration", "-5"], "--duration", "must be a number of seconds > 0"),
+    (["sim", "--speed", "0"], "--speed", "must be a finite number > 0, got 0"),
+    (["up", "--speed", "inf"], "--speed", "must be a finite number > 0, got inf"),
+    (["gui", "--speed", "nan"], "--speed", "must be a finite number > 0, got nan"),
+    (["replay", "r.mcap", "--speed", "-2"], "--speed", "must be a finite number > 0, got -2"),
+    (["run", "x.yaml", "--realtime", "-1"], "--realtime", "must be a finite number > 0, got -1"),
+    (["demo", "--realtime", "nan"], "--realtime", "must be a finite number > 0, got nan"),
+    (["gui", "--refresh", "0"], "--refresh", "must be a whole number >= 1, got 0"),
+    (["gui", "--quit-after", "nan"], "--quit-after", "must be a number of seconds in (0, 2147483.647]"),
+    (["gui", "--quit-after", "1e9"], "--quit-after", "must be a number of seconds in (0, 2147483.647]"),  # 24 days
+    (["replay", "r.mcap", "--start", "-1"], "--start", "must be a number of seconds in [0, 9.22e+09)"),
+    (["replay", "r.mcap", "--start", "1e300"], "--start", "must be a number of seconds in [0, 9.22e+09)"),
+    (["trajectory", "densify", "in", "out", "--times", "0"], "--times", "must be a whole number >= 1, got 0"),
+    (["trajectory", "densify", "in", "out", "--times", "1e9"], "--times", "expected a whole number, got '1e9'"),
+    (["trajectory", "resample", "in", "out", "--spacing", "0"], "--spacing", "must be a finite number > 0, got 0"),
+    (["trajectory", "smooth", "in", "out", "--alpha", "nan"], "--alpha", "must be a finite number > 0, got nan"),
+    (["trajectory", "smooth", "in", "out", "--beta", "-1"], "--beta", "must be a finite number >= 0, got -1"),
+    (["trajectory", "smooth", "in", "out", "--tolerance", "0"], "--tolerance", "must be a finite number > 0"),
+])
+def test_bad_option_values_are_argparse_errors(args, option, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(args)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: vilma ") and "Traceback" not in err
+    assert err.splitlines()[-1].startswith(f"vilma {args[0]}: error: argument {option}: {message}")
 
 
 def test_hostile_scenarios_exit_2_with_one_line(tmp_path, capsys):
