@@ -1,4 +1,4 @@
-"""The ``vilma trajectory`` tools from the shell."""
+"""The ``vilma`` command from the shell: the trajectory tools, option values and hostile scenarios."""
 
 from __future__ import annotations
 
@@ -7,7 +7,9 @@ import pytest
 
 from vilma.cli import main
 from vilma.scenario.batch import BUNDLED
+from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory
+from vilma.trajectory.densify import MAX_POINTS
 
 CURVED = BUNDLED / "data" / "PositionLog_curved.txt"
 
@@ -29,9 +31,14 @@ def test_info_densify_smooth_resample(tmp_path, capsys):
 
 @pytest.mark.parametrize(("args", "message"), [
     (["trajectory", "smooth", str(CURVED)], "give the output file"),
-    (["trajectory", "smooth", str(CURVED), "out.txt", "--beta", "-1"], "beta >= 0"),
-    (["trajectory", "resample", str(CURVED), "out.txt", "--spacing", "0"], "spacing must be a positive"),
     (["trajectory", "info", "missing.txt"], "missing.txt: no such file"),
+    # 357 points: (357 - 1) 2^12 + 1 > 1e6 points; 168.8 m at 1e-12 m is 1.7e14 points
+    (["trajectory", "densify", str(CURVED), "out.txt", "--times", "12"],
+     f"densifying 357 points 12 times makes more than {MAX_POINTS} points, the limit of a path; densify fewer times"),
+    (["trajectory", "densify", str(CURVED), "out.txt", "--times", "1000000000"], "357 points 1000000000 times"),
+    (["trajectory", "resample", str(CURVED), "out.txt", "--spacing", "1e-12"],
+     f"resampling 168.8 m every 1e-12 m makes more than {MAX_POINTS} points, the limit of a path; use a spacing of "
+     "at least 0.000169 m"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, message, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -55,3 +62,58 @@ def test_drive_data_dir_must_be_a_folder(capsys, tmp_path):
     assert capsys.readouterr().err.splitlines()[-1] == (f"vilma drive: error: argument --data-dir: "
                                                         f"'{tmp_path / 'nope'}' is not a folder; create it or give "
                                                         "another")
+
+
+@pytest.mark.parametrize(("args", "option", "message"), [
+    (["run", "x.yaml", "--foxglove", "99999"], "--foxglove", "must be a TCP port, 1-65535, got 99999"),
+    (["sim", "--foxglove", "0"], "--foxglove", "must be a TCP port, 1-65535, got 0"),
+    (["up", "--foxglove", "http"], "--foxglove", "expected a whole number, got 'http'"),
+    (["sim", "--morse-port", "65536"], "--morse-port", "must be a TCP port, 1-65535, or 0 for any free port"),
+    (["sim", "--morse-stream-port", "-1"], "--morse-stream-port", "must be a TCP port, 1-65535, or 0 for any"),
+    (["sim", "--duration", "nan"], "--duration", "must be a number of seconds > 0 (inf: no end), got nan"),
+    (["up", "--duration", "0"], "--duration", "must be a number of seconds > 0"),
+    (["ros1-bridge", "--duration", "-5"], "--duration", "must be a number of seconds > 0"),
+    (["sim", "--speed", "0"], "--speed", "must be a finite number > 0, got 0"),
+    (["up", "--speed", "inf"], "--speed", "must be a finite number > 0, got inf"),
+    (["gui", "--speed", "nan"], "--speed", "must be a finite number > 0, got nan"),
+    (["replay", "r.mcap", "--speed", "-2"], "--speed", "must be a finite number > 0, got -2"),
+    (["run", "x.yaml", "--realtime", "-1"], "--realtime", "must be a finite number > 0, got -1"),
+    (["demo", "--realtime", "nan"], "--realtime", "must be a finite number > 0, got nan"),
+    (["gui", "--refresh", "0"], "--refresh", "must be a whole number >= 1, got 0"),
+    (["gui", "--quit-after", "nan"], "--quit-after", "must be a number of seconds in (0, 2147483.647]"),
+    (["gui", "--quit-after", "1e9"], "--quit-after", "must be a number of seconds in (0, 2147483.647]"),  # 24 days
+    (["replay", "r.mcap", "--start", "-1"], "--start", "must be a number of seconds in [0, 9.22e+09)"),
+    (["replay", "r.mcap", "--start", "1e300"], "--start", "must be a number of seconds in [0, 9.22e+09)"),
+    (["trajectory", "densify", "in", "out", "--times", "0"], "--times", "must be a whole number >= 1, got 0"),
+    (["trajectory", "densify", "in", "out", "--times", "1e9"], "--times", "expected a whole number, got '1e9'"),
+    (["trajectory", "resample", "in", "out", "--spacing", "0"], "--spacing", "must be a finite number > 0, got 0"),
+    (["trajectory", "smooth", "in", "out", "--alpha", "nan"], "--alpha", "must be a finite number > 0, got nan"),
+    (["trajectory", "smooth", "in", "out", "--beta", "-1"], "--beta", "must be a finite number >= 0, got -1"),
+    (["trajectory", "smooth", "in", "out", "--tolerance", "0"], "--tolerance", "must be a finite number > 0"),
+])
+def test_bad_option_values_are_argparse_errors(args, option, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(args)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: vilma ") and "Traceback" not in err
+    assert err.splitlines()[-1].startswith(f"vilma {args[0]}: error: argument {option}: {message}")
+
+
+def test_hostile_scenarios_exit_2_with_one_line(tmp_path, capsys):
+    bomb = tmp_path / "bomb.yaml"
+    bomb.write_text("\n".join(['a0: &a0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]',
+                               *(f"a{i}: &a{i} [{','.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9))]))
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("task: " + "[" * 5000 + "]" * 5000 + "\n")
+    fast = tmp_path / "fast.yaml"
+    fast.write_text("task: {speed: 1e300}\n")
+    for args, message in ((["run", str(bomb)], f"{bomb}:6: more than {MAX_YAML_VALUES} values"),
+                          (["run", str(deep)], f"{deep}:1: nested more than {MAX_YAML_DEPTH} levels deep"),
+                          (["run", str(fast)], f"{fast}:1: task.speed: 1e+300 m/s is faster than the car's top"),
+                          (["run", "pi_ff_speed_5", "--set", "duration=1e9"],
+                           "--set duration=1e9: duration: 1000000000 s is more than")):
+        assert main([*args, "--out", str(tmp_path / "out")]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"vilma run: error: {message}") and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()

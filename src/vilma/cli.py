@@ -7,7 +7,18 @@ import logging
 import sys
 import time
 
-from vilma.options import check_factor, scenario_or_default, zenoh_bus
+from vilma.options import (
+    count,
+    duration,
+    non_negative,
+    port,
+    port_or_any,
+    positive,
+    scenario_or_default,
+    sim_time,
+    wall_delay,
+    zenoh_bus,
+)
 
 STARTED = time.perf_counter()
 """When the command began (its imports aside: a few ms): the first run's ``wall_time_s`` counts from here."""
@@ -19,7 +30,6 @@ def _demo(args: argparse.Namespace) -> int:
     from vilma import demo
     from vilma.scenario import batch
 
-    check_factor(args.realtime, "--realtime")
     console = _console()
     jobs = batch.plan(demo.scenario_names(), [])
     root = demo.out_root(Path(args.out) if args.out else None)
@@ -50,7 +60,6 @@ def _run(args: argparse.Namespace) -> int:
 
     from vilma.scenario import batch
 
-    check_factor(args.realtime, "--realtime")
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
     console = _console()
     live = None
@@ -80,7 +89,7 @@ def _trajectory(args: argparse.Namespace) -> int:
     from vilma.scenario.spec import SmoothSpec
     from vilma.trajectory import (
         Trajectory,
-        increase_point_count,
+        densify,
         load_trajectory,
         resample,
         save_trajectory,
@@ -107,9 +116,7 @@ def _trajectory(args: argparse.Namespace) -> int:
               else smooth_banded(path.xy, sm.alpha, sm.beta))
         out = Trajectory(xy, path.speed)
     elif args.action == "densify":
-        out = path
-        for _ in range(args.times):
-            out = increase_point_count(out)
+        out = densify(path, args.times)
     else:
         out = resample(path, args.spacing)
     save_trajectory(args.output, out)
@@ -121,7 +128,6 @@ def _sim(args: argparse.Namespace) -> int:
     from vilma import programs
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 
-    check_factor(args.speed, "--speed")
     scenario = scenario_or_default(args.scenario, plant=args.plant)
     morse = None if args.no_morse else programs.MorseOptions(
         args.morse_host, args.morse_port, args.morse_stream_port,
@@ -153,7 +159,6 @@ def _drive(args: argparse.Namespace) -> int:
 def _up(args: argparse.Namespace) -> int:
     from vilma import programs
 
-    check_factor(args.speed, "--speed")
     scenario = scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
                                                      "[60, 0]], speed: 8.33}", args.plant)
     print(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)",
@@ -171,7 +176,6 @@ def _record_path(args: argparse.Namespace):
 def _gui(args: argparse.Namespace) -> int:
     from vilma.gui.app import main
 
-    check_factor(args.speed, "--speed")
     if args.connect:
         from vilma.bus.zenoh_bus import LOOPBACK_ANY_PORT
 
@@ -219,7 +223,7 @@ def _parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="the paper's figures and vilma's side by side: runs the bundled scenarios")
     d.add_argument("--out", metavar="DIR", help="where the runs' files go (default runs/demo-<timestamp>/)")
     d.add_argument("--overwrite", action="store_true", help="replace the files of earlier runs in --out")
-    d.add_argument("--realtime", type=float, default=None, metavar="K",
+    d.add_argument("--realtime", type=positive, default=None, metavar="K",
                    help="pace each run to K times real time (default: as fast as possible)")
     d.set_defaults(func=_demo)
     r = sub.add_parser("run", help="run scenario files headless and score them")
@@ -228,9 +232,9 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, YAML value); KEY=a,b,c sweeps over the values")
     r.add_argument("--plant", type=_plant, metavar="MODEL", help=PLANT_HELP)
-    r.add_argument("--realtime", type=float, default=None, metavar="K",
+    r.add_argument("--realtime", type=positive, default=None, metavar="K",
                    help="pace to K times real time (default: as fast as possible)")
-    r.add_argument("--foxglove", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+    r.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
                    help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
     r.add_argument("--no-record", action="store_true", help="write no run.mcap (the other files as usual)")
     r.add_argument("--overwrite", action="store_true", help="replace the files of an earlier run in the --out folder "
@@ -244,10 +248,10 @@ def _parser() -> argparse.ArgumentParser:
                        "sensors, controllers and task)")
         if name != "drive":
             q.add_argument("--plant", type=_plant, metavar="MODEL", help=PLANT_HELP)
-            q.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
-            q.add_argument("--duration", type=float, default=float("inf"), help="stop after this sim time [s]")
+            q.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
+            q.add_argument("--duration", type=duration, default=float("inf"), help="stop after this sim time [s]")
             q.add_argument("--record", metavar="FILE", help="record every topic to this MCAP file (sim time)")
-            q.add_argument("--foxglove", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+            q.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
                            help="serve every topic live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
         if name != "up":
             q.add_argument("--listen", action="append", metavar="ENDPOINT",
@@ -262,9 +266,9 @@ def _parser() -> argparse.ArgumentParser:
         if name == "sim":
             q.add_argument("--morse-host", default="127.0.0.1", metavar="ADDR",
                            help="address of the MORSE socket interface (default 127.0.0.1; others are exposed)")
-            q.add_argument("--morse-port", type=int, default=4000, metavar="PORT",
+            q.add_argument("--morse-port", type=port_or_any, default=4000, metavar="PORT",
                            help="MORSE service port, the next free up to +9 (default 4000; 0: any free)")
-            q.add_argument("--morse-stream-port", type=int, default=60000, metavar="PORT",
+            q.add_argument("--morse-stream-port", type=port_or_any, default=60000, metavar="PORT",
                            help="first MORSE datastream port (default 60000; 0: any free)")
             q.add_argument("--allow-commands-from", action="append", metavar="ADDR",
                            help="take MORSE commands only from this address or network (repeatable)")
@@ -278,10 +282,10 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--listen", action="append", metavar="ENDPOINT", help="with --connect: Zenoh endpoint to listen on")
     g.add_argument("--zenoh-config", metavar="FILE", help="with --connect: YAML file with listen, connect")
     g.add_argument("--plant", type=_plant, metavar="MODEL", help="embedded: " + PLANT_HELP)
-    g.add_argument("--speed", type=float, default=1.0, metavar="K", help="embedded: K times real time (default 1)")
-    g.add_argument("--refresh", type=int, default=250, metavar="MS", help="Car Status refresh [ms] (default 250)")
+    g.add_argument("--speed", type=positive, default=1.0, metavar="K", help="embedded: K times real time (default 1)")
+    g.add_argument("--refresh", type=count, default=250, metavar="MS", help="Car Status refresh [ms] (default 250)")
     g.add_argument("--record-dir", metavar="DIR", help="where Record Trajectory / Speed write (default .)")
-    g.add_argument("--quit-after", type=float, metavar="S", help="close after S wall seconds (for scripts)")
+    g.add_argument("--quit-after", type=wall_delay, metavar="S", help="close after S wall seconds (for scripts)")
     g.set_defaults(func=_gui)
     rp = sub.add_parser("report", help="scorecard and plots of a recording (run.mcap) alone")
     rp.add_argument("recording", metavar="RUN.mcap")
@@ -294,8 +298,8 @@ def _parser() -> argparse.ArgumentParser:
     ex.set_defaults(func=_record_command("export_command"))
     rl = sub.add_parser("replay", help="play a recording onto the bus (Zenoh) as if live: pause, seek, speed")
     rl.add_argument("recording", metavar="RUN.mcap")
-    rl.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
-    rl.add_argument("--start", type=float, default=0.0, metavar="S", help="start at sim time S [s]")
+    rl.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
+    rl.add_argument("--start", type=sim_time, default=0.0, metavar="S", help="start at sim time S [s]")
     rl.add_argument("--listen", action="append", metavar="ENDPOINT", help="Zenoh endpoint to listen on (repeatable)")
     rl.add_argument("--connect", action="append", metavar="ENDPOINT", help="Zenoh endpoint to connect to")
     rl.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
@@ -303,8 +307,8 @@ def _parser() -> argparse.ArgumentParser:
     rb = sub.add_parser("ros1-bridge", help="the simulator's topics on a ROS 1 master (/pose, /velocity, /gps, /imu, "
                         "/wheelspeed) and commands from /cmd; needs Debian's ROS 1")
     rb.add_argument("scenario", nargs="?", metavar="SCENARIO", help="scenario file or bundled name (its car, sensors)")
-    rb.add_argument("--speed", type=float, default=1.0, metavar="K", help="K times real time (default 1)")
-    rb.add_argument("--duration", type=float, default=float("inf"), help="stop after this sim time [s]")
+    rb.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
+    rb.add_argument("--duration", type=duration, default=float("inf"), help="stop after this sim time [s]")
     rb.add_argument("--cmd-topic", default="/cmd", help="ROS topic of actuator commands (default /cmd)")
     rb.add_argument("--connect", action="append", metavar="ENDPOINT",
                     help="bridge the Zenoh bus of a vilma sim at ENDPOINT instead of simulating here")
@@ -317,13 +321,13 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("action", choices=("info", "smooth", "densify", "resample"))
     t.add_argument("input", metavar="IN")
     t.add_argument("output", metavar="OUT", nargs="?")
-    t.add_argument("--alpha", type=float, default=ALPHA, help=f"smooth: weight_data (default {ALPHA})")
-    t.add_argument("--beta", type=float, default=BETA, help=f"smooth: weight_smooth (default {BETA})")
-    t.add_argument("--tolerance", type=float, default=TOLERANCE, help=f"smooth: tolerance [m] (default {TOLERANCE})")
+    t.add_argument("--alpha", type=positive, default=ALPHA, help=f"smooth: weight_data (default {ALPHA})")
+    t.add_argument("--beta", type=non_negative, default=BETA, help=f"smooth: weight_smooth (default {BETA})")
+    t.add_argument("--tolerance", type=positive, default=TOLERANCE, help=f"smooth: tolerance [m] (default {TOLERANCE})")
     t.add_argument("--solver", choices=("iterative", "banded"), default="iterative",
                    help="smooth: the paper's sweeps or the direct banded solution (same fixed point)")
-    t.add_argument("--times", type=int, default=1, help="densify: Increase Point Count this many times (default 1)")
-    t.add_argument("--spacing", type=float, default=0.5, help="resample: spacing [m] (default 0.5)")
+    t.add_argument("--times", type=count, default=1, help="densify: Increase Point Count this many times (default 1)")
+    t.add_argument("--spacing", type=positive, default=0.5, help="resample: spacing [m] (default 0.5)")
     t.set_defaults(func=_trajectory)
     return p
 

@@ -1,15 +1,68 @@
-"""What the programs' command-line options become: a speed factor checked, a scenario (a file, a bundled name
-or the defaults), a Zenoh bus. Shared by :mod:`vilma.cli` and the recording commands."""
+"""What the programs' command-line options become: numbers and ports checked (argparse ``type=`` functions), a
+scenario (a file, a bundled name or the defaults), a Zenoh bus. Shared by :mod:`vilma.cli` and the recording
+commands."""
 
 from __future__ import annotations
 
 import argparse
+import math
+from collections.abc import Callable
+
+from vilma.core.clock import MAX_NS, NS_PER_S
+
+MAX_TIMER_S = (2**31 - 1) / 1000
+"""Longest wall-clock delay a Qt timer takes [s] (int32 ms: 24 days)."""
 
 
-def check_factor(value: float | None, option: str) -> None:
-    """A speed-up factor option (``--speed``, ``--realtime``) must be positive and finite."""
-    if value is not None and not 0 < value < float("inf"):
-        raise ValueError(f"{option} must be a positive factor, got {value:g}")
+def _number(text: str, ok: Callable[[float], bool], need: str, kind: type = float) -> float:
+    """``text`` as a ``kind`` for which ``ok`` holds, else an argparse error saying it must be ``need``."""
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a{' whole' if kind is int else ''} number, got {text!r}") from None
+    if not ok(value):
+        raise argparse.ArgumentTypeError(f"must be {need}, got {text}")
+    return value
+
+
+def positive(text: str) -> float:
+    """A finite number > 0: a speed-up factor, a time span [s], a spacing [m], a weight."""
+    return _number(text, lambda v: 0 < v < math.inf, "a finite number > 0")
+
+
+def non_negative(text: str) -> float:
+    """A finite number >= 0: a start time [s], a weight that may be off."""
+    return _number(text, lambda v: 0 <= v < math.inf, "a finite number >= 0")
+
+
+def duration(text: str) -> float:
+    """A run's length [s]: > 0, ``inf`` for no end."""
+    return _number(text, lambda v: v > 0, "a number of seconds > 0 (inf: no end)")
+
+
+def sim_time(text: str) -> float:
+    """A sim time [s]: >= 0 and within what the clock counts."""
+    return _number(text, lambda v: 0 <= v < MAX_NS / NS_PER_S, f"a number of seconds in [0, {MAX_NS / NS_PER_S:.3g})")
+
+
+def wall_delay(text: str) -> float:
+    """A wall-clock delay [s]: > 0 and at most 24 days (a Qt timer counts int32 ms)."""
+    return _number(text, lambda v: 0 < v <= MAX_TIMER_S, f"a number of seconds in (0, {MAX_TIMER_S}]")
+
+
+def count(text: str) -> int:
+    """A whole number >= 1: a number of passes, a period [ms]."""
+    return _number(text, lambda v: v >= 1, "a whole number >= 1", int)
+
+
+def port(text: str) -> int:
+    """A TCP port, 1-65535."""
+    return _number(text, lambda v: 1 <= v <= 65535, "a TCP port, 1-65535", int)
+
+
+def port_or_any(text: str) -> int:
+    """A TCP port, 1-65535, or 0 for any free one."""
+    return _number(text, lambda v: 0 <= v <= 65535, "a TCP port, 1-65535, or 0 for any free port", int)
 
 
 def scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", plant: str | None = None):

@@ -40,3 +40,12 @@ def test_seconds_to_ns_rejects_nan():
     with pytest.raises(ValueError):
         seconds_to_ns(float("nan"))
     assert seconds_to_ns(0.25) == 250_000_000
+
+
+def test_times_beyond_the_int64_clock_are_refused():
+    assert seconds_to_ns(9e9) == 9 * 10**18  # 285 years: still counted
+    for t in (1e10, -1e10, 1e300):  # past 2^63 ns
+        with pytest.raises(ValueError, match="within"):
+            seconds_to_ns(t)
+    with pytest.raises(RateError, match="x: 1e-10 Hz is a period longer than the clock counts"):
+        Clock(5_000_000).period_ticks(1e-10, "x")

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vilma.plant3d.camera import CameraParams, CameraSensor, stereo_pair
+from vilma.plant3d.camera import MAX_SIDE, CameraParams, CameraSensor, stereo_pair
 from vilma.plant3d.plant import MujocoPlant
 from vilma.plant3d.world import Box, World
 from vilma.vehicle.params import vilma
@@ -192,8 +192,9 @@ def test_the_parameters_import_without_mujoco():
 
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"name": "front cam"}, "name must be a word"),
-    ({"width": 0}, "width must be a positive integer"),
-    ({"height": 480.0}, "height must be a positive integer"),
+    ({"width": 0}, "width must be a whole number of pixels in 1..4096"),
+    ({"width": 100_000}, "width must be a whole number of pixels in 1..4096"),
+    ({"height": 480.0}, "height must be a whole number of pixels"),
     ({"fov_y": 180.0}, "fov_y must be between 0 and 180"),
     ({"pitch": math.pi / 2}, "pitch must be between"),
     ({"position": (1.0, 0.0)}, "position must be three finite numbers"),
@@ -210,9 +211,9 @@ def test_a_stereo_pair_needs_a_positive_baseline():
         stereo_pair(baseline=0.0)
 
 
-@given(st.integers(-3, 3), st.floats(-200, 200, allow_nan=False))
-def test_size_and_field_of_view_are_valid_exactly_when_positive_and_below_180_deg(width, fov):
-    valid = width > 0 and 0 < fov < 180
+@given(st.integers(-3, 3) | st.integers(MAX_SIDE - 2, MAX_SIDE + 2), st.floats(-200, 200, allow_nan=False))
+def test_size_and_field_of_view_are_valid_exactly_when_in_range(width, fov):
+    valid = 0 < width <= MAX_SIDE and 0 < fov < 180
     if valid:
         assert CameraParams(width=width, fov_y=fov).width == width
     else:

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vilma.plant3d.laser import LaserParams, LaserSensor
+from vilma.plant3d.laser import MAX_RAYS, LaserParams, LaserSensor
 from vilma.plant3d.plant import MujocoPlant
 from vilma.plant3d.world import Box, World
 from vilma.vehicle.params import vilma
@@ -133,10 +133,19 @@ def test_capture_before_attach_is_an_error():
     ({"layers": (0.0, 95.0)}, r"elevations in \[-90, 90\]"),
     ({"min_range": 5.0, "max_range": 2.0}, "0 <= min_range < max_range"),
     ({"position": (0.0, math.nan, 0.0)}, "position must be three finite numbers"),
+    ({"fov": 360.0, "resolution": 1e-6}, r"casts 3\.6e\+08 rays a scan \(3\.6e\+08 a layer\), more than 300000"),
 ])
 def test_bad_parameters_say_what_to_fix(kwargs, message):
     with pytest.raises(ValueError, match=message):
         LaserParams(**kwargs)
+
+
+def test_a_scan_casts_at_most_max_rays():
+    """A 64-layer Velodyne HDL-64E at 0.08 deg, 288,000 rays a turn, fits; twice its layers do not."""
+    layers = tuple(-24.8 + 26.8 * i / 63 for i in range(64))
+    assert len(LaserParams(fov=360.0, resolution=0.08, layers=layers).bearings) * 64 == 288_000 <= MAX_RAYS
+    with pytest.raises(ValueError, match=f"casts 5.76e\\+05 rays a scan \\(4500 a layer\\), more than {MAX_RAYS}"):
+        LaserParams(fov=360.0, resolution=0.08, layers=layers * 2)
 
 
 @given(st.integers(1, 720), st.sampled_from([0.25, 0.5, 1.0, 2.0]))

@@ -5,10 +5,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vilma.scenario.fields import SpecError, build, load_yaml
+from vilma.scenario.fields import (
+    MAX_YAML_DEPTH,
+    MAX_YAML_SIZE,
+    MAX_YAML_VALUES,
+    SpecError,
+    build,
+    load_yaml,
+    read_yaml,
+)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -85,3 +93,102 @@ def test_any_mapping_builds_or_fails_cleanly(data):
     except SpecError:
         return
     assert isinstance(o, Outer)
+
+
+# -- limits: every YAML vilma reads is bounded in size, depth and values (aliases expanded) ---------------------
+
+
+def _nested(depth: int, kind: str) -> tuple[str, object]:
+    """A document ``depth`` levels deep (its innermost scalar included) in one of three styles, and its value."""
+    value: object = 1
+    for _ in range(depth - 1):
+        value = [value] if kind == "flow list" else {"a": value}
+    if kind == "flow list":
+        return "[" * (depth - 1) + "1" + "]" * (depth - 1), value
+    if kind == "flow mapping":
+        return "{a: " * (depth - 1) + "1" + "}" * (depth - 1), value
+    lines = ["  " * i + "a:" for i in range(depth - 1)]
+    return "\n".join([*lines[:-1], lines[-1] + " 1"]) if lines else "1", value
+
+
+def _refused(text: str, limit: str) -> None:
+    with pytest.raises(SpecError) as e:
+        load_yaml(text, "f.yaml")
+    assert str(e.value).startswith("f.yaml:") and limit in str(e.value) and "\n" not in str(e.value)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 3 * MAX_YAML_DEPTH), st.sampled_from(["flow list", "flow mapping", "block mapping"]))
+def test_nesting_is_parsed_up_to_the_depth_limit_and_refused_beyond(depth, kind):
+    text, value = _nested(depth, kind)
+    if depth <= MAX_YAML_DEPTH:
+        assert load_yaml(text, "f.yaml")[0] == value
+    else:
+        _refused(text, f"nested more than {MAX_YAML_DEPTH} levels deep")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 12), st.integers(1, 12))
+def test_alias_chains_are_parsed_up_to_the_value_limit_and_refused_beyond(levels, fan_out):
+    """``a0: &a0 [x, x ..]``, ``a1: &a1 [*a0, *a0 ..]``...: each level holds ``fan_out`` of the one before."""
+    lines = [f"a0: &a0 [{', '.join(['x'] * fan_out)}]"]
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * fan_out)}]" for i in range(1, levels)]
+    sizes = [1 + fan_out]  # values each anchor expands to: its list and what it holds
+    for _ in range(1, levels):
+        sizes.append(1 + fan_out * sizes[-1])
+    values = 1 + sum(1 + size for size in sizes)  # the root mapping, each key and its list
+    if values <= MAX_YAML_VALUES:  # levels + 2 deep at most: within the depth limit
+        expected = {}
+        inner: object = "x"
+        for i in range(levels):
+            inner = [inner] * fan_out
+            expected[f"a{i}"] = inner
+        assert load_yaml("\n".join(lines), "f.yaml")[0] == expected
+    else:
+        _refused("\n".join(lines), f"more than {MAX_YAML_VALUES} values with its aliases expanded")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, MAX_YAML_DEPTH), st.integers(0, MAX_YAML_DEPTH))
+def test_an_alias_is_as_deep_as_its_anchor_where_it_is_used(anchor_depth, used_at):
+    """``a: &a [[..]]`` (``anchor_depth`` lists) used inside ``used_at`` lists reaches ``1 + used_at +
+    anchor_depth`` levels from the root mapping."""
+    anchored, value = "[" * anchor_depth + "]" * anchor_depth, []
+    for _ in range(anchor_depth - 1):
+        value = [value]
+    used = value
+    for _ in range(used_at):
+        used = [used]
+    text = f"a: &a {anchored}\nb: {'[' * used_at}*a{']' * used_at}"
+    if 1 + used_at + anchor_depth <= MAX_YAML_DEPTH:
+        assert load_yaml(text, "f.yaml")[0] == {"a": value, "b": used}
+    else:
+        _refused(text, f"nested more than {MAX_YAML_DEPTH} levels deep")
+
+
+def test_a_billion_laughs_and_a_loop_are_refused_on_their_line():
+    lol = ['a0: &a0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
+    lol += [f"a{i}: &a{i} [{','.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9)]
+    # a0..a4 hold 1 + 11 + 92 + 821 + 7382 + 66431 = 74738 values with the root, a5 alone 1 + 9 * 66430 more
+    with pytest.raises(SpecError, match=rf"^f\.yaml:6: more than {MAX_YAML_VALUES} values"):
+        load_yaml("\n".join(lol), "f.yaml")
+    with pytest.raises(SpecError, match=r"^f\.yaml:2: alias \*a inside its own anchor"):
+        load_yaml("x: 1\na: &a [1, *a]\n", "f.yaml")
+
+
+def test_size_limit_on_text_and_files(tmp_path):
+    _refused_size = f"larger than {MAX_YAML_SIZE >> 20} MiB, the limit of a YAML file"
+    comment = "#" * (MAX_YAML_SIZE - len("\nname: a\n")) + "\nname: a\n"  # exactly at the limit
+    assert load_yaml(comment, "f.yaml")[0] == {"name": "a"}
+    with pytest.raises(SpecError, match=f"^f.yaml: {_refused_size}"):
+        load_yaml(comment + " ", "f.yaml")
+    big = tmp_path / "big.yaml"
+    big.write_text(comment + " ")
+    with pytest.raises(SpecError, match=f"big.yaml: {_refused_size}"):
+        read_yaml(big)
+
+
+def test_numbers_with_an_exponent_are_floats_as_in_yaml_1_2():
+    data, _ = load_yaml("a: 1e9\nb: 2.5E-3\nc: -1e+2\nd: 12\ne: 1.5\nf: 1e\ng: e9\n", "f.yaml")
+    assert data == {"a": 1e9, "b": 2.5e-3, "c": -100.0, "d": 12, "e": 1.5, "f": "1e", "g": "e9"}
+    assert isinstance(data["d"], int)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 from pathlib import Path
 
@@ -11,12 +12,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vilma.control.speed import PiFfParams
+from vilma.options import zenoh_bus
 from vilma.scenario import SpecError, load_scenario, parse_scenario, to_yaml
 from vilma.scenario.batch import BUNDLED
-from vilma.scenario.fields import load_yaml
+from vilma.scenario.drive_log import MAX_ROWS
+from vilma.scenario.fields import MAX_YAML_VALUES, load_yaml
 from vilma.scenario.spec import Bound
 from vilma.sensors import SensorSuite
-from vilma.vehicle.params import vilma
+from vilma.trajectory.densify import MAX_POINTS
+from vilma.vehicle.params import preset, vilma
 
 FIVE_LINES = """\
 task:
@@ -111,7 +115,7 @@ def test_overrides_set_nested_values_and_controller_gains(tmp_path):
     ("task: {speed: 5}\nvehicle: tesla\n", "s.yaml:2: vehicle: unknown vehicle preset 'tesla'"),
     ("task: {speed: 5}\nvehicle: {preset: vilma, mas: 1}\n", "s.yaml:2: vehicle.mas: unknown key; did you mean 'mass'"),
     ("task: {speed: 5}\nplant: bullet\n", "s.yaml:2: plant: unknown plant 'bullet'"),
-    ("task: {speed: 5}\nstep: 0.02\n", "s.yaml:2: step: physics step must be in (0, 0.01] s"),
+    ("task: {speed: 5}\nstep: 0.02\n", "s.yaml:2: step: physics step must be in [0.0001, 0.01] s"),
     ("task: {speed: 5}\nsensors: {imu: {rate_hz: 30}}\n",
      "s.yaml:2: sensors.imu.rate_hz: sensor imu: 30 Hz is a period of 33.3333 ms, not a whole multiple"),
     ("task: {speed: 5}\npose: gps\n", "s.yaml:2: pose: unknown pose source 'gps'"),
@@ -159,3 +163,70 @@ def test_random_scenarios_load_or_fail_cleanly(data):
         assert str(e).startswith("r.yaml")
         return
     assert s.task.kind in ("speed", "go_to", "follow", "course")
+
+
+# -- values that would exhaust the machine: refused on their line, before anything is allocated ---------------
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    # a day at the default 50 Hz driver (pi_ff 25 Hz, stanley 50 Hz) is 86400 / 0.02 = MAX_ROWS log rows
+    ("task: {speed: 5}\nspeed_controller: pi_ff\npath_controller: stanley\nduration: 86401\n",
+     f"s.yaml:4: duration: 86401 s is more than the {MAX_ROWS} driver periods of 0.02 s a run keeps"),
+    ("task: {speed: 5}\nduration: 1e9\n", "s.yaml:2: duration: 1000000000 s is more than"),
+    ("task: {speed: 5}\nwatchdog_timeout: 1e10\n", "s.yaml:2: watchdog_timeout: time must be finite and within"),
+    ("task: {speed: 5}\nactuators: {dead_time: 1e300}\n", "s.yaml:2: actuators.dead_time: time must be finite"),
+    ("task: {speed: 5}\nsensors: {gps: {rate_hz: 1e-10}}\n",
+     "s.yaml:2: sensors.gps.rate_hz: sensor gps: 1e-10 Hz is a period longer than the clock counts"),
+    ("task: {speed: 5}\nspeed_controller: {type: pi_ff, period: 1e300}\n",
+     "s.yaml:2: speed_controller.period: pi_ff period: 1e-300 Hz is a period longer than the clock counts"),
+    ("task: {speed: 5}\nstep: 1e-12\n", "s.yaml:2: step: physics step must be in [0.0001, 0.01] s, got 1e-12"),
+    ("task:\n  speed: 1e300\n", "s.yaml:2: task.speed: 1e+300 m/s is faster than the car's top speed, 56.99 m/s"),
+    ("task: {course: [[0, 0], [1, 0]], speed: 5, densify: 20}\n",
+     f"s.yaml:1: task: densify must be 0..19 (each pass doubles the points; a path holds at most {MAX_POINTS})"),
+])
+def test_exhausting_values_give_one_located_line(tmp_path, text, message):
+    with pytest.raises(SpecError) as e:
+        load_scenario(_write(tmp_path, text))
+    assert str(e.value).startswith(str(tmp_path / message)), str(e.value)
+    assert "\n" not in str(e.value)
+
+
+def test_the_longest_run_is_a_day_at_50_hz_and_the_error_says_so(tmp_path):
+    day = load_scenario(_write(tmp_path, FIVE_LINES + "duration: 86400\n"))
+    assert day.duration == 86400 and 86400 / day.sim.step / 2 == MAX_ROWS  # stanley's 0.02 s is two 10 ms steps
+    with pytest.raises(SpecError, match=r"^--set duration=1e9: duration: .* give at most 86400 s$"):
+        load_scenario(_write(tmp_path, FIVE_LINES), {"duration": "1e9"})
+
+
+@pytest.mark.parametrize("vehicle", ["vilma", "bmw_320i"])
+def test_speeds_above_the_cars_top_speed_are_refused(tmp_path, vehicle):
+    top = preset(vehicle).top_speed
+    ok = load_scenario(_write(tmp_path, f"vehicle: {vehicle}\ntask: {{speed: {0.99 * top}}}\n"
+                                        f"initial: {{speed: {-0.99 * top}}}\n"))
+    assert ok.task.speed == pytest.approx(0.99 * top)
+    for key in ("task.speed", "initial.speed"):
+        with pytest.raises(SpecError, match=rf"^--set {key}=.*: {key}: .* m/s is faster than the car's top speed"):
+            load_scenario(_write(tmp_path, f"vehicle: {vehicle}\ntask: {{speed: 5}}\n"), {key: str(1.01 * top)})
+
+
+def test_densify_and_resample_stop_at_the_point_limit(tmp_path):
+    _write(tmp_path, "0 0\n100 0\n", "line.txt")  # two points 100 m apart
+    base = "task: {follow: line.txt, speed: 5, "
+    assert len(load_scenario(_write(tmp_path, base + "densify: 19}\n")).reference_path()) == 2**19 + 1
+    _write(tmp_path, "0 0\n50 0\n100 0\n", "line.txt")  # three points: 2 * 2^19 + 1 is over the limit
+    with pytest.raises(SpecError, match=rf"s\.yaml: task: densifying 3 points 19 times makes more than {MAX_POINTS}"):
+        load_scenario(_write(tmp_path, base + "densify: 19}\n")).reference_path()
+    with pytest.raises(SpecError, match=r"s\.yaml: task: resampling 100\.0 m every 1e-06 m .* at least 0\.000101 m$"):
+        load_scenario(_write(tmp_path, base + "resample: 1e-6}\n")).reference_path()
+    assert len(load_scenario(_write(tmp_path, base + "resample: 0.000101}\n")).reference_path()) <= MAX_POINTS
+
+
+def test_other_yaml_files_have_the_same_limits(tmp_path):
+    """Vehicle parameter files and Zenoh configs go through the same bounded reader as scenarios."""
+    lol = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]", *(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]"
+                                                      for i in range(1, 6))]
+    bomb = _write(tmp_path, "\n".join(lol), "bomb.yaml")
+    with pytest.raises(SpecError, match=rf"bomb\.yaml:5: more than {MAX_YAML_VALUES} values"):
+        load_scenario(_write(tmp_path, "task: {speed: 5}\nvehicle: bomb.yaml\n"))
+    with pytest.raises(SpecError, match=rf"bomb\.yaml:5: more than {MAX_YAML_VALUES} values"):
+        zenoh_bus(argparse.Namespace(zenoh_config=str(bomb), listen=None, connect=None), (), ())

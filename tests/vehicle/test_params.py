@@ -59,3 +59,12 @@ def test_bad_parameters_are_rejected(field, value):
 def test_params_are_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
         vilma().mass = 1.0
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_top_speed_is_where_full_power_meets_the_resistance(name):
+    p = preset(name)
+    assert p.resistance(p.top_speed) * p.top_speed == pytest.approx(p.max_power, rel=1e-12)
+    no_drag = dataclasses.replace(p, drag_area=0.0)  # rolling resistance alone: P = f v
+    assert no_drag.top_speed == pytest.approx(p.max_power / (p.rolling_resistance * p.mass * GRAVITY))
+    assert dataclasses.replace(no_drag, rolling_resistance=0.0).top_speed == math.inf

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 
 NS_PER_S = 1_000_000_000
+MAX_NS = 2**63 - 1
+"""The longest time the clock counts [ns] (int64, about 292 years)."""
 
 
 class RateError(ValueError):
@@ -16,9 +18,10 @@ class RateError(ValueError):
 
 
 def seconds_to_ns(seconds: float) -> int:
-    """Seconds -> integer nanoseconds (rounded to the nearest ns)."""
-    if not math.isfinite(seconds):
-        raise ValueError(f"time must be finite, got {seconds!r}")
+    """Seconds -> integer nanoseconds (rounded to the nearest ns), within +-:data:`MAX_NS`."""
+    if not abs(seconds) * NS_PER_S < MAX_NS:  # NaN fails too
+        raise ValueError(f"time must be finite and within +-{MAX_NS / NS_PER_S:.3g} s (the clock counts int64 ns), "
+                         f"got {seconds!r}")
     return round(seconds * NS_PER_S)
 
 
@@ -66,6 +69,9 @@ class Clock:
         if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
             raise RateError(f"{what}: rate must be a positive number of Hz, got {rate_hz!r}")
         period_ns = NS_PER_S / rate_hz
+        if period_ns > MAX_NS:
+            raise RateError(f"{what}: {rate_hz:g} Hz is a period longer than the clock counts "
+                            f"({MAX_NS / NS_PER_S:.3g} s)")
         ticks = period_ns / self.step_ns
         if abs(ticks - round(ticks)) > 1e-9 * max(1.0, ticks) or round(ticks) < 1:
             lo = max(1, math.floor(ticks))

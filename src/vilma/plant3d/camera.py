@@ -28,6 +28,9 @@ if TYPE_CHECKING:
 
 MAX_GEOMS = 10_000
 """Capacity of a camera's scene [geoms]."""
+MAX_SIDE = 4096
+"""Largest image width and height [px]: 16 megapixels, twice a car's 8-megapixel cameras (a frame with depth
+is then 200 MB)."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -65,8 +68,8 @@ class CameraParams:
             raise ValueError(f"{what} pitch must be between -pi/2 and pi/2 rad (exclusive), got {self.pitch!r}")
         for field in ("width", "height"):
             value = getattr(self, field)
-            if not (isinstance(value, int) and not isinstance(value, bool) and value > 0):
-                raise ValueError(f"{what} {field} must be a positive integer [px], got {value!r}")
+            if not (isinstance(value, int) and not isinstance(value, bool) and 0 < value <= MAX_SIDE):
+                raise ValueError(f"{what} {field} must be a whole number of pixels in 1..{MAX_SIDE}, got {value!r}")
         if not (all_finite(self.fov_y) and 0 < self.fov_y < 180):
             raise ValueError(f"{what} fov_y must be between 0 and 180 deg (exclusive), got {self.fov_y!r}")
         if not (all_finite(self.rate_hz) and self.rate_hz > 0):

@@ -22,6 +22,8 @@ if TYPE_CHECKING:
 
 GEOM_GROUPS = 6
 """Number of MuJoCo geom groups a ray can select."""
+MAX_RAYS = 300_000
+"""Most rays a scan casts, over all layers: a 64-layer Velodyne HDL-64E measures about 288,000 points a turn."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -62,6 +64,9 @@ class LaserParams:
                 and all(-90 <= e <= 90 for e in self.layers)):
             raise ValueError(f"{what} layers must be a non-empty tuple of elevations in [-90, 90] deg, "
                              f"got {self.layers!r}")
+        if steps * len(self.layers) > MAX_RAYS:
+            raise ValueError(f"{what} casts {steps * len(self.layers):.3g} rays a scan ({steps:g} a layer), more than "
+                             f"{MAX_RAYS}: give a coarser resolution or fewer layers")
         if not (all_finite(self.min_range, self.max_range) and 0 <= self.min_range < self.max_range):
             raise ValueError(f"{what} ranges must satisfy 0 <= min_range < max_range [m], "
                              f"got {self.min_range!r}, {self.max_range!r}")

@@ -94,7 +94,7 @@ def ros1_bridge_command(args: argparse.Namespace) -> int:
     init_node()
     from vilma import programs
     from vilma.bus.local import LocalBus
-    from vilma.options import check_factor, scenario_or_default, zenoh_bus
+    from vilma.options import scenario_or_default, zenoh_bus
 
     if args.connect or args.zenoh_config:
         bus, cfg = zenoh_bus(args, (), ())
@@ -108,7 +108,6 @@ def ros1_bridge_command(args: argparse.Namespace) -> int:
             bridge.close()
             bus.close()
         return 0
-    check_factor(args.speed, "--speed")
     scenario = scenario_or_default(args.scenario)
     bus = LocalBus()
     bridge = Ros1Bridge(bus, cmd_topic=args.cmd_topic)

@@ -28,6 +28,9 @@ COLUMNS = (
     "controller_us",  # wall time of the driver's update [us]
 )
 """Columns of :attr:`DriveLog.rows`, with units."""
+MAX_ROWS = 4_320_000
+"""Most rows a run keeps: a day of sim time at the default 50 Hz driver, 0.66 GB (a scenario's ``duration`` is
+held to it)."""
 PLANT_COLUMNS = COLUMNS[1:COLUMNS.index("target_speed")]
 """The columns of the true plant (``car.*`` in the CSV); the rest are the driver's (``driver.*``)."""
 SIM_COLUMNS = COLUMNS.index("controller_us")

@@ -5,6 +5,11 @@ Every parameter in vilma is a frozen dataclass with typed fields and checks in
 module reads the YAML keeping each value's line, then builds the dataclasses
 field by field: unknown keys, wrong types and values the dataclass refuses
 become one :class:`SpecError` line, ``file:line: field.path: what (how to fix)``.
+
+Every YAML file vilma reads (scenarios, vehicle parameter files, Zenoh configs, the scenario in a
+recording, ``--set`` values) goes through :func:`load_yaml`, which refuses a document larger than
+:data:`MAX_YAML_SIZE`, nested deeper than :data:`MAX_YAML_DEPTH` or holding more than
+:data:`MAX_YAML_VALUES` values once its aliases are expanded (a "billion laughs" bomb), while composing it.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import re
 import types
 import typing
 from collections.abc import Mapping
@@ -20,6 +26,14 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+
+MAX_YAML_SIZE = 1 << 20
+"""Largest YAML document [characters; bytes of a file]: a scenario is a few kB (long paths go in a
+``follow`` file), a scenario saved by the GUI with a 20,000-point table about 1 MB."""
+MAX_YAML_DEPTH = 64
+"""Deepest nesting of lists and mappings (a scenario nests 6 deep), within Python's recursion limit."""
+MAX_YAML_VALUES = 100_000
+"""Most values (scalars, lists, mappings) in a document with every alias expanded where it is used."""
 
 Key = tuple[str | int, ...]
 """Where a value sits in the document: the keys and list indices leading to it."""
@@ -61,10 +75,71 @@ def dotted(key: Key) -> str:
     return out
 
 
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, bounded: it counts the values and the depth of the document as it composes it,
+    an alias counting as everything its anchor holds, and stops at :data:`MAX_YAML_DEPTH` or
+    :data:`MAX_YAML_VALUES`. Numbers with an exponent but no dot (``1e9``) are floats, as in YAML 1.2."""
+
+    def __init__(self, text: str, name: str) -> None:
+        super().__init__(text)
+        self.name = name
+        self._depth = 0  # of the node being composed (the document's root is 1)
+        self._deepest = 0  # the deepest level reached inside it so far, aliases expanded
+        self._values = 0  # values so far, aliases expanded
+        self._anchored: dict[str, tuple[int, int]] = {}  # anchor -> (values, levels) of its node
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent):
+            node = super().compose_node(parent, index)  # its anchor's node (an undefined one is an error)
+            if event.anchor not in self._anchored:
+                raise self._error(event, f"alias *{event.anchor} inside its own anchor: a value cannot hold itself")
+            values, levels = self._anchored[event.anchor]
+            self._count(event, values, self._depth + levels)
+            return node
+        self._depth += 1
+        outer, start = self._deepest, self._values
+        self._deepest = 0
+        self._count(event, 1, self._depth)
+        node = super().compose_node(parent, index)
+        if event.anchor is not None:
+            self._anchored[event.anchor] = (self._values - start, self._deepest - self._depth + 1)
+        self._deepest = max(outer, self._deepest)
+        self._depth -= 1
+        return node
+
+    def _count(self, event: yaml.Event, values: int, depth: int) -> None:
+        """Add ``values`` reaching down to level ``depth`` at ``event``; raise beyond the limits."""
+        self._values += values
+        self._deepest = max(self._deepest, depth)
+        if depth > MAX_YAML_DEPTH:
+            raise self._error(event, f"nested more than {MAX_YAML_DEPTH} levels deep, the limit of a YAML file; "
+                                     "flatten it")
+        if self._values > MAX_YAML_VALUES:
+            raise self._error(event, f"more than {MAX_YAML_VALUES} values with its aliases expanded, the limit of a "
+                                     "YAML file; use fewer aliases and values (long paths go in a follow file)")
+
+    def _error(self, event: yaml.Event, message: str) -> SpecError:
+        return SpecError(f"{self.name}:{event.start_mark.line + 1}: {message}")
+
+
+_EXPONENT_FLOAT = re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$")
+"""``1e9``, ``2.5E-3``: floats in YAML 1.2, text in PyYAML's YAML 1.1 (which wants a dot and a signed exponent)."""
+_Loader.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789"))
+
+
+def _too_large(name: str) -> SpecError:
+    return SpecError(f"{name}: larger than {MAX_YAML_SIZE >> 20} MiB, the limit of a YAML file; a scenario is a few "
+                     "kB (long paths go in a follow file)")
+
+
 def load_yaml(text: str, name: str) -> tuple[Any, Source]:
-    """Parse YAML ``text`` (from file ``name``) into plain values and the line of each; duplicate keys are errors."""
+    """Parse YAML ``text`` (from file ``name``) into plain values and the line of each; duplicate keys are errors,
+    and so are documents beyond :data:`MAX_YAML_SIZE`, :data:`MAX_YAML_DEPTH` or :data:`MAX_YAML_VALUES`."""
+    if len(text) > MAX_YAML_SIZE:
+        raise _too_large(name)
     try:
-        loader = yaml.SafeLoader(text)
+        loader = _Loader(text, name)
         try:
             node = loader.get_single_node()
             data = loader.construct_document(node) if node is not None else None
@@ -100,15 +175,20 @@ def _collect_lines(node: yaml.Node, key: Key, lines: dict[Key, int], name: str) 
 
 
 def read_yaml(path: Path) -> tuple[Any, Source]:
-    """:func:`load_yaml` of a file; a missing or unreadable file is a :class:`SpecError`."""
+    """:func:`load_yaml` of a file; a missing, unreadable or too large file is a :class:`SpecError`."""
     try:
-        text = path.read_text(encoding="utf-8")
+        with path.open("rb") as f:
+            raw = f.read(MAX_YAML_SIZE + 1)  # no more: a huge file or /dev/zero is refused, not read
     except FileNotFoundError:
         raise SpecError(f"{path}: no such file") from None
-    except UnicodeDecodeError:
-        raise SpecError(f"{path}: not a text file (expected UTF-8 YAML)") from None
     except OSError as e:
         raise SpecError(f"{path}: cannot read: {e.strerror}") from None
+    if len(raw) > MAX_YAML_SIZE:
+        raise _too_large(str(path))
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not a text file (expected UTF-8 YAML)") from None
     return load_yaml(text, str(path))
 
 

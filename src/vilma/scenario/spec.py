@@ -26,8 +26,9 @@ Top-level keys (all optional but ``task``):
   :class:`~vilma.control.driver.DriverParams` fields, and ``original: true`` for the shipped program.
 - ``speed_log``: a speed log of the original program to overlay and compare (``data/SpeedLog10.txt``).
 - ``task``: see :class:`TaskSpec`. ``initial``: see :class:`InitialSpec`. ``duration``: the longest
-  drive [s]. ``metrics``: see :class:`MetricsSpec`. ``expect``: pass criteria, ``{key: {min, max}}`` on
-  scorecard keys (``completed: true`` for a boolean).
+  drive [s], at most :data:`~vilma.scenario.drive_log.MAX_ROWS` driver periods (the run keeps a log row
+  a period: a day at the default 50 Hz driver, 12 h at 100 Hz). ``metrics``: see :class:`MetricsSpec`.
+  ``expect``: pass criteria, ``{key: {min, max}}`` on scorecard keys (``completed: true`` for a boolean).
 """
 
 from __future__ import annotations
@@ -46,13 +47,15 @@ from vilma.localization import SOURCES
 from vilma.plant3d.camera import CameraParams, stereo_pair
 from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
+from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
 from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_yaml, read_yaml
 from vilma.sensors import SensorSuite
 from vilma.sensors.gps import GeodeticOrigin
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
-from vilma.trajectory import Trajectory, TrajectoryFileError, increase_point_count, load_trajectory, resample
+from vilma.trajectory import Trajectory, TrajectoryFileError, densify, load_trajectory, resample
 from vilma.trajectory.course import spline_course
+from vilma.trajectory.densify import MAX_DENSIFY, MAX_POINTS
 from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE, smooth_banded, smooth_iterative
 from vilma.vehicle import models
 from vilma.vehicle.params import PRESETS, ActuatorParams, VehicleParams, preset
@@ -96,7 +99,8 @@ class TaskSpec:
     """What the driver does. With none of ``go_to``, ``follow``, ``course``: hold ``speed`` straight ahead."""
 
     speed: float | None = None
-    """Target speed [m/s]; with ``follow`` it may be left out to use the file's own speeds."""
+    """Target speed [m/s], at most the car's top speed; with ``follow`` it may be left out to use the file's own
+    speeds."""
     go_to: tuple[float, float] | None = None
     """Drive to this point [m] and stop on it."""
     follow: str | None = None
@@ -104,7 +108,8 @@ class TaskSpec:
     course: tuple[tuple[float, float], ...] | None = None
     """Follow a smooth spline through these points [m]."""
     densify: int = 0
-    """Apply Increase Point Count this many times (n -> 2n - 1 each)."""
+    """Apply Increase Point Count this many times (n -> 2n - 1 each), at most
+    :data:`~vilma.trajectory.densify.MAX_DENSIFY`."""
     smooth: SmoothSpec | None = None
     """Smooth the path as the paper (``true`` for the original's parameters)."""
     resample: float | None = None
@@ -120,8 +125,9 @@ class TaskSpec:
             raise ValueError(f"speed must be > 0 m/s, got {self.speed}")
         if self.course is not None and len(self.course) < 2:
             raise ValueError("course needs at least 2 points")
-        if self.densify < 0:
-            raise ValueError(f"densify must be >= 0, got {self.densify}")
+        if not 0 <= self.densify <= MAX_DENSIFY:
+            raise ValueError(f"densify must be 0..{MAX_DENSIFY} (each pass doubles the points; a path holds at most "
+                             f"{MAX_POINTS}), got {self.densify}")
         if self.resample is not None and not self.resample > 0:
             raise ValueError(f"resample spacing must be > 0 m, got {self.resample}")
 
@@ -216,15 +222,17 @@ class Scenario:
                 path = load_trajectory(self.trajectory_file())
             except TrajectoryFileError as e:
                 raise SpecError(str(e)) from None
-        for _ in range(t.densify):
-            path = increase_point_count(path)
-        if t.smooth is not None:
-            s = t.smooth
-            xy = (smooth_iterative(path.xy, s.alpha, s.beta, s.tolerance) if s.solver == "iterative"
-                  else smooth_banded(path.xy, s.alpha, s.beta))
-            path = Trajectory(xy, path.speed)
-        if t.resample is not None:
-            path = resample(path, t.resample)
+        try:
+            path = densify(path, t.densify)
+            if t.smooth is not None:
+                s = t.smooth
+                xy = (smooth_iterative(path.xy, s.alpha, s.beta, s.tolerance) if s.solver == "iterative"
+                      else smooth_banded(path.xy, s.alpha, s.beta))
+                path = Trajectory(xy, path.speed)
+            if t.resample is not None:
+                path = resample(path, t.resample)
+        except ValueError as e:  # too many points for this path
+            raise SpecError(f"{self.file or self.name}: task: {e}") from None
         return path
 
     def trajectory_file(self) -> Path:
@@ -286,25 +294,31 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     laser = data.get("laser")
     laser = build(LaserParams, {} if laser is True else laser, src, ("laser",)) if laser not in (None, False) else None
     cameras = _cameras(data.get("cameras"), src)
+    integrator, step = get("integrator", str, "rk4"), get("step", float, 0.01)  # their own errors are located
+    seed, watchdog_timeout = get("seed", int, 0), get("watchdog_timeout", float, 0.5)
     try:
-        sim = SimConfig(vehicle=vehicle, model=model, integrator=get("integrator", str, "rk4"),
-                        step=get("step", float, 0.01), sensors=sensors, seed=get("seed", int, 0),
-                        watchdog_timeout=get("watchdog_timeout", float, 0.5), world=world,
-                        cameras=cameras, laser=laser)
+        sim = SimConfig(vehicle=vehicle, model=model, integrator=integrator, step=step, sensors=sensors, seed=seed,
+                        watchdog_timeout=watchdog_timeout, world=world, cameras=cameras, laser=laser)
     except ValueError as e:
         culprit = next((k for k, word in (("step", "step"), ("integrator", "integrator"),
                                           ("watchdog_timeout", "watchdog"), ("world", "world"),
                                           ("cameras", "camera"), ("laser", "laser")) if word in str(e)), None)
         raise src.error((culprit,) if culprit else (), str(e)) from None
     driver = _driver(data, src)
-    _check_periods(sim, driver, src)
+    period = _check_times(sim, driver, src)
     task = build(TaskSpec, data["task"], src, ("task",))
+    initial = build(InitialSpec, data.get("initial"), src, ("initial",))
+    _check_speeds(task, initial, sim.vehicle, src)
     duration = get("duration", float, 120.0)
     if not duration > 0:
         raise src.error(("duration",), f"must be > 0 s, got {duration}")
+    if duration / period > MAX_ROWS:  # the log keeps a row a driver period
+        raise src.error(("duration",), f"{duration:.12g} s is more than the {MAX_ROWS} driver periods of {period:g} "
+                                       f"s a run keeps (a log row each, {MAX_ROWS * 8 * len(COLUMNS) / 1e9:.2f} GB); "
+                                       f"give at most {MAX_ROWS * period:g} s")
     scenario = Scenario(
         name=get("name", str, name), description=get("description", str, ""), file=file, sim=sim, driver=driver,
-        task=task, initial=build(InitialSpec, data.get("initial"), src, ("initial",)), duration=duration,
+        task=task, initial=initial, duration=duration,
         metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
         speed_log=get("speed_log", str, None))
     if task.kind == "follow" and not scenario.trajectory_file().is_file():
@@ -331,9 +345,16 @@ def _cameras(raw: Any, src: Source) -> tuple[CameraParams, ...]:
     raise src.error(("cameras",), "expected a list of cameras, or {stereo: {baseline: 0.3}} for the front pair")
 
 
-def _check_periods(sim: SimConfig, driver: DriverParams, src: Source) -> None:
-    """Every sensor rate and controller period must be a whole number of physics steps."""
+def _check_times(sim: SimConfig, driver: DriverParams, src: Source) -> float:
+    """Every sensor rate and controller period must be a whole number of physics steps, every time within the
+    clock's range; returns the driver's period [s] (the gcd of its controllers')."""
     clock = Clock(seconds_to_ns(sim.step))
+    for key, seconds in ((("watchdog_timeout",), sim.watchdog_timeout),
+                         (("actuators", "dead_time"), sim.vehicle.actuators.dead_time)):
+        try:
+            clock.ticks_for(seconds)
+        except ValueError as e:
+            raise src.error(key, str(e)) from None
     for f in dataclasses.fields(SensorSuite):
         sensor = getattr(sim.sensors, f.name)
         if sensor is not None:
@@ -347,12 +368,23 @@ def _check_periods(sim: SimConfig, driver: DriverParams, src: Source) -> None:
                 clock.period_ticks(sensor.rate_hz, f"{sensor.name}")
             except RateError as e:
                 raise src.error((*key, "rate_hz"), str(e)) from None
+    ticks = []
     for key in ("speed_controller", "path_controller"):
         name = getattr(driver, key)
         try:
-            clock.period_ticks(1.0 / getattr(driver, name).period, f"{name} period")
+            ticks.append(clock.period_ticks(1.0 / getattr(driver, name).period, f"{name} period"))
         except RateError as e:
             raise src.error((key, "period"), str(e)) from None
+    return math.gcd(*ticks) * clock.step_s
+
+
+def _check_speeds(task: TaskSpec, initial: InitialSpec, vehicle: VehicleParams, src: Source) -> None:
+    """The task's and the start's speeds must be within the car's top speed."""
+    top = vehicle.top_speed
+    for key, speed in ((("task", "speed"), task.speed), (("initial", "speed"), initial.speed)):
+        if speed is not None and abs(speed) > top:
+            raise src.error(key, f"{speed:g} m/s is faster than the car's top speed, {top:.2f} m/s (its max_power "
+                                 "against drag and rolling resistance); give a lower speed")
 
 
 def _vehicle(value: Any, src: Source, base: Path) -> VehicleParams:

@@ -168,6 +168,19 @@ class VehicleParams:
             self.cg_to_rear / self.cornering_stiffness_front - self.cg_to_front / self.cornering_stiffness_rear
         )
 
+    @property
+    def top_speed(self) -> float:
+        """Fastest speed on level ground [m/s], where ``max_power`` only just overcomes drag and rolling
+        resistance: ``k v^3 + f v = P`` (Cardano's root; inf for a car with no resistance). A drive force
+        or traction limit may hold the car below it."""
+        k = 0.5 * self.air_density * self.drag_area
+        f = self.rolling_resistance * self.mass * GRAVITY
+        if k <= 0:
+            return self.max_power / f if f > 0 else math.inf
+        q, p = self.max_power / (2 * k), f / (3 * k)  # v^3 + 3 p v - 2 q = 0
+        root = math.sqrt(q * q + p**3)
+        return math.cbrt(q + root) + math.cbrt(q - root)
+
     def resistance(self, speed: float) -> float:
         """Drag plus rolling resistance at a forward ``speed`` > 0 [N]."""
         return 0.5 * self.air_density * self.drag_area * speed * speed + self.rolling_resistance * self.mass * GRAVITY

@@ -1,0 +1,72 @@
+"""The command line's number and port types: a value is taken exactly when it is in range, else one argparse line."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from vilma.core.clock import MAX_NS, NS_PER_S
+from vilma.options import count, duration, non_negative, port, port_or_any, positive, sim_time, wall_delay
+
+FLOATS = {
+    positive: lambda v: 0 < v < math.inf,
+    non_negative: lambda v: 0 <= v < math.inf,
+    duration: lambda v: v > 0,  # inf: no end
+    sim_time: lambda v: 0 <= v < MAX_NS / NS_PER_S,  # the clock counts int64 ns
+    wall_delay: lambda v: 0 < v <= (2**31 - 1) / 1000,  # a Qt timer counts int32 ms
+}
+INTS = {count: lambda v: v >= 1, port: lambda v: 1 <= v <= 65535, port_or_any: lambda v: 0 <= v <= 65535}
+
+
+def _one_line_refusal(kind, text: str) -> str:
+    with pytest.raises(argparse.ArgumentTypeError) as e:
+        kind(text)
+    assert "\n" not in str(e.value)
+    return str(e.value)
+
+
+EDGES = [0.0, -0.0, 1e-300, 1e300, 2147483.647, 2147483.648, 9.2e9, 9.3e9]
+"""Values at the limits: zero, the Qt timer's int32 ms, the clock's int64 ns."""
+
+
+@given(st.sampled_from(list(FLOATS)), st.floats() | st.sampled_from(EDGES))
+def test_float_options_take_exactly_the_values_in_range(kind, value):
+    text = repr(value)
+    if FLOATS[kind](value):
+        assert kind(text) == value
+    else:
+        assert _one_line_refusal(kind, text) == f"must be {_need(kind)}, got {text}"
+
+
+@given(st.sampled_from(list(INTS)), st.integers(-100_000, 100_000))
+def test_int_options_take_exactly_the_values_in_range(kind, value):
+    if INTS[kind](value):
+        assert kind(str(value)) == value
+    else:
+        assert _one_line_refusal(kind, str(value)).startswith("must be ")
+
+
+@given(st.sampled_from([*FLOATS, *INTS]), st.text(max_size=12))
+def test_any_text_is_a_number_in_range_or_one_argparse_line(kind, text):
+    try:
+        value = kind(text)
+    except argparse.ArgumentTypeError as e:
+        assert "\n" not in str(e) and (str(e).startswith("must be ") or str(e).startswith("expected a"))
+        return
+    assert (FLOATS | INTS)[kind](value)
+
+
+def test_whole_numbers_are_whole():
+    assert _one_line_refusal(port, "80.5") == "expected a whole number, got '80.5'"
+    assert _one_line_refusal(positive, "fast") == "expected a number, got 'fast'"
+
+
+def _need(kind) -> str:
+    """The range each type states in its refusal."""
+    return {positive: "a finite number > 0", non_negative: "a finite number >= 0",
+            duration: "a number of seconds > 0 (inf: no end)", sim_time: "a number of seconds in [0, 9.22e+09)",
+            wall_delay: "a number of seconds in (0, 2147483.647]"}[kind]
