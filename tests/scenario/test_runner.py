@@ -19,6 +19,7 @@ from vilma.record.reader import read_recording
 from vilma.scenario import SCORECARD_KEYS, load_scenario
 from vilma.scenario.batch import BUNDLED, find_scenario, parse_sets
 from vilma.scenario.drive_log import COLUMNS
+from vilma.scenario.fields import SpecError
 from vilma.scenario.runner import run
 from vilma.scenario.spec import TIMING_KEYS
 from vilma.trajectory import load_speed_log
@@ -100,6 +101,8 @@ def test_sweeps_and_bundled_names():
                                              {"a": "2", "b": "y"}]
     assert parse_sets(["task.course=[[0, 0], [1, 1]]"]) == [{"task.course": "[[0, 0], [1, 1]]"}]
     assert find_scenario("paper_fig12_path") == BUNDLED / "paper_fig12_path.yaml"
+    with pytest.raises(SpecError, match="--set: 1e\\+10 runs in all, more than 100000"):
+        parse_sets([f"k{i}=" + ",".join("0123456789") for i in range(10)])  # 10^10 combinations: never built
 
 
 def test_cli_run_sweep_writes_a_folder_per_run(tmp_path, capsys):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -27,6 +28,10 @@ SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("late
            ("realtime_factor", "x real time"))
 """Scorecard keys shown in the summary table, with their headings."""
 
+
+
+MAX_RUNS = 100_000
+"""Runs one ``--set`` sweep may ask for (each is loaded and checked before the first starts)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,6 +60,9 @@ def parse_sets(items: Sequence[str]) -> list[dict[str, str]]:
         value = value.strip()
         values = [value] if value.startswith(("[", "{")) else [v.strip() for v in value.split(",")]
         axes.append([(key.strip(), v) for v in values])
+    runs = math.prod(len(a) for a in axes)
+    if runs > MAX_RUNS:
+        raise SpecError(f"--set: {runs:.3g} runs in all, more than {MAX_RUNS}; sweep fewer values in one command")
     return [dict(combo) for combo in itertools.product(*axes)]
 
 
