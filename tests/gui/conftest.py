@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 os.environ["QT_QPA_PLATFORM"] = "offscreen"  # before any Qt import creates the application
 
@@ -15,6 +16,15 @@ SPEED = 4.0
 """Embedded simulation speed in the tests (x real time)."""
 WAIT_MS = 60_000
 """Longest wait for the simulated car [ms of wall time] (a slow, busy machine)."""
+
+
+@pytest.fixture
+def screenshots(tmp_path):
+    """Where the GUI tests save their screenshots: a temporary folder, or the README's ``docs/`` when
+    ``VILMA_SCREENSHOTS=docs`` asks to redo them (``VILMA_SCREENSHOTS=docs pytest tests/gui``)."""
+    if os.environ.get("VILMA_SCREENSHOTS") == "docs":
+        return Path(__file__).resolve().parents[2] / "docs"
+    return tmp_path
 
 
 @pytest.fixture

@@ -132,8 +132,7 @@ def test_the_main_window_has_the_dock_only_with_cameras(qtbot, embedded, tmp_pat
     w.close()
 
 
-def test_the_main_window_shows_what_the_3d_car_s_camera_sees(qtbot, tmp_path):
-    from pathlib import Path
+def test_the_main_window_shows_what_the_3d_car_s_camera_sees(qtbot, tmp_path, screenshots):
 
     from tests.gui.conftest import SPEED, shown_window
     from vilma.gui.backend import Embedded
@@ -159,9 +158,8 @@ def test_the_main_window_shows_what_the_3d_car_s_camera_sees(qtbot, tmp_path):
         ahead = 15.0 - 0.5 - cam.position[0]
         assert min(red) == pytest.approx(120 - cam.focal_px * (2.0 - height) / ahead, abs=2)
         assert max(red) == pytest.approx(120 + cam.focal_px * height / ahead, abs=2)
-        docs = Path(__file__).resolve().parents[2] / "docs"
         d.resize(520, 420)
-        assert d.grab().save(str(docs / "gui-camera.png"))
+        assert d.grab().save(str(screenshots / "gui-camera.png"))
         w.close()
     finally:
         backend.close()

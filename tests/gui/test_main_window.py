@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +13,6 @@ from vilma.gui.backend import Embedded
 from vilma.scenario.batch import find_scenario
 from vilma.scenario.spec import load_scenario
 from vilma.trajectory import Trajectory
-
-DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 def test_car_status_shows_the_latest_readings_consistently(window, qtbot, embedded):
@@ -95,7 +92,7 @@ def fig12(qtbot, tmp_path):
 
 
 @pytest.mark.slow
-def test_screenshots_of_the_main_window_and_the_plots_after_a_drive(fig12, qtbot):
+def test_screenshots_of_the_main_window_and_the_plots_after_a_drive(fig12, qtbot, screenshots):
     w = fig12
     path = w.backend.scenario.reference_path()
     np.testing.assert_array_equal(w.table.model.trajectory().xy, path.xy)  # the scenario's path fills the table
@@ -109,8 +106,7 @@ def test_screenshots_of_the_main_window_and_the_plots_after_a_drive(fig12, qtbot
     w.status_dock.refresh()
     w.plots.refresh(force=True)
     assert len(w.plots.car_curve.xData) > 100
-    DOCS.mkdir(exist_ok=True)
-    assert w.grab().save(str(DOCS / "gui-main.png"))
-    assert w.plots.export_png(DOCS / "gui-plots.png")
+    assert w.grab().save(str(screenshots / "gui-main.png"))
+    assert w.plots.export_png(screenshots / "gui-plots.png")
     for name in ("gui-main.png", "gui-plots.png"):
-        assert (DOCS / name).stat().st_size > 20_000
+        assert (screenshots / name).stat().st_size > 20_000
