@@ -159,3 +159,18 @@ def test_any_bytes_of_any_type_are_a_command_or_a_one_line_refusal(buff, kind):
     else:
         assert kind == "std_msgs/Float64MultiArray" and 3 <= len(out) <= 4
         assert all(math.isfinite(v) for v in out[:3])
+
+
+def test_sigint_while_waiting_for_the_master_stops_the_bridge(tmp_path):
+    env = _ros_env(tmp_path, _free_port())  # nobody there
+    p = subprocess.Popen([sys.executable, "-m", "vilma.cli", "ros1-bridge"], env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    try:
+        assert "Unable to register with master node" in p.stdout.readline()  # rospy waits for it
+        p.send_signal(signal.SIGINT)
+        _, err = p.communicate(timeout=30)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.communicate()
+    assert p.returncode == 130 and "Traceback" not in err, err  # interrupted before it ran, as vilma's programs

@@ -51,6 +51,8 @@ DEBIAN_PACKAGES = "/usr/lib/python3/dist-packages"
 """Where Debian's ROS 1 Python packages are."""
 ROS_MODULES = ("rospy", "geometry_msgs.msg", "sensor_msgs.msg", "std_msgs.msg")
 """The ROS 1 modules the bridge imports."""
+SHUTDOWN_TIMEOUT = 0.5
+"""How long :func:`shutdown_node` waits for rospy to unregister from the master and close its servers [s]."""
 
 
 def rospy_or_reason() -> tuple[object | None, str]:
@@ -231,3 +233,15 @@ def init_node(name: str = "vilma_bridge") -> None:
             h.setLevel(max(h.level, level))
             logging.getLogger("vilma").addHandler(h)
 
+
+def shutdown_node(reason: str = "vilma ros1-bridge stopped") -> None:
+    """``rospy.signal_shutdown``, waiting (up to :data:`SHUTDOWN_TIMEOUT`) only for its hooks: unregistering
+    from the master and closing the node's servers. What rospy does after them, joining a registration thread
+    that polls every 0.5 s and sleeping 0.1 s, is left to its daemon thread, so that SIGINT stops the bridge
+    within a second."""
+    import rospy.core
+
+    hooks_ran = threading.Event()
+    rospy.core.add_shutdown_hook(lambda _reason: hooks_ran.set())  # runs after rospy's own hooks
+    threading.Thread(target=rospy.core.signal_shutdown, args=(reason,), daemon=True).start()
+    hooks_ran.wait(SHUTDOWN_TIMEOUT)
