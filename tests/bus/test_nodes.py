@@ -72,6 +72,19 @@ def test_orders_and_reset_over_the_bus():
     assert sim.state.speed == 0.0 and (sim.state.x, sim.state.y) == (path.xy[0, 0], path.xy[0, 1])
 
 
+def test_a_peer_flooding_bad_commands_gets_one_line_a_second(caplog):
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    bus, sim, sim_node, _driver, _drv, _path = _nodes(scenario)
+    t0 = time.monotonic()
+    with caplog.at_level(logging.WARNING, logger="vilma.bus.nodes"):
+        for _ in range(100):
+            bus.publish(topic("cmd"), ActuatorCommand(drive=math.nan))
+        sim_node.frame(sim.advance(2))
+    lines = [r.getMessage() for r in caplog.records]
+    assert 1 <= len(lines) <= 1 + (time.monotonic() - t0)  # one line a second at most
+    assert lines[0] == "refused a command: command field 'drive' is nan: must be a finite number"
+
+
 def test_tune_swaps_controllers_and_gains_and_refuses_what_does_not_fit():
     scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
     bus, *_, drv, _path = _nodes(scenario)

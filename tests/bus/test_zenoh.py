@@ -16,7 +16,7 @@ import zenoh
 
 from tests.bus.conftest import data_folder
 from vilma.bus import Latest, topic
-from vilma.bus.codec import MAX_FRAME_BYTES, decode
+from vilma.bus.codec import MAX_FRAME_BYTES, decode, encode
 from vilma.bus.zenoh_bus import MAX_MESSAGE_BYTES, ZenohBus, ZenohConfig
 from vilma.core.messages import MAX_ORDER_POINTS, DriverOrder, Pose, Reply
 from vilma.scenario import load_scenario
@@ -133,6 +133,31 @@ def test_a_malformed_frame_is_dropped_with_a_warning_and_the_next_is_read(caplog
             time.sleep(0.05)
     assert got and all(m == good for m in got)  # the malformed frames never reached the subscriber
     assert warning in caplog.text
+    raw.undeclare()
+    a.close()
+    b.close()
+
+
+def test_a_peer_flooding_malformed_frames_gets_a_warning_a_second_not_one_each(caplog):
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    a = ZenohBus(ZenohConfig(listen=(endpoint,)))
+    b = ZenohBus(ZenohConfig(connect=(endpoint,)))
+    stamps, done = [], threading.Event()
+    b.subscribe(topic("pose"), lambda m: (stamps.append(m.stamp_ns), m.stamp_ns == 2 and done.set()))
+    raw = a.session.declare_publisher(topic("pose"), congestion_control=zenoh.CongestionControl.BLOCK)
+    _wait(lambda: raw.put(encode(Pose(1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))) or stamps, 10, "the peers to meet")
+    flood = 2000
+    with caplog.at_level(logging.WARNING, logger="vilma.bus.zenoh_bus"):
+        t0 = time.monotonic()
+        for _ in range(flood):
+            raw.put(b"\xc1not msgpack")
+        raw.put(encode(Pose(2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)))  # one publisher: it comes after the flood
+        assert done.wait(60), "the frame after the flood did not come"
+        elapsed = time.monotonic() - t0
+    lines = [r.getMessage() for r in caplog.records if r.getMessage().startswith("dropped a message on")]
+    assert 1 <= len(lines) <= 1 + elapsed  # one line a second at most (the throttle's period)
+    held = sum(int(line.rsplit("(", 1)[1].split()[0]) for line in lines[1:])
+    assert len(lines) + held <= flood  # the lines after the first count the frames held back
     raw.undeclare()
     a.close()
     b.close()

@@ -1,4 +1,5 @@
 import dataclasses
+import logging
 import math
 
 import numpy as np
@@ -123,6 +124,18 @@ def test_clamped_command_is_reported(caplog):
     assert notes and "'steer'" in notes[0] and "'steer'" in caplog.text
     sim.run_for(3.0)
     assert sim.state.steer == pytest.approx(-0.6)
+
+
+def test_a_flood_of_clamped_commands_is_one_line_a_sim_second(caplog):
+    sim = Simulator(physics_only())
+    with caplog.at_level(logging.WARNING, logger="vilma.sim.simulator"):
+        for _ in range(100):
+            sim.command(ActuatorCommand(steer=-2.0, drive=1e9))
+        sim.run_for(1.0)
+        sim.command(ActuatorCommand(steer=-2.0))
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 2 and "'steer'" in lines[0] and "'drive'" in lines[0]  # both fields, one line
+    assert lines[1].endswith("(99 more like it in the last 1.0 s not shown)")
 
 
 def test_status_message():

@@ -31,6 +31,7 @@ from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, topic
 from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, Driver, DriverMode, DriverParams
 from vilma.core.messages import MAX_ORDER_POINTS, ActuatorCommand, DriverOrder, Message, Reply, SimControl, SimStatus
+from vilma.core.ratelimit import WarningThrottle
 from vilma.sensors import Readings
 from vilma.sim import Simulator
 from vilma.trajectory import Trajectory, TrajectoryFileError, check_trajectory_file, load_trajectory
@@ -61,6 +62,7 @@ class SimNode:
         """Commands that arrived within one frame of the sim time they were computed at (stamped), or later."""
         self._keys = {name: topic(name, car) for name in SENSOR_TOPICS}
         self._subs = [bus.subscribe(topic("cmd", car), self.command), bus.serve(topic("sim/cmd", car), self._order)]
+        self._warnings = WarningThrottle(log)  # a peer flooding bad commands gets a line a second
 
     def command(self, cmd: Message) -> None:
         """Take a command from any thread; it applies at the start of the next frame."""
@@ -117,7 +119,7 @@ class SimNode:
             try:
                 self.sim.command(cmd)
             except CommandError as e:
-                log.warning("refused a command: %s", e)
+                self._warnings.warning("refused", "refused a command: %s", e)
 
     def close(self) -> None:
         for s in self._subs:

@@ -26,6 +26,7 @@ from vilma.bus.codec import MAX_WORLD_FRAME_BYTES, DecodeError, decode, encode
 from vilma.bus.topics import SENSOR_TOPICS, WORLD_TOPICS, message_type
 from vilma.core.messages import Message, Reply
 from vilma.core.net import is_loopback
+from vilma.core.ratelimit import WarningThrottle
 
 log = logging.getLogger(__name__)
 
@@ -84,6 +85,7 @@ class ZenohBus:
         self._entities: list = []
         self._lock = threading.RLock()  # re-entrant: a local subscriber may publish from inside a put
         self._closed = False
+        self._warnings = WarningThrottle(log)  # a peer flooding bad frames gets a line a second per topic
 
     def publish(self, key: str, msg: Message) -> None:
         """Send ``msg`` on ``key``; after :meth:`close` (a callback still running at shutdown) it is dropped."""
@@ -108,7 +110,7 @@ class ZenohBus:
             try:
                 msg = decode(sample.payload.to_bytes(), expected)
             except DecodeError as e:
-                log.warning("dropped a message on %s: %s", key, e)
+                self._warnings.warning(key, "dropped a message on %s: %s", key, e)
                 return
             try:
                 handler(msg)

@@ -86,15 +86,24 @@ def replay_command(args: argparse.Namespace) -> int:
 def ros1_bridge_command(args: argparse.Namespace) -> int:
     """``vilma ros1-bridge [SCENARIO]``: the simulator (in-process, paced) on a ROS 1 master; with ``--connect``,
     the bus of a ``vilma sim`` elsewhere instead."""
-    from vilma.record.ros1 import Ros1Bridge, init_node, rospy_or_reason
+    from vilma.record.ros1 import init_node, rospy_or_reason, shutdown_node
 
     rospy, why = rospy_or_reason()
     if rospy is None:
         raise ValueError(why)
     init_node()
+    try:
+        return _ros1_bridge(args)
+    finally:
+        shutdown_node()
+
+
+def _ros1_bridge(args: argparse.Namespace) -> int:
+    """The bridge, once the ROS node runs."""
     from vilma import programs
     from vilma.bus.local import LocalBus
     from vilma.options import scenario_or_default, zenoh_bus
+    from vilma.record.ros1 import Ros1Bridge
 
     if args.connect or args.zenoh_config:
         bus, cfg = zenoh_bus(args, (), ())

@@ -19,6 +19,7 @@ import numpy as np
 
 from vilma.core.clock import Clock, seconds_to_ns
 from vilma.core.messages import ActuatorCommand, Message, SimStatus
+from vilma.core.ratelimit import WarningThrottle
 from vilma.plant3d.camera import CameraParams
 from vilma.plant3d.capture import WorldSensor
 from vilma.plant3d.laser import LaserParams
@@ -152,6 +153,7 @@ class Simulator:
         self._last_command_tick = 0
         self.watchdog_tripped = False
         self._captures = []
+        self._warnings = WarningThrottle(log, clock=lambda: self.clock.time_s)  # a line per sim second at most
 
     @property
     def state(self) -> VehicleState:
@@ -197,14 +199,14 @@ class Simulator:
         """Take an actuator command; it acts after the actuators' dead time.
 
         Returns:
-            One note per clamped field (also logged).
+            One note per clamped field (also logged, in one line per sim second at most).
 
         Raises:
             CommandError: NaN, infinity or an unknown mode; the car keeps its previous command.
         """
         cmd, notes = validate_command(cmd, self.config.vehicle)
-        for note in notes:
-            log.warning(note)
+        if notes:
+            self._warnings.warning("clamped", "%s", "; ".join(notes))
         self._last_command_tick = self.clock.tick
         self._autonomous = cmd.autonomous
         if self.watchdog_tripped:
