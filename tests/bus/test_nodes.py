@@ -16,8 +16,16 @@ from tests.bus.conftest import SECRET, data_folder, driver_on, free_endpoint
 from vilma.bus import Latest, LocalBus, topic
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
-from vilma.control.driver import Driver
-from vilma.core.messages import MAX_ORDER_POINTS, ActuatorCommand, DriverOrder, Longitudinal, Reply, SimControl
+from vilma.control.driver import TICKS, Driver
+from vilma.core.messages import (
+    MAX_ORDER_POINTS,
+    ActuatorCommand,
+    DriverOrder,
+    Longitudinal,
+    Reply,
+    SimControl,
+    SimStatus,
+)
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import initial_state, run, start_task
@@ -70,6 +78,22 @@ def test_orders_and_reset_over_the_bus():
     assert bus.request(topic("sim/cmd"), SimControl(action="reset")).ok
     sim_node.frame(sim.advance(2))  # the reset applies at the end of this frame
     assert sim.state.speed == 0.0 and (sim.state.x, sim.state.y) == (path.xy[0, 0], path.xy[0, 1])
+
+
+def test_a_foreign_status_far_ahead_costs_the_driver_one_period(caplog):
+    """A peer's ``sim/status`` stamped 10^8 driver periods ahead would have the driver run every one of them;
+    it takes up from that stamp instead, with a warning."""
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    bus, sim, sim_node, driver, drv, _path = _nodes(scenario)
+    sim_node.frame(sim.advance(2))
+    ahead = sim.time_ns + 10**8 * drv.period_ns
+    ticks = driver.state[TICKS]
+    with caplog.at_level(logging.WARNING, logger="vilma.bus.nodes"):
+        bus.publish(topic("sim/status"), SimStatus(stamp_ns=ahead))
+    assert driver.state[TICKS] == ticks + driver.period_ticks  # one period, not 10^8
+    assert "a simulator frame 2e+06 s ahead of the last; the driver takes up from it" in caplog.text
+    bus.publish(topic("sim/status"), SimStatus(stamp_ns=ahead + drv.period_ns))  # and goes on from there
+    assert driver.state[TICKS] == ticks + 2 * driver.period_ticks
 
 
 def test_a_peer_flooding_bad_commands_gets_one_line_a_second(caplog):

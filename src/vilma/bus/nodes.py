@@ -143,6 +143,11 @@ def readings_of(name: str, messages: list[Message]) -> Readings:
                     np.array([r[1:] for r in rows], dtype=float))
 
 
+MAX_CATCH_UP = 100
+"""Driver periods one simulator frame may ask for at most; a frame further ahead (a foreign status, a jump of
+the clock) starts the driver's clock again from it instead of running every period in between."""
+
+
 class DriverNode:
     """The self-driver on a bus (see the module docstring)."""
 
@@ -155,6 +160,7 @@ class DriverNode:
         self._inbox: dict[str, list[Message]] = {name: [] for name in SENSOR_TOPICS}
         self._lock = threading.Lock()
         self._next_ns: int | None = None
+        self._warnings = WarningThrottle(log)
         self.commands_sent = 0
         self.on_pose: Callable[[], None] | None = None
         """Called once, at the end of the first period in which the driver knows the car's pose."""
@@ -181,6 +187,10 @@ class DriverNode:
             for box in self._inbox.values():
                 box.clear()
         periods = 1 + (t - self._next_ns) // self.period_ns
+        if periods > MAX_CATCH_UP:
+            self._warnings.warning("jump", "driver: a simulator frame %.3g s ahead of the last; the driver takes "
+                                   "up from it", (t - self._next_ns) * 1e-9)
+            periods, self._next_ns = 1, t
         self._next_ns += periods * self.period_ns
         cmd = None
         for i in range(periods):  # one update per driver period of sim time; the readings go to the first
