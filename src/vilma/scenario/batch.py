@@ -27,9 +27,6 @@ SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("late
            ("speed_error_rms_mps", "speed RMS [m/s]"), ("pose_error_rms_m", "pose RMS [m]"),
            ("realtime_factor", "x real time"))
 """Scorecard keys shown in the summary table, with their headings."""
-
-
-
 MAX_RUNS = 100_000
 """Runs one ``--set`` sweep may ask for (each is loaded and checked before the first starts)."""
 
@@ -95,7 +92,7 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             observe=None, record: bool = True, overwrite: bool = False,
             started: float | None = None) -> list[RunResult]:
     """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``)
-    into its own folder (:func:`out_dirs`); returns the results.
+    into its own folder (:func:`~vilma.scenario.folder.out_dirs`); returns the results.
 
     A folder that holds anything stops the batch before it runs, unless ``overwrite`` (then the earlier
     run's files go first). ``observe`` gets each run's sensor readings as they are made (see
