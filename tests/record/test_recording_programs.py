@@ -1,6 +1,6 @@
 """Recordings made by the programs: ``vilma run`` writes run.mcap; ``vilma up`` / ``vilma sim`` with ``--record``
 hold the scenario and the orders the driver took, and survive SIGTERM (finished file) and SIGKILL (readable up to
-the last flushed chunk)."""
+the last flushed chunk, reported as cut short)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from mcap.reader import make_reader
 
 from vilma import programs
@@ -23,6 +24,7 @@ from vilma.control.driver import Driver
 from vilma.core.messages import DriverOrder
 from vilma.record.reader import read_recording
 from vilma.record.recorder import BusRecorder, Recorder
+from vilma.record.report import report
 from vilma.scenario import load_scenario, to_yaml
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import COLUMNS
@@ -122,13 +124,22 @@ def test_sigterm_finishes_the_file(tmp_path):
     assert stats.message_count == sum(back.count(t) for t in back.topics)
 
 
-def test_sigkill_leaves_a_file_readable_up_to_the_last_flushed_chunk(tmp_path):
-    p = _start_up(tmp_path / "a.mcap", "1")
-    _wait_for_status(p, 4.0)  # 4 s of wall time: chunks flushed at least every second
-    p.kill()
-    p.communicate(timeout=20)
+@pytest.fixture(scope="module")
+def killed(tmp_path_factory) -> Path:
+    """The recording of a ``vilma up`` killed with SIGKILL after 4 s of wall time (chunks flushed every second)."""
+    path = tmp_path_factory.mktemp("killed") / "a.mcap"
+    p = _start_up(path, "1")
+    try:
+        _wait_for_status(p, 4.0)
+    finally:
+        p.kill()
+        p.communicate(timeout=20)
     assert p.returncode == -signal.SIGKILL
-    back = read_recording(tmp_path / "a.mcap")
+    return path
+
+
+def test_sigkill_leaves_a_file_readable_up_to_the_last_flushed_chunk(killed):
+    back = read_recording(killed)
     assert not back.complete
     pose = back.readings("pose")
     # no hole: every pose period from the first to the last flushed one, and at least 2 s of them
@@ -136,6 +147,13 @@ def test_sigkill_leaves_a_file_readable_up_to_the_last_flushed_chunk(tmp_path):
     assert pose.stamp_ns[-1] - pose.stamp_ns[0] >= 2_000_000_000
     assert np.all(np.isfinite(pose.values))
     assert back.count("tf") == len(pose)
+
+
+def test_the_report_of_a_killed_recording_says_it_was_cut_short(killed, tmp_path):
+    got = report(killed, tmp_path / "rep").metrics
+    assert (got["completed"], got["truncated"]) == (False, True)
+    assert got["incomplete_reason"].startswith("the recording was cut short; covered")
+    assert got["path_progress"] is not None and got["speed_overshoot_pct"] is None  # the course, from its order
 
 
 def test_up_records_the_scenario_and_the_order_that_starts_its_task(tmp_path):

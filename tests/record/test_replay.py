@@ -84,7 +84,7 @@ def test_replay_republishes_camera_images_and_laser_scans(tmp_path):
     player.close()
     for name, q in queues.items():
         assert q.drain() == [msg for n, msg in sent if n == name]
-    assert player.published == 25 + len(sent)  # and the poses
+    assert player.published == 3 * 25 + len(sent)  # and the poses, velocities and actuator states
 
 
 def test_a_corrupt_image_is_skipped_with_a_warning(tmp_path, caplog):
