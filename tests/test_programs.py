@@ -6,6 +6,9 @@ import signal
 import subprocess
 import sys
 
+from vilma import programs
+from vilma.scenario import load_scenario
+
 
 def test_up_drives_paced_and_reports_each_second():
     r = subprocess.run([sys.executable, "-m", "vilma.cli", "up", "course_30kmh_stanley", "--speed", "10",
@@ -27,3 +30,12 @@ def test_up_stops_cleanly_on_sigint():
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=60)  # it stops (how fast is a benchmark's business)
     assert p.returncode == 0 and "Traceback" not in err
+
+
+def test_a_task_the_driver_refuses_is_one_warning_and_the_drive_goes_on(tmp_path, caplog):
+    (tmp_path / "here.yaml").write_text("task: {go_to: [0, 0], speed: 5}\n")  # where the car starts
+    lines: list[str] = []
+    assert programs.up(load_scenario(tmp_path / "here.yaml"), 50.0, 1.0, lines.append) == 0
+    assert [r.getMessage() for r in caplog.records if r.levelname == "WARNING"] == [
+        f"{tmp_path / 'here.yaml'}: the task did not start: go_to: go to point: the car is already at that point"]
+    assert "manual" in lines[-1]

@@ -7,6 +7,7 @@ its bus and servers (within a second).
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 import signal
 import threading
@@ -19,9 +20,12 @@ from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.control.driver import Driver
-from vilma.scenario.runner import initial_state, start_task
-from vilma.scenario.spec import Scenario
+from vilma.core.messages import DriverOrder
+from vilma.scenario.runner import initial_state
+from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sim import Pacer, Simulator
+
+log = logging.getLogger(__name__)
 
 FRAME = 0.02
 """Sim time the simulator advances between publications [s] (the pose and velocity sensors' default period)."""
@@ -84,27 +88,49 @@ def run_paced(sim: Simulator, node: SimNode, speed: float, duration: float, stop
 def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Scenario | None,
                  data_dir: Path | None = None) -> DriverNode:
     """The driver node on ``bus`` (following orders may name the trajectory files in ``data_dir``); with a
-    scenario, its task starts once the driver knows where the car is."""
+    scenario, its task starts once the driver knows where the car is, as an order (published as a peer's are:
+    recordings hold it)."""
     node = DriverNode(driver, bus, car, step_ns, data_dir)
     if scenario is not None:
-        node.on_pose = lambda: start_task(driver, scenario, scenario.reference_path())
+        order = task_order(scenario)
+
+        def start() -> None:
+            reply = node.order(order)
+            if not reply.ok:
+                log.warning("%s: the task did not start: %s", scenario.file or scenario.name, reply.error)
+        node.on_pose = start
     return node
+
+
+def task_order(scenario: Scenario) -> DriverOrder:
+    """The scenario's task as an order to the driver (a path with its points, and their speeds if it has them)."""
+    t = scenario.task
+    speed = math.nan if t.speed is None else t.speed
+    if t.kind == "speed":
+        return DriverOrder(action="set_speed", speed=speed)
+    if t.kind == "go_to":
+        return DriverOrder(action="go_to", x=t.go_to[0], y=t.go_to[1], speed=speed)
+    path = scenario.reference_path()
+    return DriverOrder(action="follow", speed=speed, points=path.xy.tolist(),
+                       speeds=[] if path.speed is None else path.speed.tolist())
 
 
 @contextlib.contextmanager
 def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, report: Callable[[str], None],
-          world_topics: tuple[str, ...] = ()) -> Iterator[Callable[[], None] | None]:
-    """While the block runs, car ``vilma``'s topics on ``bus`` (with the cameras' and laser's ``world_topics``)
-    are recorded to the MCAP file ``record`` and served to Foxglove on 127.0.0.1:``foxglove`` (each only if
-    given); both are finished when it ends, however it ends. Yields the recorder's once-a-second ``tick``
-    (None when not recording)."""
+          scenario: Scenario) -> Iterator[Callable[[], None] | None]:
+    """While the block runs, car ``vilma``'s topics on ``bus`` (with the world sensors of ``scenario``: cameras,
+    laser) are recorded to the MCAP file ``record`` with the scenario attached (``scenario.yaml``, as ``vilma
+    run``'s), and served to Foxglove on 127.0.0.1:``foxglove`` (each only if given); both are finished when it
+    ends, however it ends. Yields the recorder's once-a-second ``tick`` (None when not recording)."""
+    world_topics = scenario.sim.world_topics
     with contextlib.ExitStack() as stack:
         tick = None
         if record is not None:
             from vilma.record.recorder import BusRecorder, Recorder
 
-            recording = stack.enter_context(contextlib.closing(
-                BusRecorder(bus, Recorder(record, source=source), world_topics=world_topics)))
+            recorder = Recorder(record, source=source)
+            recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
+            recording = stack.enter_context(contextlib.closing(BusRecorder(bus, recorder, world_topics=world_topics)))
             tick = recording.recorder.tick
         if foxglove is not None:
             from vilma.record.live import FoxgloveLive
@@ -137,7 +163,7 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
                f"{st.mode}{' arrived' if st.arrived else ''}  off path {st.cross_track:+.3f} m  "
                f"{sim_node.real_time_factor:.2f}x real time")
 
-    with _taps(bus, record, foxglove, "vilma up", report, scenario.sim.world_topics) as tick, \
+    with _taps(bus, record, foxglove, "vilma up", report, scenario) as tick, \
             stop_on_signals() as stop:
         run_paced(sim, sim_node, speed, duration, stop, line)
     drv.close()
@@ -161,7 +187,7 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     sim.reset(start)
     node = SimNode(sim, bus, start=start)
     world = scenario.sim.world_topics
-    with _taps(bus, record, foxglove, "vilma sim", report, world) as tick, stop_on_signals() as stop:
+    with _taps(bus, record, foxglove, "vilma sim", report, scenario) as tick, stop_on_signals() as stop:
         server = None
         if morse is not None:
             laser = scenario.sim.laser

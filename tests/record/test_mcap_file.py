@@ -16,7 +16,7 @@ from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
 from vilma.record import mcap_file
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
-from vilma.record.reader import RecordingError, read_recording
+from vilma.record.reader import Epochs, RecordingError, read_recording
 from vilma.record.recorder import Recorder
 from vilma.record.schemas import numeric_layouts
 from vilma.sensors import Readings
@@ -232,3 +232,40 @@ def test_numeric_payloads_decode_to_what_was_encoded_bit_for_bit(name, stamps, d
     cut = data.draw(st.integers(0, len(payloads[0]) - 1))
     with pytest.raises(ValueError, match=f"a {layout.schema_name} message of {cut} bytes"):
         layout.decode([*payloads[:-1], payloads[-1][:cut]])
+
+
+FRAME_NS = 20_000_000
+"""A frame of the simulator in the tests of epochs (50 Hz)."""
+
+
+@settings(max_examples=300, deadline=None)
+@given(epochs=st.lists(st.tuples(st.integers(2, 30), st.integers(1, 31), st.integers(1, 31)), min_size=1,
+                       max_size=6),
+       late=st.booleans())
+def test_every_message_gets_the_epoch_of_the_sim_clock_it_was_stamped_in(epochs, late):
+    """Each epoch of the sim's clock: frames 1..n (a reset sets the clock back to 0), each a pose then a
+    sim/status; the driver's status in frames a..b-1 only (it falls silent and speaks again), and, if ``late``,
+    the status of an epoch's last frame written after the next epoch's first frame (from another process)."""
+    written, held = [], []  # (topic, stamp, its epoch), in file order; a status held back
+    for k, (n, a, b) in enumerate(epochs):
+        for j in range(1, n + 1):
+            written += [("pose", j * FRAME_NS, k), ("sim/status", j * FRAME_NS, k), *held]
+            held = []
+            if a <= j < b:
+                (held if late and j == n else written).append(("driver/status", j * FRAME_NS, k))
+    written += held
+    told = Epochs()
+    assert [told.of(name, t) for name, t, _ in written] == [k for _, _, k in written]
+
+
+def test_a_topic_comes_back_in_epoch_then_stamp_order(tmp_path):
+    rec = Recorder(tmp_path / "a.mcap")
+    for k in (1, 2, 3, 1, 2):  # a reset after the third frame: the clock starts again
+        rec.add_message("pose", m.Pose(k * FRAME_NS, float(k), 0.0, 0.0, 0.0, 0.0, 0.0))
+        rec.add_message("driver/status", m.DriverStatus(k * FRAME_NS, "manual", 0.0, 0.0, 0, 0.0, 0.0, 0.0, False, ""))
+    rec.close()
+    back = read_recording(tmp_path / "a.mcap")
+    stamps = [k * FRAME_NS for k in (1, 2, 3, 1, 2)]
+    assert back.readings("pose").stamp_ns.tolist() == stamps
+    assert [s.stamp_ns for s in back.messages("driver/status")] == stamps
+    assert back.epoch("pose").tolist() == back.epoch("driver/status").tolist() == [0, 0, 0, 1, 1]

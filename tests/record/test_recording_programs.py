@@ -1,26 +1,36 @@
 """Recordings made by the programs: ``vilma run`` writes run.mcap; ``vilma up`` / ``vilma sim`` with ``--record``
-survive SIGTERM (finished file) and SIGKILL (readable up to the last flushed chunk)."""
+hold the scenario and the orders the driver took, and survive SIGTERM (finished file) and SIGKILL (readable up to
+the last flushed chunk, reported as cut short)."""
 
 from __future__ import annotations
 
 import csv
+import math
 import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from mcap.reader import make_reader
 
 from vilma import programs
 from vilma.bus.local import LocalBus
+from vilma.bus.nodes import DriverNode, SimNode
+from vilma.bus.topics import topic
 from vilma.cli import main
+from vilma.control.driver import Driver
+from vilma.core.messages import DriverOrder
 from vilma.record.reader import read_recording
+from vilma.record.recorder import BusRecorder, Recorder
+from vilma.record.report import report
 from vilma.scenario import load_scenario, to_yaml
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.runner import run
 from vilma.scenario.spec import TIMING_KEYS
+from vilma.sim import Simulator
 
 POSE_PERIOD_NS = 20_000_000
 """The pose sensor's default period (50 Hz)."""
@@ -116,13 +126,22 @@ def test_sigterm_finishes_the_file(tmp_path):
     assert stats.message_count == sum(back.count(t) for t in back.topics)
 
 
-def test_sigkill_leaves_a_file_readable_up_to_the_last_flushed_chunk(tmp_path):
-    p = _start_up(tmp_path / "a.mcap", "1")
-    _wait_for_status(p, 4.0)  # 4 s of wall time: chunks flushed at least every second
-    p.kill()
-    p.communicate(timeout=20)
+@pytest.fixture(scope="module")
+def killed(tmp_path_factory) -> Path:
+    """The recording of a ``vilma up`` killed with SIGKILL after 4 s of wall time (chunks flushed every second)."""
+    path = tmp_path_factory.mktemp("killed") / "a.mcap"
+    p = _start_up(path, "1")
+    try:
+        _wait_for_status(p, 4.0)
+    finally:
+        p.kill()
+        p.communicate(timeout=20)
     assert p.returncode == -signal.SIGKILL
-    back = read_recording(tmp_path / "a.mcap")
+    return path
+
+
+def test_sigkill_leaves_a_file_readable_up_to_the_last_flushed_chunk(killed):
+    back = read_recording(killed)
     assert not back.complete
     pose = back.readings("pose")
     # no hole: every pose period from the first to the last flushed one, and at least 2 s of them
@@ -130,3 +149,47 @@ def test_sigkill_leaves_a_file_readable_up_to_the_last_flushed_chunk(tmp_path):
     assert pose.stamp_ns[-1] - pose.stamp_ns[0] >= 2_000_000_000
     assert np.all(np.isfinite(pose.values))
     assert back.count("tf") == len(pose)
+
+
+def test_the_report_of_a_killed_recording_says_it_was_cut_short(killed, tmp_path):
+    got = report(killed, tmp_path / "rep").metrics
+    assert (got["completed"], got["truncated"]) == (False, True)
+    assert got["incomplete_reason"].startswith("the recording was cut short; covered")
+    assert got["path_progress"] is not None and got["speed_overshoot_pct"] is None  # the course, from its order
+
+
+def test_up_records_the_scenario_and_the_order_that_starts_its_task(tmp_path):
+    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
+    assert programs.up(scenario, 50.0, 1.0, lambda _: None, record=tmp_path / "up.mcap") == 0
+    back = read_recording(tmp_path / "up.mcap")
+    assert back.attachments["scenario.yaml"].decode() == to_yaml(scenario)
+    [order] = back.messages("driver/cmd")
+    assert (order.action, order.speed, order.stamp_ns) == ("follow", scenario.task.speed, POSE_PERIOD_NS)
+    assert np.array_equal(order.points, scenario.reference_path().xy)  # the driver's first period: its first pose
+
+
+def test_the_orders_the_driver_took_are_recorded_with_its_time_and_path(tmp_path):
+    """A peer's orders carry no time; the driver stamps those it took with its own (a go-to with the line from
+    where the car was, a tune with the time of the driver it replaced); a refused order is not recorded."""
+    scenario = load_scenario(BUNDLED / "pi_ff_speed_5.yaml")
+    bus, sim = LocalBus(), Simulator(scenario.sim)
+    sim_node = SimNode(sim, bus)
+    drv = DriverNode(Driver(sim.config.vehicle, scenario.driver, step=sim.config.step), bus,
+                     step_ns=sim.clock.step_ns)
+    recording = BusRecorder(bus, Recorder(tmp_path / "orders.mcap"))
+    order = topic("driver/cmd")
+    sim_node.frame(sim.advance(2))
+    assert bus.request(order, DriverOrder(action="set_speed", speed=5.0)).ok
+    for _ in range(50):
+        sim_node.frame(sim.advance(2))
+    assert not bus.request(order, DriverOrder(action="go_to", x=math.nan, y=0.0, speed=5.0)).ok
+    here = sim.state
+    assert bus.request(order, DriverOrder(action="go_to", x=here.x + 30.0, y=10.0, speed=5.0)).ok
+    assert bus.request(order, DriverOrder(action="tune", speed_controller="vilma_pid")).ok  # a new driver, same time
+    recording.close()
+    drv.close()
+    sim_node.close()
+    got = read_recording(tmp_path / "orders.mcap").messages("driver/cmd")
+    assert [(o.action, o.stamp_ns) for o in got] == [("set_speed", POSE_PERIOD_NS), ("go_to", 51 * POSE_PERIOD_NS),
+                                                     ("tune", 51 * POSE_PERIOD_NS)]
+    assert got[1].points == [[here.x, here.y], [here.x + 30.0, 10.0]]

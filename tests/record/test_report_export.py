@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import signal
+import socket
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,16 +17,22 @@ from rosbags.typesys import get_typestore
 
 from tests.record.world_messages import PERIOD_NS, write_world_recording
 from vilma import programs
+from vilma.bus import BoundedQueue, LocalBus, topic
+from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
 from vilma.core.geometry import quaternion_from_euler
+from vilma.core.messages import ActuatorState, DriverOrder, Pose, SimControl, SimStatus, Velocity
+from vilma.options import scenario_or_default
 from vilma.record.reader import read_recording
-from vilma.record.report import report, world_counts
+from vilma.record.recorder import Recorder
+from vilma.record.report import WATCHDOG, report, world_counts
 from vilma.record.rosbag import STORE, export_rosbag2
 from vilma.record.world_schemas import compressed_image
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.folder import PLOTS
-from vilma.scenario.runner import run
-from vilma.scenario.spec import TIMING_KEYS
+from vilma.scenario.runner import Interrupted, run
+from vilma.scenario.spec import SCORECARD_KEYS, TIMING_KEYS
+from vilma.sensors import Readings
 
 
 @pytest.fixture(scope="module")
@@ -31,23 +41,152 @@ def finished_run(tmp_path_factory):
     return run(load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"), out_dir=out), out
 
 
-def test_report_recomputes_the_runs_scorecard_and_plots(finished_run, tmp_path):
-    result, out = finished_run
-    again = report(out / "run.mcap", tmp_path / "rep")
-    same = {k: v for k, v in result.metrics.items() if k not in TIMING_KEYS}
-    assert {k: v for k, v in again.metrics.items() if k not in TIMING_KEYS} == same
-    written = json.loads((tmp_path / "rep" / "metrics.json").read_text())
-    assert {k: v for k, v in written.items() if k not in TIMING_KEYS} == same
+GO_TO = "task: {go_to: [40, 10], speed: 5}\nduration: 30\n"
+"""A go-to task (none is bundled): its path, the line from where the car was, is only in the recording."""
+
+
+@pytest.fixture(scope="module", params=["pi_ff_speed_5", "course_30kmh_stanley", "go_to"])
+def scored_run(request, tmp_path_factory):
+    """A run of a speed, a path and a go-to task: its folder and its metrics.json."""
+    out = tmp_path_factory.mktemp(request.param)
+    if request.param == "go_to":
+        (out / "go_to.yaml").write_text(GO_TO)
+        scenario = load_scenario(out / "go_to.yaml")
+    else:
+        scenario = load_scenario(BUNDLED / f"{request.param}.yaml")
+    run(scenario, out_dir=out / "run")
+    return out / "run", json.loads((out / "run" / "metrics.json").read_text())
+
+
+def test_report_of_a_run_gives_its_metrics_json(scored_run, tmp_path):
+    out, ran = scored_run
+    rec = read_recording(out / "run.mcap")
+    got = report(rec, tmp_path / "rep")
+    same = [k for k in SCORECARD_KEYS if k not in TIMING_KEYS]
+    assert {k: got.metrics[k] for k in same} == {k: ran[k] for k in same}
+    assert got.failures == rec.meta("run")["failures"]
+    # the loop's own time is the recording's, realtime_factor made from it as the run did; a report runs nothing
+    for k in ("loop_wall_time_s", "realtime_factor", "controller_time_per_step_us"):
+        assert got.metrics[k] == ran[k], k
+    assert got.metrics["load_time_s"] == rec.meta("scorecard")["load_time_s"] and got.metrics["wall_time_s"] is None
+    assert json.loads((tmp_path / "rep" / "metrics.json").read_text()) == {**got.metrics, "segments": [
+        {"start_s": rec.drive_log()[0, 0], "began": "start", **{k: ran[k] for k in same}}]}
     assert all((tmp_path / "rep" / p).stat().st_size > 0 for p in PLOTS)
 
 
-def test_report_of_a_live_recording_scores_the_poses(tmp_path):
-    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
-    programs.up(scenario, 50.0, 3.0, lambda _: None, record=tmp_path / "up.mcap")
-    pose = read_recording(tmp_path / "up.mcap").readings("pose")
-    got = report(tmp_path / "up.mcap", tmp_path / "rep").metrics
-    assert got["distance_m"] == pytest.approx(np.hypot(*np.diff(pose.values[:, :2], axis=0).T).sum(), rel=1e-12)
-    assert got["sim_time_s"] == pose.stamp_ns[-1] * 1e-9
+def test_report_of_an_interrupted_run_is_truncated(tmp_path):
+    """Ctrl-C: the run's recording is finished, without the run's metadata (when the task began, how it ended)."""
+    periods = iter(range(100))
+
+    def ctrl_c(_readings) -> None:
+        if next(periods, None) is None:
+            raise KeyboardInterrupt
+
+    with pytest.raises(Interrupted):
+        run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml"), out_dir=tmp_path, compiled=False, observe=ctrl_c)
+    rec = read_recording(tmp_path / "run.mcap")
+    assert rec.complete and "run" not in rec.metadata
+    got = report(rec, tmp_path / "rep").metrics
+    assert (got["completed"], got["truncated"], got["incomplete_reason"]) == (False, True,
+                                                                              "the recording was cut short")
+    assert got["distance_m"] == pytest.approx(np.hypot(*np.diff(rec.drive_log()[:, 1:3], axis=0).T).sum(),
+                                              rel=1e-12)
+
+
+def _up(path: Path, name: str, duration: float) -> Path:
+    r = subprocess.run([sys.executable, "-m", "vilma.cli", "up", name, "--speed", "50", "--duration", str(duration),
+                        "--record", str(path)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    return path
+
+
+@pytest.mark.parametrize(("name", "duration"), [("course_30kmh_stanley", 20.0), ("pi_ff_speed_5", 10.0)])
+def test_report_of_vilma_up_gives_the_figures_of_vilma_run(tmp_path, name, duration):
+    """The nodes drive as the runner's loop does (tests/bus/test_nodes.py) and a pose is recorded each control
+    period, so the report of ``vilma up --record`` is the scorecard of ``vilma run`` (to rounding): the task read
+    from the recording, a path task without speed-step keys, a speed task without path keys."""
+    got = report(_up(tmp_path / "up.mcap", name, duration), tmp_path / "rep").metrics
+    want = run(dataclasses.replace(load_scenario(BUNDLED / f"{name}.yaml"), duration=duration)).metrics
+    for k in SCORECARD_KEYS:
+        if k not in TIMING_KEYS:
+            assert got[k] == (pytest.approx(want[k], rel=1e-9) if isinstance(want[k], float) else want[k]), k
+    assert all(got[k] is None for k in TIMING_KEYS)  # a live recording holds no run's timing
+
+
+@pytest.fixture
+def processes():
+    """Starts ``vilma`` commands; whichever still runs at the end is killed."""
+    started: list[subprocess.Popen] = []
+
+    def start(*args: str) -> subprocess.Popen:
+        started.append(subprocess.Popen([sys.executable, "-m", "vilma.cli", *args], stdout=subprocess.PIPE,
+                                        stderr=subprocess.STDOUT, text=True))
+        return started[-1]
+
+    yield start
+    for p in started:
+        if p.poll() is None:
+            p.kill()
+        p.communicate(timeout=30)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _stop(p: subprocess.Popen) -> None:
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=30)
+    assert p.returncode == 0, out
+
+
+def _stretches(stamps: np.ndarray, *values: np.ndarray) -> list[list[np.ndarray]]:
+    """``values`` split where the stamps go back (the simulator's clock after a reset)."""
+    cut = np.flatnonzero(np.diff(stamps) < 0) + 1
+    return [np.split(v, cut) for v in (stamps * 1e-9, *values)]
+
+
+def test_report_of_vilma_sim_scores_each_segment_between_resets(tmp_path, processes):
+    """``vilma sim --record`` and ``vilma drive`` holding 5 m/s (a speed task: straight along x) on Zenoh; the
+    simulator is reset through the bus once the car is 40 m on, and stopped 30 m after the start again. Each
+    segment's distance is its poses' last x minus the first; the jump back to the start is driven by nobody."""
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    sim = processes("sim", "pi_ff_speed_5", "--listen", endpoint, "--no-morse", "--speed", "10",
+                    "--record", str(tmp_path / "sim.mcap"))
+    bus = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
+    try:
+        poses = BoundedQueue(bus, topic("pose"), maxsize=100_000)
+        assert poses.wait(lambda _: True, 60), "no pose from vilma sim"
+        drive = processes("drive", "pi_ff_speed_5", "--connect", endpoint)
+        assert poses.wait(lambda p: p.x > 40.0, 120), "the car did not drive 40 m"
+        assert bus.request(topic("sim/cmd"), SimControl(action="reset"), timeout=10).ok
+        assert poses.wait(lambda p: p.x < 1.0, 60), "the car was not put back"
+        assert poses.wait(lambda p: p.x > 30.0, 120), "the car did not drive again"
+        _stop(sim)
+        _stop(drive)
+    finally:
+        bus.close()
+    rec = read_recording(tmp_path / "sim.mcap")
+    assert [(o.action, o.speed) for o in rec.messages("driver/cmd")] == [("set_speed", 5.0)]  # the drive's task
+    pose, v = rec.readings("pose"), rec.readings("velocity")
+    assert np.all(pose.field("y") == 0.0)
+    t, x = _stretches(pose.stamp_ns, pose.field("x"))
+    assert len(x) == 2 and abs(x[1][0] - x[0][0]) < 0.01  # one reset: back at the start (a frame from rest)
+
+    got = report(rec, tmp_path / "rep")
+    assert [s["began"] for s in got.segments] == ["start", "reset"]
+    assert [s["distance_m"] for s in got.segments] == [pytest.approx(a[-1] - a[0], rel=1e-9) for a in x]
+    assert got.metrics["distance_m"] == pytest.approx(sum(a[-1] - a[0] for a in x), rel=1e-9)
+    assert got.metrics["sim_time_s"] == pytest.approx(t[0][-1] + t[1][-1], abs=1e-9)
+    last = [k for k in SCORECARD_KEYS if k not in ("distance_m", "sim_time_s", *TIMING_KEYS)]
+    assert {k: got.metrics[k] for k in last} == {k: got.segments[1][k] for k in last}
+    assert got.segments[0]["completed"] is got.segments[1]["completed"] is True
+    # after the reset the car starts from rest again: its speed passes 90 % of 5 m/s between two velocity samples
+    at, speed = (a[1] for a in _stretches(v.stamp_ns, v.field("vx")))
+    first = np.flatnonzero(speed >= 4.5)[0]
+    assert at[first - 1] - t[1][0] <= got.segments[1]["speed_rise_time_90_s"] <= at[first] - t[1][0]
 
 
 def test_report_cli_writes_beside_the_recording(finished_run):
@@ -164,3 +303,61 @@ def test_report_counts_the_world_sensors(tmp_path):
     assert "world sensors: camera/front_left 5, camera/front_left/depth 5, laser 5" in r.stdout.splitlines()
     assert world_counts(read_recording(tmp_path / "w.mcap")) == {
         "camera/front_left": 5, "camera/front_left/depth": 5, "laser": 5}
+
+
+@pytest.mark.parametrize("name", ["course_30kmh_stanley", "pi_ff_speed_5"])
+def test_without_the_drivers_orders_the_task_is_its_mode_and_the_scenarios(tmp_path, name):
+    """A recording whose driver did not publish the orders it took: the task is told by the driver's mode, a
+    speed task at its target, a path the scenario's: the same figures as from the orders."""
+    programs.up(load_scenario(BUNDLED / f"{name}.yaml"), 50.0, 6.0, lambda _: None, record=tmp_path / "up.mcap")
+    rec = read_recording(tmp_path / "up.mcap")
+    want = report(rec, tmp_path / "rep").metrics
+    del rec.raw["driver/cmd"], rec.epochs["driver/cmd"]
+    assert report(rec, tmp_path / "rep2").metrics == want
+
+
+TASK_KEYS = ("end_error_m", "path_progress", "waypoints_skipped", "lateral_error_rms_m", "lateral_error_max_m",
+             "lateral_error_p95_m", "heading_error_rms_rad", "speed_rise_time_90_s", "speed_overshoot_pct",
+             "speed_settling_time_2pct_s", "speed_steady_state_error_mps")
+"""The keys of a path task and of a speed step."""
+
+
+def test_without_a_driver_nothing_of_a_task_is_scored(tmp_path):
+    """``vilma sim`` recorded alone: no order, no driver status; its scenario's task (``vilma sim``'s idle
+    default) is not the drive's."""
+    programs.sim_program(scenario_or_default(None), LocalBus(), 50.0, 2.0, lambda _: None, morse=None,
+                         record=tmp_path / "sim.mcap")
+    got = report(tmp_path / "sim.mcap", tmp_path / "rep")
+    assert got.metrics["completed"] is None and got.failures == []
+    assert got.metrics["incomplete_reason"] == "the recording holds neither the driver's orders nor its status"
+    assert all(got.metrics[k] is None for k in TASK_KEYS)
+    assert got.metrics["distance_m"] == 0.0  # nobody drove
+
+
+FRAME_NS = 20_000_000
+"""The pose period of the synthetic recordings [ns] (50 Hz)."""
+
+
+def test_a_pose_jump_without_a_clock_reset_starts_a_segment_and_a_tripped_watchdog_ends_the_task(tmp_path):
+    """A car at 1 m/s along x for 2 s, put back to x = 0 with the clock going on (a reset that keeps the time),
+    2 s more, the watchdog tripped at the end: the jump (2 m in a frame at 1 m/s) is no distance, and the last
+    segment's task (hold 1 m/s) was not completed."""
+    stamps = np.arange(1, 201, dtype=np.int64) * FRAME_NS
+    x = np.where(stamps <= 100 * FRAME_NS, stamps, stamps - 100 * FRAME_NS) * 1e-9  # [m] at 1 m/s
+    pose, velocity = np.zeros((len(stamps), 6)), np.zeros((len(stamps), 9))
+    pose[:, 0], velocity[:, [0, 3]] = x, 1.0
+    rec = Recorder(tmp_path / "jump.mcap")
+    rec.add_readings({"pose": Readings("pose", Pose, stamps, pose),
+                      "velocity": Readings("velocity", Velocity, stamps, velocity),
+                      "actuators": Readings("actuators", ActuatorState, stamps, np.zeros((len(stamps), 3)))})
+    rec.add_message("driver/cmd", DriverOrder(stamp_ns=FRAME_NS, action="set_speed", speed=1.0))
+    for t in stamps:
+        rec.add_message("sim/status", SimStatus(stamp_ns=int(t), watchdog_tripped=bool(t == stamps[-1])))
+    rec.close()
+    got = report(tmp_path / "jump.mcap", tmp_path / "rep")
+    halves = np.split(x, [100])
+    assert [(s["began"], s["start_s"]) for s in got.segments] == [("start", 0.02), ("jump", 2.02)]
+    assert [s["distance_m"] for s in got.segments] == [pytest.approx(h[-1] - h[0], rel=1e-12) for h in halves]
+    assert got.metrics["sim_time_s"] == 4.0  # one clock: no time added by the jump
+    assert got.segments[0]["completed"] is True
+    assert (got.metrics["completed"], got.metrics["incomplete_reason"]) == (False, WATCHDOG)

@@ -74,17 +74,21 @@ def world_at(stamp_ns: int) -> list[tuple[str, Image | PointCloud]]:
 
 
 def write_world_recording(path, n: int = 5, **recorder) -> list[tuple[str, Image | PointCloud]]:
-    """A recording at ``path``: poses at 50 Hz driving along x at 1 m/s for ``n`` world periods, and ``n``
-    captures of each world topic; returns the captures in the order recorded."""
-    from vilma.core.messages import Pose
+    """A recording at ``path``: poses, velocities and actuator states at 50 Hz driving along x at 1 m/s for ``n``
+    world periods, and ``n`` captures of each world topic; returns the captures in the order recorded."""
+    from vilma.core.messages import ActuatorState, Pose, Velocity
     from vilma.record.recorder import Recorder
     from vilma.sensors import Readings
 
     stamps = np.arange(1, 5 * n + 1, dtype=np.int64) * (PERIOD_NS // 5)
     values = np.zeros((len(stamps), 6))
     values[:, 0] = stamps * 1e-9
+    velocity = np.zeros((len(stamps), 9))
+    velocity[:, [0, 3]] = 1.0  # vx, vx_world
     rec = Recorder(path, **recorder)
-    rec.add_readings({"pose": Readings("pose", Pose, stamps, values)})
+    rec.add_readings({"pose": Readings("pose", Pose, stamps, values),
+                      "velocity": Readings("velocity", Velocity, stamps, velocity),
+                      "actuators": Readings("actuators", ActuatorState, stamps, np.zeros((len(stamps), 3)))})
     sent = [c for k in range(1, n + 1) for c in world_at(k * PERIOD_NS)]
     for name, msg in sent:
         rec.add_message(name, msg)

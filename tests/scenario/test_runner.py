@@ -184,6 +184,12 @@ def test_a_full_disk_names_the_file(tmp_path, processes):
     assert "File too large" in err and str(tmp_path / "o" / "timeseries.csv") in err
 
 
+def test_cli_run_of_an_unfinished_task_shows_why(tmp_path, capsys):
+    assert main(["run", "course_30kmh_stanley", "--set", "duration=10", "--out", str(tmp_path / "o")]) == 1
+    out = " ".join(capsys.readouterr().out.split())  # the tables wrap long cells
+    assert "│ incomplete_reason │ covered" in out and "FAIL course_30kmh_stanley: completed: no, covered" in out
+
+
 def test_cli_run_exits_1_when_a_scenario_fails_its_expectations(tmp_path, capsys):
     p = tmp_path / "strict.yaml"
     p.write_text("task: {speed: 10}\nduration: 5\nexpect: {speed_rise_time_90_s: {max: 1.0}}\n")

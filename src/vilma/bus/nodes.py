@@ -9,8 +9,8 @@ commands that arrive on ``cmd`` at the start of the next frame. It answers
 :class:`DriverNode` collects the readings of each frame, runs the driver
 once per driver period of sim time when a frame ends, publishes the command
 on ``cmd`` and its status on ``driver/status``, and takes orders on
-``driver/cmd``. A ``follow`` order may name a trajectory file only in the data
-folder the driver was given (none: file orders are refused), and the reply
+``driver/cmd``; each order it took is published there too, for recorders. A ``follow`` order may name a
+trajectory file only in the data folder the driver was given (none: file orders are refused), and the reply
 never quotes a file: a peer is not a user of this machine.
 """
 
@@ -204,8 +204,11 @@ class DriverNode:
         self.bus.publish(topic("driver/status", self.car), self.driver.status)
 
     def order(self, order: DriverOrder) -> Reply:
-        """Carry out an order; a Reply says whether it was taken, or why not."""
+        """Carry out an order; a Reply says whether it was taken, or why not. An order taken is published on
+        ``driver/cmd``, stamped with the driver's time (a go-to and a follow with the points of the path driven:
+        its start, a file's points), so that a recording holds the driver's task."""
         d, a = self.driver, order.action
+        stamp = d.stamp_ns  # now: a tune order swaps the driver for a new one, which has no time yet
         speed = None if math.isnan(order.speed) else order.speed
         try:
             if a == "manual":
@@ -225,6 +228,9 @@ class DriverNode:
                                              " tune")
         except (ValueError, TrajectoryFileError) as e:
             return Reply(ok=False, error=f"{a}: {e}")
+        if a in ("go_to", "follow"):
+            order = msgspec.structs.replace(order, points=d.task.path.xy.tolist(), file="")
+        self.bus.publish(topic("driver/cmd", self.car), msgspec.structs.replace(order, stamp_ns=stamp))
         return Reply(ok=True)
 
     def set_params(self, params: DriverParams) -> None:

@@ -15,6 +15,12 @@ def report_command(args: argparse.Namespace) -> int:
     result = report(rec, Path(args.out) if args.out else None)
     for k, v in result.metrics.items():
         print(f"{k:32s} {v}")
+    if len(result.segments) > 1:
+        print(f"{len(result.segments)} segments (the scorecard is the last one's; distance_m and sim_time_s their "
+              "sums):")
+        for i, s in enumerate(result.segments, 1):
+            print(f"  {i}: from the {s['began']} at t={s['start_s']:.2f} s to t={s['sim_time_s']:.2f} s, "
+                  f"{s['distance_m']:.2f} m, completed {s['completed']}")
     counts = world_counts(rec)
     if counts:
         print("world sensors: " + ", ".join(f"{name} {n}" for name, n in counts.items()))

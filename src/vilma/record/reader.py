@@ -3,7 +3,9 @@
 :func:`read_recording` reads the file from the start, record by record, so a
 file whose writer was killed (no summary, a torn last record) is read up to
 its last complete chunk; :attr:`Recording.complete` says whether the footer
-was there. Camera images and laser scans come back as
+was there. A reset of the simulator starts its clock again from 0: each message
+gets the epoch it was stamped in (:class:`Epochs`), and a topic comes back in
+epoch order, then stamp order. Camera images and laser scans come back as
 :class:`~vilma.core.messages.Image` and :class:`~vilma.core.messages.PointCloud`
 (a JPEG image as its decoded pixels: see :mod:`vilma.record.world_schemas`).
 """
@@ -47,6 +49,8 @@ class Recording:
     """Topic -> message encoding (``cdr``: numeric topics, ``json``: the others)."""
     raw: dict[str, tuple[list[int], list[bytes]]] = field(default_factory=dict)
     """Topic -> (log times [ns], payloads), in file order."""
+    epochs: dict[str, list[int]] = field(default_factory=dict)
+    """Topic -> the epoch of each message of ``raw`` (0, and one more after each reset of the sim's clock)."""
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)
     attachments: dict[str, bytes] = field(default_factory=dict)
     complete: bool = False
@@ -67,18 +71,24 @@ class Recording:
         return len(self.raw.get(name, ((), ()))[0])
 
     def payloads(self, name: str) -> list[bytes]:
-        """The payloads of topic ``name``, in stamp order."""
+        """The payloads of topic ``name``, in epoch then stamp order."""
         st, data = self.raw.get(name, ([], []))
-        order = np.argsort(np.asarray(st, np.int64), kind="stable")
-        return [data[i] for i in order.tolist()]
+        return [data[i] for i in self._order(name, np.asarray(st, np.int64)).tolist()]
+
+    def _order(self, name: str, stamps: np.ndarray) -> np.ndarray:
+        return np.lexsort((stamps, np.asarray(self.epochs.get(name, []), np.int64)))
+
+    def epoch(self, name: str) -> np.ndarray:
+        """The epoch of each message of topic ``name``, in the order the other methods give them."""
+        return np.sort(np.asarray(self.epochs.get(name, []), np.int64))
 
     def objects(self, name: str) -> list[dict]:
-        """The JSON objects of topic ``name``, in stamp order."""
+        """The JSON objects of topic ``name``, in epoch then stamp order."""
         data = self.payloads(name)
         return msgspec.json.decode(b"[" + b",".join(data) + b"]") if data else []
 
     def readings(self, name: str) -> Readings:
-        """A sensor topic as arrays (stamp order).
+        """A sensor topic as arrays (epoch then stamp order).
 
         Raises:
             RecordingError: the topic is of a type this vilma does not read.
@@ -91,7 +101,7 @@ class Recording:
         return _arrays(self, DRIVE_LOG, COLUMNS, m.Message).values
 
     def messages(self, name: str) -> list[m.Message]:
-        """Topic ``name`` as vilma messages, in stamp order."""
+        """Topic ``name`` as vilma messages, in epoch then stamp order."""
         if name in SENSOR_TOPICS:
             return self.readings(name).messages()
         if name not in TOPICS and self.schemas.get(name) in WORLD_SCHEMAS:
@@ -122,7 +132,7 @@ def _arrays(rec: Recording, name: str, fields: tuple[str, ...], cls: type[m.Mess
             stamps, values = lay.decode(data)
         except ValueError as e:
             raise RecordingError(f"{rec.path}: topic {name}: {e}") from None
-    order = np.argsort(stamps, kind="stable")
+    order = rec._order(name, stamps)
     return Readings(name, cls, stamps[order], values[order])
 
 
@@ -132,6 +142,38 @@ def _json_arrays(data: list[bytes], fields: tuple[str, ...]) -> tuple[np.ndarray
     rows = msgspec.json.decode(b"[" + b",".join(data) + b"]", type=list[row]) if data else []
     values = np.array([msgspec.structs.astuple(r)[1:] for r in rows], dtype=float).reshape(len(rows), len(fields))
     return np.array([r.stamp_ns for r in rows], np.int64), values
+
+
+class Epochs:
+    """Which epoch of the sim's clock each message was stamped in, told from the stamps in file order.
+
+    The simulator's reset sets its clock back to 0, so a topic whose stamp goes back has crossed a reset: the
+    first to cross starts the next epoch. A message of a topic last heard before the newest epoch began is of
+    the latest epoch since (after its own, if its stamp went back) whose end it is nearer than the newest
+    epoch's time (a late one from another process, stamped near the end of its epoch), else of the newest (its
+    topic fell silent before a reset and spoke again after).
+    """
+
+    def __init__(self) -> None:
+        self.ends: list[int] = [0]
+        """The latest stamp of each epoch so far [ns]."""
+        self._topics: dict[str, tuple[int, int]] = {}  # topic -> (epoch, last stamp)
+
+    def of(self, name: str, t: int) -> int:
+        """The epoch of the next message of topic ``name``, stamped ``t`` [ns]."""
+        now = len(self.ends) - 1
+        e, last = self._topics.get(name, (0, t))
+        if t < last and e == now:  # the first to cross a reset
+            e = now + 1
+        elif e < now:  # last heard before a reset: in which epoch since?
+            first = e + 1 if t < last else e
+            e = next((k for k in range(now - 1, first - 1, -1) if 0 <= self.ends[k] - t < abs(t - self.ends[now])),
+                     now)
+        if e == len(self.ends):
+            self.ends.append(t)
+        self.ends[e] = max(self.ends[e], t)
+        self._topics[name] = (e, t)
+        return e
 
 
 def read_recording(path: Path) -> Recording:
@@ -149,6 +191,7 @@ def read_recording(path: Path) -> Recording:
     schemas: dict[int, Schema] = {}
     channels: dict[int, str] = {}
     prefix: str | None = None
+    epochs = Epochs()
     with f:
         try:
             for r in StreamReader(f, record_size_limit=1 << 31).records:
@@ -158,6 +201,7 @@ def read_recording(path: Path) -> Recording:
                         st, data = rec.raw[name]
                         st.append(r.log_time)
                         data.append(r.data)
+                        rec.epochs[name].append(epochs.of(name, r.log_time))
                 elif isinstance(r, Schema):
                     schemas[r.id] = r
                 elif isinstance(r, Channel):
@@ -168,6 +212,7 @@ def read_recording(path: Path) -> Recording:
                     if r.id not in channels:
                         channels[r.id] = name
                         rec.raw.setdefault(name, ([], []))
+                        rec.epochs.setdefault(name, [])
                         rec.schemas[name] = schemas[r.schema_id].name if r.schema_id in schemas else ""
                         rec.encodings[name] = r.message_encoding
                 elif isinstance(r, Metadata):

@@ -39,8 +39,9 @@ from vilma.sensors import Readings
 
 log = logging.getLogger(__name__)
 
-LIVE_TOPICS = tuple(n for n in TOPICS if n not in ("driver/cmd", "sim/cmd"))
-"""Topics a live recording subscribes to (orders on ``*/cmd`` are requests, not publications)."""
+LIVE_TOPICS = tuple(n for n in TOPICS if n != "sim/cmd")
+"""Topics a live recording subscribes to: every topic of the car but ``sim/cmd`` (orders on ``*/cmd`` are
+requests; the driver publishes those it took on ``driver/cmd``, which say what its task was)."""
 
 
 def _stderr(line: str) -> None:

@@ -139,9 +139,9 @@ def summary_table(jobs: list[Job], results: list[RunResult]) -> Table:
     return table
 
 
-def _fmt(v) -> str:
+def _fmt(v) -> Text | str:
     if v is None:
         return "-"
     if isinstance(v, bool):
         return "yes" if v else "no"
-    return f"{v:.4g}"
+    return Text(v) if isinstance(v, str) else f"{v:.4g}"
