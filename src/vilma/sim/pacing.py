@@ -48,7 +48,8 @@ class Pacer:
         speed: wall-clock speed-up, > 0 (1 = real time).
         period: sim seconds per advance (a whole number of physics steps).
         max_lag: wall seconds behind schedule before re-anchoring.
-        clock, sleep: wall clock [s] and sleep function (injectable for tests).
+        clock: wall clock [s] (injectable for tests).
+        sleep: sleep function [s] (injectable for tests).
     """
 
     def __init__(self, sim: Simulator, speed: float = 1.0, period: float = 0.02, max_lag: float = 0.25,
