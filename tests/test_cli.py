@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import logging
+import re
+import sys
+
 import numpy as np
 import pytest
 
-from vilma.cli import main
-from vilma.scenario.batch import BUNDLED
+from vilma.cli import _parser, main
+from vilma.scenario.bundled import BUNDLED, names, summary
 from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory
 from vilma.trajectory.densify import MAX_POINTS
@@ -117,3 +121,71 @@ def test_hostile_scenarios_exit_2_with_one_line(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.startswith(f"vilma run: error: {message}") and err.count("\n") == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_scenarios_lists_each_bundled_one_on_a_line(capsys):
+    assert main(["scenarios"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines == [f"{n}: {summary(BUNDLED / f'{n}.yaml')}" for n in names()]
+    assert len(lines) == len(list(BUNDLED.glob("*.yaml")))
+
+
+def test_run_help_names_the_bundled_scenarios(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["run", "--help"])
+    assert e.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())  # argparse wraps the list
+    assert all(f" {n}," in text or text.endswith(f" {n}") for n in names())
+
+
+@pytest.fixture
+def root_level():
+    """The root logger's level, put back after the test (main sets it)."""
+    level = logging.getLogger().level
+    yield
+    logging.getLogger().setLevel(level)
+
+
+def test_every_command_takes_verbose_and_quiet():
+    commands = _parser()._subparsers._group_actions[0].choices
+    assert {"demo", "run", "sim", "drive", "up", "gui", "report", "trajectory", "scenarios"} <= set(commands)
+    for name, sub in commands.items():
+        assert {"-v", "--verbose", "-q", "--quiet"} <= {s for a in sub._actions for s in a.option_strings}, name
+
+
+@pytest.mark.parametrize(("flags", "level"), [([], logging.WARNING), (["-v"], logging.INFO), (["-vv"], logging.DEBUG),
+                                              (["-v", "--verbose", "-v"], logging.DEBUG), (["-q"], logging.ERROR),
+                                              (["--quiet"], logging.ERROR)])
+def test_verbose_and_quiet_set_the_log_level(flags, level, root_level, capsys):
+    assert main(["scenarios", *flags]) == 0
+    assert logging.getLogger().getEffectiveLevel() == level
+
+
+def test_verbose_and_quiet_together_are_refused(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["scenarios", "-q", "-v"])
+    assert e.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1] == ("vilma scenarios: error: argument -v/--verbose: not allowed "
+                                                        "with argument -q/--quiet")
+
+
+def test_quiet_run_prints_only_what_failed(tmp_path, capsys):
+    p = tmp_path / "strict.yaml"
+    p.write_text("task: {speed: 10}\nduration: 5\nexpect: {speed_rise_time_90_s: {max: 1.0}}\n")  # 10 m/s in 5 s: no
+    assert main(["run", str(p), "--out", str(tmp_path / "o"), "-q"]) == 1
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err == "FAIL strict: speed_rise_time_90_s: None is outside max 1\n"
+
+
+def test_without_a_terminal_a_batch_prints_a_line_a_run(tmp_path, capsys):
+    assert not sys.stdout.isatty()  # pytest captures it
+    main(["run", "pi_ff_speed_5", "--set", "duration=1,2", "--out", str(tmp_path), "--no-record"])
+    lines = capsys.readouterr().out.splitlines()
+    done = [line for line in lines if re.fullmatch(r"\[\d/2\] .*: (pass|FAIL) in \d+\.\d s", line)]
+    assert [line.split(":")[0] for line in done] == ["[1/2] pi_ff_speed_5 duration=1", "[2/2] pi_ff_speed_5 duration=2"]
+
+
+def test_quiet_up_prints_nothing(capsys):
+    assert main(["up", "pi_ff_speed_5", "--duration", "1", "--speed", "50", "-q"]) == 0
+    assert capsys.readouterr() == ("", "")

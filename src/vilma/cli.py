@@ -1,9 +1,11 @@
+# PYTHON_ARGCOMPLETE_OK
 """The ``vilma`` command."""
 
 from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import time
 
@@ -30,7 +32,7 @@ def _demo(args: argparse.Namespace) -> int:
     from vilma import demo
     from vilma.scenario import batch
 
-    console = _console()
+    console = _console(args)
     jobs = batch.plan(demo.scenario_names(), [])
     root = demo.out_root(Path(args.out) if args.out else None)
     console.print(f"vilma demo: {len(jobs)} bundled scenarios, headless, files in {root}", highlight=False)
@@ -39,18 +41,30 @@ def _demo(args: argparse.Namespace) -> int:
     return _report_failures(results, console)
 
 
-def _console():
+def _console(args: argparse.Namespace):
+    """Where a command's progress and tables go: nowhere with ``--quiet``."""
     from rich.console import Console
 
-    return Console(width=None if sys.stdout.isatty() else 160)
+    return Console(width=None if sys.stdout.isatty() else 160, quiet=args.quiet)
 
 
 def _report_failures(results, console) -> int:
+    from rich.console import Console
+
+    out = Console(stderr=True) if console.quiet else console  # --quiet keeps what failed
     failed = [r for r in results if not r.passed]
     for r in failed:
         for line in r.failures:
-            console.print(f"FAIL {r.scenario.name}: {line}", highlight=False)
+            out.print(f"FAIL {r.scenario.name}: {line}", highlight=False)
     return 1 if failed else 0
+
+
+def _scenarios(args: argparse.Namespace) -> int:
+    from vilma.scenario import bundled
+
+    for name in bundled.names():
+        print(f"{name}: {bundled.summary(bundled.BUNDLED / f'{name}.yaml')}")
+    return 0
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -61,7 +75,7 @@ def _run(args: argparse.Namespace) -> int:
     from vilma.scenario import batch
 
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
-    console = _console()
+    console = _console(args)
     live = None
     if args.foxglove is not None:
         from vilma.record.commands import foxglove_observer
@@ -133,10 +147,11 @@ def _sim(args: argparse.Namespace) -> int:
         args.morse_host, args.morse_port, args.morse_stream_port,
         tuple(args.allow_commands_from) if args.allow_commands_from else None)
     bus, cfg = zenoh_bus(args, (DEFAULT_ENDPOINT,), ())
-    print(f"vilma sim: {scenario.name}, {args.speed:g}x real time; Zenoh listens on {', '.join(cfg.listen) or '-'}"
-          f", connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*", flush=True)
+    say = _say(args)
+    say(f"vilma sim: {scenario.name}, {args.speed:g}x real time; Zenoh listens on {', '.join(cfg.listen) or '-'}, "
+        f"connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*")
     try:
-        return programs.sim_program(scenario, bus, args.speed, args.duration, lambda s: print(s, flush=True), morse,
+        return programs.sim_program(scenario, bus, args.speed, args.duration, say, morse,
                                     record=_record_path(args), foxglove=args.foxglove)
     finally:
         bus.close()
@@ -148,10 +163,11 @@ def _drive(args: argparse.Namespace) -> int:
 
     scenario = scenario_or_default(args.scenario) if args.scenario else None
     bus, cfg = zenoh_bus(args, (LOOPBACK_ANY_PORT,), (DEFAULT_ENDPOINT,))
-    print(f"vilma drive: {'task of ' + scenario.name if scenario else 'waiting for orders on vilma/vilma/driver/cmd'}"
-          f"; Zenoh connects to {', '.join(cfg.connect) or '-'}", flush=True)
+    say = _say(args)
+    say(f"vilma drive: {'task of ' + scenario.name if scenario else 'waiting for orders on vilma/vilma/driver/cmd'}; "
+        f"Zenoh connects to {', '.join(cfg.connect) or '-'}")
     try:
-        return programs.drive_program(scenario, bus, print, args.data_dir)
+        return programs.drive_program(scenario, bus, say, args.data_dir)
     finally:
         bus.close()
 
@@ -161,10 +177,14 @@ def _up(args: argparse.Namespace) -> int:
 
     scenario = scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
                                                      "[60, 0]], speed: 8.33}", args.plant)
-    print(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)",
-          flush=True)
-    return programs.up(scenario, args.speed, args.duration, lambda line: print(line, flush=True), _record_path(args),
-                       args.foxglove)
+    say = _say(args)
+    say(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)")
+    return programs.up(scenario, args.speed, args.duration, say, _record_path(args), args.foxglove)
+
+
+def _say(args: argparse.Namespace):
+    """How a program prints its status lines: at once (another program may be reading), or not with ``--quiet``."""
+    return (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
 
 
 def _record_path(args: argparse.Namespace):
@@ -215,6 +235,7 @@ def _folder(name: str):
 
 def _parser() -> argparse.ArgumentParser:
     from vilma import __version__
+    from vilma.scenario import bundled
     from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
 
     p = argparse.ArgumentParser(prog="vilma", description="Simulate, drive and monitor an autonomous car.")
@@ -226,8 +247,10 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--realtime", type=positive, default=None, metavar="K",
                    help="pace each run to K times real time (default: as fast as possible)")
     d.set_defaults(func=_demo)
-    r = sub.add_parser("run", help="run scenario files headless and score them")
-    r.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario YAML files (see scenarios/)")
+    r = sub.add_parser("run", help="run scenario files headless and score them",
+                       epilog=f"bundled scenarios (`vilma scenarios` describes them): {', '.join(bundled.names())}")
+    r.add_argument("scenarios", nargs="+", metavar="SCENARIO",
+                   help="scenario YAML files or bundled scenario names").completer = _complete_scenario
     r.add_argument("--out", metavar="DIR", help="where the files go (default runs/<name>-<timestamp>/)")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, YAML value); KEY=a,b,c sweeps over the values")
@@ -245,7 +268,7 @@ def _parser() -> argparse.ArgumentParser:
                            ("up", "simulator and driver in one process, real time")):
         q = sub.add_parser(name, help=helptext)
         q.add_argument("scenario", nargs="?", metavar="SCENARIO", help="scenario file or bundled name (its car, "
-                       "sensors, controllers and task)")
+                       "sensors, controllers and task)").completer = _complete_scenario
         if name != "drive":
             q.add_argument("--plant", type=_plant, metavar="MODEL", help=PLANT_HELP)
             q.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
@@ -276,7 +299,7 @@ def _parser() -> argparse.ArgumentParser:
         q.set_defaults(func={"sim": _sim, "drive": _drive, "up": _up}[name])
     g = sub.add_parser("gui", help="the control and monitoring window (embedded simulator, or --connect)")
     g.add_argument("scenario", nargs="?", metavar="SCENARIO", help="embedded: scenario file or bundled name (car, "
-                   "sensors, controllers; its path fills the table)")
+                   "sensors, controllers; its path fills the table)").completer = _complete_scenario
     g.add_argument("--connect", action="append", metavar="ENDPOINT",
                    help="join `vilma sim` / `vilma drive` over Zenoh at ENDPOINT, e.g. tcp/127.0.0.1:7447")
     g.add_argument("--listen", action="append", metavar="ENDPOINT", help="with --connect: Zenoh endpoint to listen on")
@@ -306,7 +329,8 @@ def _parser() -> argparse.ArgumentParser:
     rl.set_defaults(func=_record_command("replay_command"))
     rb = sub.add_parser("ros1-bridge", help="the simulator's topics on a ROS 1 master (/pose, /velocity, /gps, /imu, "
                         "/wheelspeed) and commands from /cmd; needs Debian's ROS 1")
-    rb.add_argument("scenario", nargs="?", metavar="SCENARIO", help="scenario file or bundled name (its car, sensors)")
+    rb.add_argument("scenario", nargs="?", metavar="SCENARIO",
+                    help="scenario file or bundled name (its car, sensors)").completer = _complete_scenario
     rb.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
     rb.add_argument("--duration", type=duration, default=float("inf"), help="stop after this sim time [s]")
     rb.add_argument("--cmd-topic", default="/cmd", help="ROS topic of actuator commands (default /cmd)")
@@ -329,13 +353,35 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--times", type=count, default=1, help="densify: Increase Point Count this many times (default 1)")
     t.add_argument("--spacing", type=positive, default=0.5, help="resample: spacing [m] (default 0.5)")
     t.set_defaults(func=_trajectory)
+    sc = sub.add_parser("scenarios", help="the bundled scenarios, one line each (run them by name)")
+    sc.set_defaults(func=_scenarios)
+    for q in sub.choices.values():
+        loud = q.add_mutually_exclusive_group()
+        loud.add_argument("-v", "--verbose", action="count", default=0, help="log more: -v info, -vv debug")
+        loud.add_argument("-q", "--quiet", action="store_true", help="errors only: no progress bars, tables or notes")
     return p
+
+
+def _complete_scenario(prefix: str, **_) -> list[str]:
+    """Shell completion of a scenario: the bundled names, and files and folders (argcomplete's completer)."""
+    from argcomplete.completers import FilesCompleter
+
+    from vilma.scenario import bundled
+
+    return [n for n in bundled.names() if n.startswith(prefix)] + list(FilesCompleter(("yaml",))(prefix))
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: parse ``argv`` and run the subcommand; returns the exit code."""
-    args = _parser().parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    parser = _parser()
+    if "_ARGCOMPLETE" in os.environ:  # the shell asks for completions (argcomplete): only then import it
+        import argcomplete
+
+        argcomplete.autocomplete(parser)
+    args = parser.parse_args(argv)
+    logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")
+    quiet_or_verbose = logging.ERROR if args.quiet else max(logging.DEBUG, logging.WARNING - 10 * args.verbose)
+    logging.getLogger().setLevel(quiet_or_verbose)  # set even when a handler exists (basicConfig would not)
     try:
         return args.func(args)
     except (ValueError, OSError) as e:

@@ -198,7 +198,7 @@ def test_cli_run_exits_1_when_a_scenario_fails_its_expectations(tmp_path, capsys
 
 
 @pytest.mark.parametrize(("args", "message"), [
-    (["run", "nope.yaml"], "nope.yaml: no such scenario file, nor a bundled scenario"),
+    (["run", "nope.yaml"], "nope.yaml: no such file, nor a bundled scenario"),
     (["run", "pi_ff_speed_5", "--set", "task.speed"], "--set task.speed: expected key=value"),
     (["run", "pi_ff_speed_5", "--set", "duration=1e9"], "duration: 1000000000 s is more than the 4320000 driver"),
 ])

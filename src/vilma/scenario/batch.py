@@ -14,19 +14,20 @@ from rich.progress import Progress
 from rich.table import Table
 from rich.text import Text
 
+from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the demo and the tests find them
+from vilma.scenario.bundled import find_scenario as find_scenario
 from vilma.scenario.fields import SpecError
 from vilma.scenario.folder import claim, out_dirs
 from vilma.scenario.runner import RunResult, run
 from vilma.scenario.spec import Scenario, load_scenario
-
-BUNDLED = Path(__file__).resolve().parent.parent / "scenarios"
-"""The scenarios that come with vilma (``scenarios/`` in a clone)."""
 
 SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("lateral_error_max_m", "lat max [m]"),
            ("speed_rise_time_90_s", "t90 [s]"), ("speed_overshoot_pct", "overshoot [%]"),
            ("speed_error_rms_mps", "speed RMS [m/s]"), ("pose_error_rms_m", "pose RMS [m]"),
            ("realtime_factor", "x real time"))
 """Scorecard keys shown in the summary table, with their headings."""
+COMPILING = "compiling vilma's numba code for this machine: about a minute, once (cached for the next runs)"
+"""What the first run says when numba's cache is cold (:func:`numba_cache_cold`)."""
 MAX_RUNS = 100_000
 """Runs one ``--set`` sweep may ask for (each is loaded and checked before the first starts)."""
 
@@ -70,22 +71,9 @@ def plan(files: Sequence[str], sets: Sequence[str]) -> list[Job]:
     """
     jobs = []
     for f in files:
-        path = find_scenario(f)
         for overrides in parse_sets(sets):
-            jobs.append(Job(load_scenario(path, overrides), tuple(overrides.items())))
+            jobs.append(Job(load_scenario(f, overrides), tuple(overrides.items())))
     return jobs
-
-
-def find_scenario(name: str) -> Path:
-    """The file ``name``, else the bundled scenario of that name (with or without ``.yaml``)."""
-    path = Path(name)
-    if path.exists():
-        return path
-    bundled = BUNDLED / (path.name if path.suffix == ".yaml" else f"{path.name}.yaml")
-    if not path.parent.parts and bundled.is_file():
-        return bundled
-    known = ", ".join(sorted(p.stem for p in BUNDLED.glob("*.yaml")))
-    raise SpecError(f"{name}: no such scenario file, nor a bundled scenario (bundled: {known})")
 
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,
@@ -101,15 +89,32 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
     """
     dirs = out_dirs(jobs, out)
     claim(dirs, overwrite)
+    if jobs and numba_cache_cold():
+        console.print(COMPILING, highlight=False)
     results = []
-    with Progress(console=console, transient=True, disable=len(jobs) < 2) as bar:
+    with Progress(console=console, transient=True, disable=len(jobs) < 2 or not console.is_terminal) as bar:
         task = bar.add_task("running", total=len(jobs))
-        for job, out_dir in zip(jobs, dirs, strict=True):
-            bar.update(task, description=Text(job.scenario.name + (f" {job.label}" if job.label else "")))
-            results.append(run(job.scenario, realtime, out_dir, record=record, observe=observe, started=started))
+        for i, (job, out_dir) in enumerate(zip(jobs, dirs, strict=True), 1):
+            name = job.scenario.name + (f" {job.label}" if job.label else "")
+            bar.update(task, description=Text(name))
+            t0 = time.perf_counter()
+            r = run(job.scenario, realtime, out_dir, record=record, observe=observe, started=started)
+            results.append(r)
             started = time.perf_counter()  # each run's share of the command starts where the last one's ended
             bar.advance(task)
+            if not console.is_terminal:  # a log or a pipe: a line a run instead of the bar
+                verdict = "pass" if r.passed else "FAIL"
+                console.print(Text(f"[{i}/{len(jobs)}] {name}: {verdict} in {started - t0:.1f} s"))
     return results
+
+
+def numba_cache_cold() -> bool:
+    """Whether the next run compiles the closed loop: not yet in this process, and numba's cache on disk holds no
+    version of it for this source (its index is missing or stale)."""
+    from vilma.scenario.lockstep import _loop
+
+    # numba has no public call for this: its cache's index, read as numba reads it (checked against the source)
+    return not _loop.signatures and not _loop._cache._cache_file._load_index()
 
 
 def scorecard_table(result: RunResult) -> Table:

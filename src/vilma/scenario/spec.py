@@ -47,6 +47,7 @@ from vilma.localization import SOURCES
 from vilma.plant3d.camera import CameraParams, stereo_pair
 from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
+from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
 from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_yaml, read_yaml
 from vilma.sensors import SensorSuite
@@ -253,8 +254,9 @@ TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "ca
 
 
 def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> Scenario:
-    """Read and validate the scenario file ``path``; ``overrides`` maps dotted keys to YAML values (``--set``)."""
-    path = Path(path)
+    """Read and validate the scenario file ``path``, or the bundled scenario of that name (``course_30kmh_stanley``);
+    ``overrides`` maps dotted keys to YAML values (``--set``)."""
+    path = find_scenario(path)
     data, src = read_yaml(path)
     return parse_scenario(data, src, name=path.stem, file=path, overrides=overrides)
 

@@ -1,0 +1,8 @@
+# PYTHON_ARGCOMPLETE_OK
+"""``python -m vilma``: the ``vilma`` command."""
+
+import sys
+
+from vilma.cli import main
+
+sys.exit(main())

@@ -1,0 +1,59 @@
+"""vilma as a package: ``python -m vilma``, shell completion, and what the wheel ships (licences, py.typed)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+import vilma
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_python_m_vilma_is_the_command():
+    r = subprocess.run([sys.executable, "-m", "vilma", "--version"], capture_output=True, text=True, timeout=120)
+    assert (r.returncode, r.stdout) == (0, f"vilma {vilma.__version__}\n")
+
+
+def _complete(line: str, tmp_path: Path) -> list[str]:
+    """What the shell would offer after ``line``: argcomplete's protocol, as its bash hook runs it."""
+    out = tmp_path / "completions"
+    env = {**os.environ, "_ARGCOMPLETE": "1", "_ARGCOMPLETE_IFS": "\n", "COMP_LINE": line,
+           "COMP_POINT": str(len(line)), "_ARGCOMPLETE_STDOUT_FILENAME": str(out)}
+    r = subprocess.run([sys.executable, "-m", "vilma"], env=env, cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    return [c.strip() for c in out.read_text().split("\n")]  # a lone completion ends with a space
+
+
+def test_completion_offers_commands_options_and_bundled_scenarios(tmp_path):
+    (tmp_path / "course_mine.yaml").write_text("task: {speed: 1}\n")
+    assert {"scenarios", "run", "sim"} <= set(_complete("vilma ", tmp_path))
+    assert {"--verbose", "--quiet"} <= set(_complete("vilma run --", tmp_path))
+    assert set(_complete("vilma run course_30", tmp_path)) == {
+        "course_30kmh_ekf", "course_30kmh_pure_pursuit", "course_30kmh_stanley", "course_30kmh_vilma_heading"}
+    assert set(_complete("vilma sim course_m", tmp_path)) == {"course_mine.yaml"}  # files too
+
+
+@pytest.mark.parametrize("path", ["src/vilma/cli.py", "src/vilma/__main__.py"])
+def test_marked_for_global_completion(path):
+    # activate-global-python-argcomplete completes a script whose first 1024 bytes hold the marker
+    assert "# PYTHON_ARGCOMPLETE_OK" in (ROOT / path).read_text()[:1024]
+
+
+@pytest.mark.slow
+def test_the_wheel_ships_the_licences_and_py_typed(tmp_path):
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path), str(ROOT)],
+                   check=True, capture_output=True, timeout=600)
+    (wheel,) = tmp_path.glob("vilma-*.whl")
+    files = set(zipfile.ZipFile(wheel).namelist())
+    info = f"vilma-{vilma.__version__}.dist-info"
+    assert {"vilma/py.typed", "vilma/__main__.py", "vilma/scenarios/data/README.md", f"{info}/licenses/LICENSE",
+            f"{info}/licenses/src/vilma/scenarios/data/README.md"} <= files
+    data = {p.name for p in (ROOT / "src/vilma/scenarios/data").iterdir()}
+    assert {f"vilma/scenarios/data/{name}" for name in data} <= files  # the logs and their notice together
