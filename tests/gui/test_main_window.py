@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import Qt
 
-from tests.gui.conftest import WAIT_MS, shown_window, speed_of
+from tests.gui.conftest import SPEED, WAIT_MS, shown_window, speed_of
 from vilma.gui.backend import Embedded
 from vilma.scenario.batch import find_scenario
 from vilma.scenario.spec import load_scenario
@@ -70,6 +70,7 @@ def test_scenarios_open_into_the_table_and_save_back(window, tmp_path):
     assert window.open_scenario(find_scenario("course_10kmh_pure_pursuit"))
     np.testing.assert_array_equal(window.table.model.trajectory().xy, sc.reference_path().xy)
     assert window.auto_dock.path_ctrl.currentText() == "pure_pursuit"
+    assert float(window.auto_dock.path_speed.text()) == pytest.approx(sc.task.speed)
     window.table.model.set_trajectory(Trajectory.from_points([(0, 0), (10, 0), (20, 5)]))
     out = tmp_path / "mine.yaml"
     assert window.save_scenario(out)
@@ -80,6 +81,23 @@ def test_scenarios_open_into_the_table_and_save_back(window, tmp_path):
     bad.write_text("name: x\ntask: {speed: -1}\n")
     assert not window.open_scenario(bad) and "speed" in window.last_message
     assert "vilma" in window.about_text() and "embedded" in window.about_text()
+
+
+@pytest.mark.parametrize("name", ["course_30kmh_stanley", "course_3d_obstacles"])
+def test_a_scenario_given_at_start_arms_its_task_with_its_own_speed(qtbot, tmp_path, name):
+    from vilma.gui.main_window import MainWindow
+
+    sc = load_scenario(find_scenario(name))
+    backend = Embedded(sc, speed=SPEED)
+    try:
+        w = MainWindow(backend, record_dir=tmp_path)
+        qtbot.addWidget(w)
+        order = w.auto_dock.path_order()  # what "Set Wheel Direction" would send
+        assert order.action == "follow" and order.speed == pytest.approx(sc.task.speed)
+        np.testing.assert_allclose(order.points, sc.reference_path().xy)
+        w.close()
+    finally:
+        backend.close()
 
 
 @pytest.fixture

@@ -84,7 +84,7 @@ class MainWindow(QMainWindow):
         self.resize(1400, 900)
         QApplication.instance().installEventFilter(self)
         if backend.scenario is not None and backend.scenario.reference_path() is not None:
-            self.table.model.set_trajectory(backend.scenario.reference_path())
+            self._arm_task(backend.scenario)
 
     # -- menus ----------------------------------------------------------------------------------------------
 
@@ -178,15 +178,20 @@ class MainWindow(QMainWindow):
         except (SpecError, ValueError, OSError) as e:
             self.notify(f"Open scenario: {e}")
             return False
+        self._arm_task(sc)
+        self.auto_dock.show_params(sc.driver)
+        self.notify(f"scenario {sc.name}: {len(path) if path is not None else 0} points in the table; its "
+                    "controllers are shown (Apply to use them)")
+        return True
+
+    def _arm_task(self, sc: Scenario) -> None:
+        """Put ``sc``'s path in the table (driven From Table) and its task's speed in the path speed."""
+        path = sc.reference_path()
         if path is not None:
             self.table.model.set_trajectory(path)
             self.auto_dock.from_table.setChecked(True)
         if sc.task.speed is not None:
             self.auto_dock.path_speed.setText(f"{sc.task.speed:g}")
-        self.auto_dock.show_params(sc.driver)
-        self.notify(f"scenario {sc.name}: {len(path) if path is not None else 0} points in the table; its "
-                    "controllers are shown (Apply to use them)")
-        return True
 
     def _ask_save_scenario(self) -> None:
         name, _ = QFileDialog.getSaveFileName(self, "Save scenario", "scenario.yaml", "Scenarios (*.yaml)")
