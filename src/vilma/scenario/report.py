@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -10,8 +11,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Polygon
 
 from vilma.core.files import atomic_path
+from vilma.plant3d.world import World
 
 if TYPE_CHECKING:
     from vilma.scenario.runner import RunResult
@@ -23,6 +28,19 @@ MAX_POINTS = 20_000
 def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """Write the plots (:data:`vilma.scenario.folder.PLOTS`) into ``out_dir``; ``speed_log`` (times [s], speeds
     [m/s]) is overlaid on the speed."""
+    figs = figures(result, speed_log)
+    try:
+        for name, fig in figs.items():
+            with atomic_path(out_dir / name) as tmp:
+                fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight")  # no margin left around the axes
+    finally:
+        for fig in figs.values():
+            plt.close(fig)
+
+
+def figures(result: RunResult, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, Figure]:
+    """The plots of :func:`plot_run` by file name, not yet saved. Every legend stands above its axes, so that
+    it covers no curve."""
     log, name = result.log, result.scenario.name
     every = max(1, -(-len(log) // MAX_POINTS))
 
@@ -31,26 +49,34 @@ def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.n
 
     t = col("t") - result.t_start
     x, y = col("x"), col("y")
+    speed = np.hypot(col("vx"), col("vy"))
+    out = {}
 
-    fig, ax = plt.subplots(figsize=(7, 6))
+    fig, ax = plt.subplots(figsize=(7, 6.5), layout="constrained")
     if result.path is not None:
-        ax.plot(result.path.xy[:, 0], result.path.xy[:, 1], "r-", lw=1.5, label="trajectory")
-    ax.plot(x, y, "b-", lw=1.0, label="car position")
-    ax.set(xlabel="x [m] (east)", ylabel="y [m] (north)", title=f"{name}: path", aspect="equal")
-    ax.legend()
-    _save(fig, out_dir / "path.png")
+        # wide and pale beneath the car's line, so that it shows where the car runs on it
+        ax.plot(result.path.xy[:, 0], result.path.xy[:, 1], "-", color="tab:red", lw=4, alpha=0.35, zorder=2,
+                solid_capstyle="round", label="reference path")
+    ax.plot(x, y, "-", color="tab:blue", lw=1.2, zorder=3, label="car position")
+    draw_world(ax, result.scenario.sim.world)
+    ax.set_aspect("equal", adjustable="datalim")  # fills the axes: no blank band between title and plot
+    ax.set(xlabel="x [m] (east)", ylabel="y [m] (north)")
+    fig.suptitle(f"{name}: path")
+    _legend(ax)
+    out["path.png"] = fig
 
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    ax.plot(t, np.hypot(col("vx"), col("vy")), "b-", label="vilma speed")
+    fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
+    ax.plot(t, speed, "-", color="tab:blue", label="vilma speed")
     ax.plot(t, col("target_speed"), "k--", lw=1.0, label="target")
     if speed_log is not None:
         ax.plot(speed_log[0], speed_log[1], "r.-", ms=3, lw=0.8, label="original (log)")
-    ax.set(xlabel="time since start [s]", ylabel="speed [m/s]", title=f"{name}: speed")
+    ax.set(xlabel="time since start [s]", ylabel="speed [m/s]")
+    fig.suptitle(f"{name}: speed")
     ax.grid(alpha=0.3)
-    ax.legend()
-    _save(fig, out_dir / "speed.png")
+    _legend(ax)
+    out["speed.png"] = fig
 
-    fig, ax = plt.subplots(figsize=(8, 4))
+    fig, ax = plt.subplots(figsize=(8, 4), layout="constrained")
     if result.path is not None:
         proj = result.path.project_track(np.column_stack([x, y]))
         ax.plot(proj[:, 0], proj[:, 1], "b-")
@@ -59,36 +85,66 @@ def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.n
         ax.text(0.5, 0.5, "no path in this task", ha="center", transform=ax.transAxes)
     ax.set(ylabel="cross-track error [m] (left +)", title=f"{name}: cross-track error")
     ax.grid(alpha=0.3)
-    _save(fig, out_dir / "cross_track.png")
+    out["cross_track.png"] = fig
 
-    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True, layout="constrained")
+    fig.suptitle(f"{name}: steering, drive command and forces")
     a1.plot(t, np.degrees(col("steer")), "b-", label="applied")
     a1.plot(t, np.degrees(col("cmd_steer")), "k--", lw=0.8, label="commanded")
-    a1.set(ylabel="steering [deg]", title=f"{name}: steering, drive command and forces")
-    a1.legend()
+    a1.set(ylabel="steering [deg]")
+    _legend(a1)
     d = result.scenario.driver
     unit = "power (original units)" if d.speed_controller == "vilma_pid" else "force [N]"
     a2.plot(t, col("cmd_drive"), "m-", label=f"{d.speed_controller} command")
     a2.set(ylabel=f"drive: {unit}")
-    a2.legend()
-    speed = np.hypot(col("vx"), col("vy"))
+    _legend(a2)
     a3.plot(t, col("drive_force"), "g-", label="drive force")
     a3.plot(t, -col("brake_force"), "r-", label="brake force (negative)")
     a3.set(xlabel="time since start [s]", ylabel="applied force [N]")
-    a3.legend(loc="upper left")
     kw = a3.twinx()
-    kw.plot(t, col("drive_force") * speed / 1000.0, "k:", label="drive power")
+    kw.plot(t, col("drive_force") * speed / 1000.0, "k:", label="drive power (right axis)")
     kw.set(ylabel="drive power [kW]")
-    kw.legend(loc="upper right")
+    _legend(a3, a3.get_lines() + kw.get_lines())
     for a in (a1, a2, a3):
         a.grid(alpha=0.3)
-    _save(fig, out_dir / "effort.png")
+    out["effort.png"] = fig
+    return out
 
 
-def _save(fig, path: Path) -> None:
-    fig.tight_layout()
-    try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=110, format="png")
-    finally:
-        plt.close(fig)
+def draw_world(ax: Axes, world: World) -> None:
+    """The footprints of ``world``'s boxes, ramps and bumps, and its cones as markers, on ``ax`` (x, y [m])."""
+    kinds = (
+        ("boxes", "k", [(b.pos[:2], b.yaw, b.size[0], b.size[1], b.rgba) for b in world.boxes]),
+        ("ramps", "0.4", [(_along(r.start, r.yaw, r.length + r.top / 2), r.yaw, r.length + r.top / 2, r.width / 2,
+                           (0.6, 0.6, 0.6, 0.5)) for r in world.ramps]),
+        ("bumps", "0.2", [(b.pos, b.yaw, b.length / 2, b.width / 2, (0.95, 0.8, 0.1, 0.8)) for b in world.bumps]),
+    )
+    for label, edge, parts in kinds:
+        for i, (centre, yaw, half_along, half_across, rgba) in enumerate(parts):
+            ax.add_patch(Polygon(footprint(centre, yaw, half_along, half_across), closed=True, facecolor=rgba,
+                                 edgecolor=edge, lw=0.8, zorder=1, label=None if i else label))
+    for b, name in zip(world.boxes, world.obstacle_names(), strict=False):  # the boxes' names come first
+        ax.annotate(name, b.pos[:2], xytext=(0, 8), textcoords="offset points", ha="center", fontsize=8, zorder=4)
+    if world.cones:
+        xy = np.array([c.pos for c in world.cones])
+        ax.plot(xy[:, 0], xy[:, 1], "^", color=world.cones[0].rgba, mec="k", mew=0.5, ms=7, ls="none", zorder=4,
+                label="cones")
+
+
+def footprint(centre, yaw: float, half_along: float, half_across: float) -> np.ndarray:
+    """Corners (4, 2) [m] of a rectangle centred at ``centre`` (x, y) [m], its long side along ``yaw`` [rad]."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * (half_along, half_across)
+    return np.asarray(centre, float) + local @ np.array([[c, s], [-s, c]])
+
+
+def _along(start, yaw: float, distance: float) -> tuple[float, float]:
+    """The point ``distance`` [m] from ``start`` (x, y) [m] in direction ``yaw`` [rad]."""
+    return start[0] + distance * math.cos(yaw), start[1] + distance * math.sin(yaw)
+
+
+def _legend(ax: Axes, handles=None) -> None:
+    """A legend in a row above ``ax`` (outside it: it covers no curve)."""
+    handles = handles if handles is not None else ax.get_legend_handles_labels()[0]
+    ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.01), ncols=min(len(handles), 3),
+              frameon=False, borderaxespad=0, fontsize=9)

@@ -1,0 +1,80 @@
+"""The run's plots: the world's obstacles on the path, the reference visible under the car, legends off the
+curves."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from matplotlib.patches import Polygon
+
+from vilma.scenario.batch import find_scenario
+from vilma.scenario.drive_log import COLUMNS, DriveLog
+from vilma.scenario.report import figures, footprint, plot_run
+from vilma.scenario.runner import RunResult
+from vilma.scenario.spec import load_scenario
+
+
+@pytest.fixture(scope="module")
+def result() -> RunResult:
+    """The 3D obstacle course driven exactly along its reference path at the task's speed."""
+    sc = load_scenario(find_scenario("course_3d_obstacles"))
+    path = sc.reference_path()
+    rows = np.zeros((len(path), len(COLUMNS)))
+    ds = np.hypot(*np.diff(path.xy, axis=0).T)
+    rows[:, COLUMNS.index("t")] = np.concatenate([[0.0], np.cumsum(ds)]) / sc.task.speed
+    rows[:, COLUMNS.index("x")], rows[:, COLUMNS.index("y")] = path.xy.T
+    rows[:, COLUMNS.index("vx")] = rows[:, COLUMNS.index("target_speed")] = sc.task.speed
+    log = DriveLog()
+    log.extend(rows)
+    return RunResult(sc, {}, [], log, path, 0.0)
+
+
+def test_a_footprint_turned_a_quarter_swaps_its_sides():
+    corners = footprint((1.0, 2.0), math.pi / 2, 2.0, 1.0)  # 4 m long, pointing north
+    assert sorted(map(tuple, np.round(corners, 12) + 0.0)) == [(0, 0), (0, 4), (2, 0), (2, 4)]
+
+
+def test_the_path_plot_draws_every_obstacle_where_the_world_has_it(result):
+    fig = figures(result)["path.png"]
+    ax = fig.axes[0]
+    world = result.scenario.sim.world
+    shapes = [p.get_xy()[:4] for p in ax.patches if isinstance(p, Polygon)]
+    assert len(shapes) == len(world.boxes) + len(world.ramps) + len(world.bumps)
+    crate = world.boxes[0]
+    assert any(np.allclose(s, footprint(crate.pos[:2], crate.yaw, crate.size[0], crate.size[1])) for s in shapes)
+    ramp = world.ramps[0]  # up slope, top, down slope: 2 length + top long, from its start
+    end = np.add(ramp.start, (2 * ramp.length + ramp.top) * np.array([math.cos(ramp.yaw), math.sin(ramp.yaw)]))
+    ramp_shape = next(s for s in shapes if np.isclose(np.hypot(*(s[0] - s[3])), ramp.width))
+    assert np.allclose(ramp_shape.mean(axis=0), (np.asarray(ramp.start) + end) / 2)
+    cones = next(line for line in ax.get_lines() if line.get_label() == "cones")
+    np.testing.assert_allclose(np.column_stack(cones.get_data()), [c.pos for c in world.cones])
+
+
+def test_the_reference_path_is_drawn_wider_beneath_the_cars_line(result):
+    lines = {line.get_label(): line for line in figures(result)["path.png"].axes[0].get_lines()}
+    ref, car = lines["reference path"], lines["car position"]
+    np.testing.assert_array_equal(ref.get_xydata(), car.get_xydata())  # the car drove exactly on it
+    assert ref.get_zorder() < car.get_zorder() and ref.get_linewidth() > 2 * car.get_linewidth()
+
+
+def test_no_legend_covers_any_axes(result):
+    for name, fig in figures(result, speed_log=(np.array([0.0, 5.0]), np.array([0.0, 8.0]))).items():
+        fig.canvas.draw()
+        legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+        assert legends or name == "cross_track.png"
+        for legend in legends:
+            box = legend.get_window_extent()
+            for ax in fig.axes:
+                assert not box.overlaps(ax.get_window_extent()), f"{name}: a legend covers an axes"
+        # every labelled curve is in a legend, the twin axis's too
+        drawn = {a.get_label() for ax in fig.axes for a in ax.get_lines() + ax.patches}
+        drawn = {label for label in drawn if label and not label.startswith("_")}
+        assert drawn == {t.get_text() for legend in legends for t in legend.get_texts()}
+
+
+def test_plot_run_writes_the_four_pngs(result, tmp_path):
+    plot_run(result, tmp_path)
+    for name in ("path.png", "speed.png", "cross_track.png", "effort.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
