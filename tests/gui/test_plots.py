@@ -5,9 +5,12 @@ from __future__ import annotations
 import csv
 
 import numpy as np
+import pytest
 
 from tests.gui.conftest import WAIT_MS
-from vilma.gui.bridge import HISTORY_COLUMNS
+from vilma.bus.local import LocalBus
+from vilma.gui.bridge import HISTORY_COLUMNS, BusBridge
+from vilma.gui.plots import PlotWindow
 
 
 def _n(curve) -> int:
@@ -44,3 +47,26 @@ def test_plots_follow_the_history_pause_clear_and_export(window, qtbot, tmp_path
     xy = window.table.model
     xy.insert_rows(0, 2)
     assert _n(plots.trajectory_curve) == 2  # the table's points are the red trajectory
+
+
+@pytest.fixture
+def plots(qtbot):
+    """A plot window on an empty bus."""
+    bridge = BusBridge(LocalBus())
+    w = PlotWindow(bridge)
+    qtbot.addWidget(w)
+    yield w
+    bridge.close()
+
+
+def test_the_legends_stand_in_the_titles_and_the_trajectory_shows_under_the_car(plots):
+    for plot in (plots.path_plot, plots.speed_plot, plots.steer_plot, plots.force_plot, plots.cross_plot):
+        assert plot.legend is None  # no legend box inside a plot, over its curves
+    for plot, curves in ((plots.path_plot, (plots.trajectory_curve, plots.car_curve)),
+                         (plots.speed_plot, (plots.speed_curve, plots.target_curve)),
+                         (plots.force_plot, (plots.drive_curve, plots.brake_curve))):
+        title = plot.titleLabel.text
+        for curve in curves:
+            assert curve.name() in title and curve.opts["pen"].color().name() in title
+    trajectory, car = plots.trajectory_curve, plots.car_curve
+    assert car.zValue() > trajectory.zValue() and trajectory.opts["pen"].widthF() > 2 * car.opts["pen"].widthF()

@@ -56,6 +56,14 @@ def _time_curve(plot: pg.PlotItem, color, name: str, style=None, finite: bool = 
     return plot.plot(pen=pen, name=name, connect="finite" if finite else "all", skipFiniteCheck=not finite)
 
 
+def legend_title(title: str, *entries: tuple[tuple[int, int, int], str, str]) -> str:
+    """``title`` followed by each ``(colour, line, name)`` in its colour: the legend in the title bar, where it
+    covers no curve (``line``: a short stroke drawn with text, such as "━" or "╌")."""
+    keys = "".join(f'&nbsp;&nbsp;<span style="color:#{r:02x}{g:02x}{b:02x}">{line}&nbsp;{name}</span>'
+                   for (r, g, b), line, name in entries)
+    return f"{title}{keys}"
+
+
 class PlotWindow(QWidget):
     """Several live plots at once, with pause, clear, zoom (mouse, Auto range), PNG and CSV export.
 
@@ -94,27 +102,29 @@ class PlotWindow(QWidget):
         lay.addWidget(self.glw)
 
         g = self.glw
-        self.path_plot = g.addPlot(row=0, col=0, rowspan=4, title="Path")
+        self.path_plot = g.addPlot(row=0, col=0, rowspan=4, title=legend_title(
+            "Path", ((240, 150, 150), "━", "trajectory"), ((0, 0, 230), "─", "car")))
         self.path_plot.setLabel("bottom", "x", units="m")
         self.path_plot.setLabel("left", "y", units="m")
         self.path_plot.setAspectLocked(True)
-        self.path_plot.addLegend()
-        self.trajectory_curve = self.path_plot.plot(pen=pg.mkPen((220, 0, 0), width=1), symbol="x", symbolSize=7,
-                                                    symbolPen=(220, 0, 0), symbolBrush=None, name="trajectory")
-        self.car_curve = self.path_plot.plot(pen=pg.mkPen((0, 0, 230), width=1), name="car",
+        # wide and pale beneath the car's line, so that both show where the car runs on it
+        self.trajectory_curve = self.path_plot.plot(pen=pg.mkPen((240, 150, 150), width=5), symbol="o", symbolSize=3,
+                                                    symbolPen=None, symbolBrush=(220, 110, 110), name="trajectory")
+        self.car_curve = self.path_plot.plot(pen=pg.mkPen((0, 0, 230), width=1.5), name="car",
                                              skipFiniteCheck=True)
-        self.speed_plot = g.addPlot(row=0, col=1, title="Speed")
+        self.car_curve.setZValue(self.trajectory_curve.zValue() + 1)
+        self.speed_plot = g.addPlot(row=0, col=1, title=legend_title(
+            "Speed", ((0, 0, 230), "─", "speed"), ((220, 0, 0), "╌", "target")))
         self.speed_plot.setLabel("left", "speed", units="m/s")
-        self.speed_plot.addLegend()
         self.speed_curve = _time_curve(self.speed_plot, (0, 0, 230), "speed")
         self.target_curve = _time_curve(self.speed_plot, (220, 0, 0), "target", style=pg.QtCore.Qt.PenStyle.DashLine,
                                         finite=True)
         self.steer_plot = g.addPlot(row=1, col=1, title="Steering")
         self.steer_plot.setLabel("left", "angle", units="rad")
         self.steer_curve = _time_curve(self.steer_plot, (0, 130, 0), "steer")
-        self.force_plot = g.addPlot(row=2, col=1, title="Drive and brake force")
+        self.force_plot = g.addPlot(row=2, col=1, title=legend_title(
+            "Drive and brake force", ((200, 100, 0), "─", "drive"), ((120, 0, 160), "─", "brake")))
         self.force_plot.setLabel("left", "force", units="N")
-        self.force_plot.addLegend()
         self.drive_curve = _time_curve(self.force_plot, (200, 100, 0), "drive")
         self.brake_curve = _time_curve(self.force_plot, (120, 0, 160), "brake")
         self.cross_plot = g.addPlot(row=3, col=1, title="Cross-track error")
