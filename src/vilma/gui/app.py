@@ -25,21 +25,24 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
 
     from vilma.gui.backend import Embedded, Remote
     from vilma.gui.main_window import MainWindow
+    from vilma.gui.xcb import check_xcb
 
     refresh = getattr(args, "refresh", 250)
     if not 10 <= refresh <= 60_000:
         raise ValueError(f"--refresh must be 10..60000 ms, got {refresh}")
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY") \
+            and not os.environ.get("QT_QPA_PLATFORM") and sys.platform.startswith("linux"):
+        print("vilma gui: no display (DISPLAY unset); running offscreen. Set QT_QPA_PLATFORM to choose.",
+              file=sys.stderr)
+        os.environ["QT_QPA_PLATFORM"] = "offscreen"
+    if sys.platform.startswith("linux"):
+        check_xcb(os.environ)  # Qt would abort the process, naming the wrong library
     if bus is not None:
         world = scenario.sim.world_topics if scenario is not None else ()
         backend = Remote(bus, "Zenoh " + ", ".join(getattr(args, "connect", None) or ["peers"]), world_topics=world,
                          driver_params=scenario.driver if scenario is not None else None)
     else:
         backend = Embedded(scenario, speed=getattr(args, "speed", 1.0))
-    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY") \
-            and not os.environ.get("QT_QPA_PLATFORM") and sys.platform.startswith("linux"):
-        print("vilma gui: no display (DISPLAY unset); running offscreen. Set QT_QPA_PLATFORM to choose.",
-              file=sys.stderr)
-        os.environ["QT_QPA_PLATFORM"] = "offscreen"
     app = QApplication.instance() or QApplication([sys.argv[0]])
     window = MainWindow(backend, refresh_ms=refresh, record_dir=Path(getattr(args, "record_dir", None) or "."))
     window.show()
