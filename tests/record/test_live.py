@@ -43,7 +43,8 @@ def _json_until(ws, op: str) -> dict:
 
 def test_a_foxglove_client_gets_channels_messages_and_sim_time(live):
     bus, server = live
-    keys = {"pose": "vilma/vilma/pose", "tf": "vilma/vilma/tf", "fix": "vilma/vilma/gps/fix"}
+    keys = {"pose": "vilma/vilma/pose", "tf": "vilma/vilma/tf", "euler": "vilma/vilma/pose/euler",
+            "gps": "vilma/vilma/gps"}
     with connect(f"ws://127.0.0.1:{server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
         info = _json_until(ws, "serverInfo")
         assert "time" in info["capabilities"]
@@ -51,9 +52,10 @@ def test_a_foxglove_client_gets_channels_messages_and_sim_time(live):
         while not set(keys.values()) <= set(channels):
             channels.update({c["topic"]: c for c in _json_until(ws, "advertise")["channels"]})
         assert [(channels[k]["schemaName"], channels[k]["schemaEncoding"], channels[k]["encoding"])
-                for k in keys.values()] == [("vilma_msgs/msg/Pose", "ros2msg", "cdr"),
+                for k in keys.values()] == [("geometry_msgs/msg/PoseStamped", "ros2msg", "cdr"),
                                             ("foxglove_msgs/msg/FrameTransform", "ros2msg", "cdr"),
-                                            ("foxglove_msgs/msg/LocationFix", "ros2msg", "cdr")]
+                                            ("geometry_msgs/msg/Vector3Stamped", "ros2msg", "cdr"),
+                                            ("sensor_msgs/msg/NavSatFix", "ros2msg", "cdr")]
         assert channels["vilma/vilma/driver/status"]["encoding"] == "json"
         decoders = {}
         for sub, name in enumerate(("pose", "tf"), 7):
@@ -80,10 +82,12 @@ def test_a_foxglove_client_gets_channels_messages_and_sim_time(live):
                 pass
         assert set(got) == {7, 8}, "no message came"
         for log_time, msg in got.values():
-            stamp = getattr(msg, "stamp", None) or msg.timestamp
+            stamp = msg.header.stamp if hasattr(msg, "header") else msg.timestamp
             assert log_time == stamp.sec * 10**9 + stamp.nanosec and log_time % 20_000_000 == 0
         log_time, pose = got[7]
-        assert (pose.x, pose.y, pose.yaw) == (10.0 + log_time // 20_000_000, -5.0, 0.5)
+        assert (pose.header.frame_id, pose.pose.position.x, pose.pose.position.y) == (
+            "map", 10.0 + log_time // 20_000_000, -5.0)
+        assert pose.pose.orientation.z == float(quaternion_from_euler(0.0, 0.0, 0.5)[2])
         log_time, tf = got[8]
         assert (tf.parent_frame_id, tf.child_frame_id, tf.translation.x) == ("map", "vilma",
                                                                            10.0 + log_time // 20_000_000)

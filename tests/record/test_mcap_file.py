@@ -10,15 +10,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from rosbags.typesys import Stores, get_typestore
 
+from tests.record import legacy
 from tests.record.ros2 import ros2_decoder
+from vilma.bus.topics import SENSOR_TOPICS
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
 from vilma.record import mcap_file
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
 from vilma.record.reader import Epochs, RecordingError, read_recording
 from vilma.record.recorder import Recorder
-from vilma.record.schemas import numeric_layouts
+from vilma.record.schemas import channels, numeric_layouts
+from vilma.scenario.drive_log import COLUMNS
 from vilma.sensors import Readings
 
 
@@ -37,39 +41,45 @@ def _decoded(path: Path, topic: str) -> list:
 
 
 def test_readings_read_back_exactly_and_decode_as_ros2_messages(tmp_path):
-    pose = _pose_readings()
-    pose.values[3, 2], pose.values[4, 0] = np.nan, -np.inf
-    gps = Readings("gps", m.GpsFix, pose.stamp_ns[::5], np.column_stack([
-        -22.8 + pose.values[::5, 1:2] * 1e-6, -47.0 + pose.values[::5, 1:2] * 1e-6, 600 + pose.values[::5, 2:3],
-        pose.values[::5, :3]]))
+    sent = legacy.readings()  # every sensor, a NaN and an infinity in each
     rec = Recorder(tmp_path / "a.mcap")
-    rec.add_readings({"pose": pose, "gps": gps})
+    rec.add_readings(sent)
     rec.close()
 
     back = read_recording(tmp_path / "a.mcap")
     assert back.complete
-    for r in (pose, gps):
+    for r in sent.values():
         got = back.readings(r.name)
-        assert np.array_equal(got.stamp_ns, r.stamp_ns) and np.array_equal(got.values, r.values, equal_nan=True)
-    assert {t: (back.schemas[t], back.encodings[t]) for t in back.topics} == {
-        "pose": ("vilma_msgs/msg/Pose", "cdr"), "gps": ("vilma_msgs/msg/GpsFix", "cdr"),
-        "tf": ("foxglove_msgs/msg/FrameTransform", "cdr"), "gps/fix": ("foxglove_msgs/msg/LocationFix", "cdr")}
+        assert np.array_equal(got.stamp_ns, r.stamp_ns) and got.values.tobytes() == r.values.tobytes(), r.name
+    assert {t: back.schemas[t] for t in back.topics} == {
+        "pose": "geometry_msgs/msg/PoseStamped", "pose/euler": "geometry_msgs/msg/Vector3Stamped",
+        "tf": "foxglove_msgs/msg/FrameTransform", "velocity": "geometry_msgs/msg/TwistStamped",
+        "velocity/world": "geometry_msgs/msg/Vector3Stamped", "gps": "sensor_msgs/msg/NavSatFix",
+        "gps/enu": "geometry_msgs/msg/PointStamped", "imu": "sensor_msgs/msg/Imu",
+        "wheel_speed": "vilma_msgs/msg/WheelSpeeds", "odometry": "nav_msgs/msg/Odometry",
+        "odometry/euler": "geometry_msgs/msg/Vector3Stamped", "actuators": "vilma_msgs/msg/ActuatorState"}
+    assert set(back.encodings.values()) == {"cdr"}
 
+    pose = sent["pose"]
     ros = _decoded(tmp_path / "a.mcap", "pose")
-    assert [p.stamp.sec * 10**9 + p.stamp.nanosec for p in ros] == pose.stamp_ns.tolist()
-    assert np.array_equal([[p.x, p.y, p.z, p.roll, p.pitch, p.yaw] for p in ros], pose.values, equal_nan=True)
+    assert [p.header.stamp.sec * 10**9 + p.header.stamp.nanosec for p in ros] == pose.stamp_ns.tolist()
+    assert {p.header.frame_id for p in ros} == {"map"}
+    assert np.array_equal([[p.pose.position.x, p.pose.position.y, p.pose.position.z] for p in ros],
+                          pose.values[:, :3], equal_nan=True)
     tf = _decoded(tmp_path / "a.mcap", "tf")
     assert {(t.parent_frame_id, t.child_frame_id) for t in tf} == {("map", "vilma")}
     assert np.array_equal([[t.translation.x, t.translation.y, t.translation.z] for t in tf], pose.values[:, :3],
                           equal_nan=True)
-    q = np.column_stack(quaternion_from_euler(*pose.values[:, 3:6].T))
-    assert np.array_equal([[t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w] for t in tf], q)
+    finite = np.isfinite(pose.values[:, 3:6]).all(axis=1)
+    q = np.column_stack(quaternion_from_euler(*pose.values[finite, 3:6].T))
+    for got in ([[o.x, o.y, o.z, o.w] for o in (p.pose.orientation for p in ros)],
+                [[t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w] for t in tf]):
+        assert np.array_equal(np.array(got)[finite], q)
+        assert np.isnan(np.array(got)[~finite]).all()  # an infinite angle: no orientation
     assert np.allclose(np.linalg.norm(q, axis=1), 1.0)
-    fix = _decoded(tmp_path / "a.mcap", "gps/fix")
-    assert [(f.frame_id, f.position_covariance_type, list(f.position_covariance)) for f in fix] == [
-        ("gps", 0, [0.0] * 9)] * len(gps)
-    assert [[f.latitude, f.longitude, f.altitude] for f in fix] == gps.values[:, :3].tolist()
-    assert [f.timestamp.sec * 10**9 + f.timestamp.nanosec for f in fix] == gps.stamp_ns.tolist()
+    fix = _decoded(tmp_path / "a.mcap", "gps")
+    assert {(f.header.frame_id, f.status.status, f.status.service, f.position_covariance_type,
+             tuple(f.position_covariance)) for f in fix} == {("gps", 0, 1, 0, (0.0,) * 9)}  # a fix, GPS, unknown
 
 
 def test_the_summary_is_what_the_mcap_library_reads(tmp_path):
@@ -176,24 +186,65 @@ def test_open_failure_is_a_record_error(tmp_path):
         McapFile(tmp_path / "no" / "a.mcap")
 
 
+def _vector(v) -> list[float]:
+    return [v.x, v.y, v.z]
+
+
+STANDARD = {
+    "pose": (lambda g: _vector(g.pose.position), ("x", "y", "z")),
+    "pose/euler": (lambda g: _vector(g.vector), ("roll", "pitch", "yaw")),
+    "velocity": (lambda g: [*_vector(g.twist.linear), *_vector(g.twist.angular)], ("vx", "vy", "vz", "wx", "wy", "wz")),
+    "velocity/world": (lambda g: _vector(g.vector), ("vx_world", "vy_world", "vz_world")),
+    "gps": (lambda g: [g.latitude, g.longitude, g.altitude], ("latitude", "longitude", "altitude")),
+    "gps/enu": (lambda g: _vector(g.point), ("x", "y", "z")),
+    "imu": (lambda g: [*_vector(g.orientation), g.orientation.w, *_vector(g.angular_velocity),
+                       *_vector(g.linear_acceleration)], ("qx", "qy", "qz", "qw", "wx", "wy", "wz", "ax", "ay", "az")),
+    "odometry": (lambda g: [g.pose.pose.position.x, g.pose.pose.position.y, g.twist.twist.linear.x,
+                            g.twist.twist.angular.z], ("x", "y", "speed", "yaw_rate")),
+    "odometry/euler": (lambda g: _vector(g.vector), ("roll", "pitch", "yaw")),
+}
+"""Standard topic -> where its type's definition puts vilma's fields, and which fields (odometry's roll and pitch
+are 0)."""
+FRAMES = {"pose": ("map", None), "pose/euler": ("map", None), "velocity": ("vilma", None),
+          "velocity/world": ("map", None), "gps": ("gps", None), "gps/enu": ("map", None), "imu": ("vilma", None),
+          "odometry": ("odom", "vilma"), "odometry/euler": ("odom", None)}
+"""Standard topic -> (header frame, child frame)."""
+_STORE = get_typestore(Stores.ROS2_HUMBLE)
+
+
 def test_every_numeric_layout_is_the_ros2_message_its_schema_says():
     """Each layout's payloads, decoded by ``mcap_ros2`` from the layout's own ``ros2msg`` text, hold the stamp and
-    the values (the derived topics: the source's first values), stamps across second boundaries included."""
+    the source's values where the standard type's definition puts them, stamps across second boundaries
+    included; a standard type's payloads are those ``rosbags`` writes from ROS 2 Humble's own definitions."""
     rng = np.random.default_rng(3)
     stamps = np.array([0, 999_999_999, 1_000_000_000, 3_600_000_000_017], np.int64)
     for name, layout in numeric_layouts("vilma").items():
-        values = rng.normal(size=(4, len(layout.fields) or 6))  # derived: a pose's or a GPS fix's six values
+        source = name.split("/")[0] if name != "tf" else "pose"
+        fields = COLUMNS if name == "drive_log" else SENSOR_TOPICS[source].__struct_fields__[1:]
+        values = rng.normal(size=(4, len(fields)))
         decode = ros2_decoder(layout.schema_name, layout.schema)
-        got = [decode(p) for p in layout.encode(stamps, values)]
-        stamp = [getattr(g, "stamp", None) or g.timestamp for g in got]
+        payloads = layout.encode(stamps, values)
+        got = [decode(p) for p in payloads]
+        stamp = [g.header.stamp if hasattr(g, "header") else getattr(g, "stamp", None) or g.timestamp for g in got]
         assert [t.sec * 10**9 + t.nanosec for t in stamp] == stamps.tolist(), name
-        if layout.fields:
-            assert [[getattr(g, f) for f in layout.fields] for g in got] == values.tolist(), name
+        column = {"roll": 0.0, "pitch": 0.0} | {f: values[:, j] for j, f in enumerate(fields)}
+        if layout.schema_name.startswith("vilma_msgs/"):
+            assert [[getattr(g, f) for f in fields] for g in got] == values.tolist(), name
         elif name == "tf":
             assert [[g.translation.x, g.translation.y, g.translation.z] for g in got] == values[:, :3].tolist()
         else:
-            assert [[g.latitude, g.longitude, g.altitude] for g in got] == values[:, :3].tolist()
-        assert layout.encode_one(int(stamps[1]), values[1].tolist()) == layout.encode(stamps, values)[1]
+            where, carried = STANDARD[name]
+            want = np.column_stack(np.broadcast_arrays(*(column[f] for f in carried)))
+            assert np.array_equal([where(g) for g in got], want), name
+            if name in ("pose", "odometry"):
+                q = [getattr(g.pose, "pose", g.pose).orientation for g in got]
+                want = np.column_stack(quaternion_from_euler(column["roll"], column["pitch"], column["yaw"]))
+                assert np.array_equal([[o.x, o.y, o.z, o.w] for o in q], want), name
+            frame, child = FRAMES[name]
+            assert {(g.header.frame_id, getattr(g, "child_frame_id", None)) for g in got} == {(frame, child)}, name
+            assert all(_STORE.serialize_cdr(_STORE.deserialize_cdr(p, layout.schema_name), layout.schema_name) == p
+                       for p in payloads), name
+        assert layout.encode_one(int(stamps[1]), values[1].tolist()) == payloads[1]
 
 
 def test_a_vilma_0_1_json_recording_still_reads(tmp_path):
@@ -219,19 +270,47 @@ def test_a_numeric_topic_of_another_size_is_one_clear_error(tmp_path):
 
 
 @settings(max_examples=60, deadline=None)
-@given(name=st.sampled_from(["pose", "velocity", "gps", "imu", "wheel_speed", "odometry", "actuators", "drive_log"]),
+@given(name=st.sampled_from([*SENSOR_TOPICS, "drive_log"]),
        stamps=st.lists(st.integers(0, 2**31 * 10**9 - 1), min_size=1, max_size=5),  # builtin_interfaces/Time's range
        data=st.data())
 def test_numeric_payloads_decode_to_what_was_encoded_bit_for_bit(name, stamps, data):
-    layout = numeric_layouts("vilma")[name]
-    values = np.array([data.draw(st.lists(st.floats(), min_size=len(layout.fields), max_size=len(layout.fields)))
+    """A topic's values, from its own messages and those written beside it."""
+    fields = COLUMNS if name == "drive_log" else SENSOR_TOPICS[name].__struct_fields__[1:]
+    values = np.array([data.draw(st.lists(st.floats(), min_size=len(fields), max_size=len(fields)))
                        for _ in stamps], np.float64)
-    payloads = layout.encode(np.array(stamps, np.int64), values)
-    got_stamps, got = layout.decode(payloads)
-    assert got_stamps.tolist() == stamps and got.tobytes() == values.tobytes()
-    cut = data.draw(st.integers(0, len(payloads[0]) - 1))
-    with pytest.raises(ValueError, match=f"a {layout.schema_name} message of {cut} bytes"):
-        layout.decode([*payloads[:-1], payloads[-1][:cut]])
+    column = {}
+    for c in channels(name):
+        layout = numeric_layouts("vilma")[c]
+        payloads = layout.encode(np.array(stamps, np.int64), values)
+        got_stamps, got = layout.decode(payloads)
+        assert got_stamps.tolist() == stamps
+        column |= {f: got[:, j] for j, f in enumerate(layout.fields) if f is not None}
+        cut = data.draw(st.integers(0, len(payloads[0]) - 1))
+        with pytest.raises(ValueError, match=f"a {layout.schema_name} message of {cut} bytes"):
+            layout.decode([*payloads[:-1], payloads[-1][:cut]])
+    assert np.column_stack([column[f] for f in fields]).tobytes() == values.tobytes()
+
+
+def test_a_recording_made_before_the_standard_types_reads_back_exactly():
+    """``data/vilma_msgs.mcap``: every sensor as ``vilma_msgs/msg/<Type>``, written by vilma before this change."""
+    back = read_recording(legacy.FILE)
+    assert back.schemas["pose"] == "vilma_msgs/msg/Pose" and back.schemas["gps/fix"] == "foxglove_msgs/msg/LocationFix"
+    for r in legacy.readings().values():
+        got = back.readings(r.name)
+        assert np.array_equal(got.stamp_ns, r.stamp_ns) and got.values.tobytes() == r.values.tobytes(), r.name
+    assert back.drive_log().tobytes() == legacy.log_rows().tobytes()
+    assert back.messages("cmd") == [legacy.CMD]
+
+
+def test_a_standard_topic_without_the_topic_beside_it_is_one_clear_error(tmp_path):
+    layout = numeric_layouts("vilma")["pose"]
+    f = McapFile(tmp_path / "bad.mcap")
+    cid = f.add_channel("vilma/vilma/pose", layout.schema_name, layout.schema, encoding="cdr")
+    f.write(cid, 20, layout.encode_one(20, [1.0, 2.0, 3.0, 0.0, 0.0, 0.5]))
+    f.close()
+    with pytest.raises(RecordingError, match=r"bad.mcap: topic pose needs topic pose/euler "
+                                             r"\(geometry_msgs/msg/Vector3Stamped\) beside it, which the file lacks"):
+        read_recording(tmp_path / "bad.mcap").readings("pose")
 
 
 FRAME_NS = 20_000_000

@@ -11,7 +11,7 @@ from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
 from vilma.record.reader import read_recording
 from vilma.record.replay import Replayer
-from vilma.record.schemas import DERIVED
+from vilma.record.schemas import COMPANIONS
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 
@@ -23,8 +23,8 @@ def recording(tmp_path_factory):
     return read_recording(path)
 
 
-NOT_PLAYED = (*DERIVED.values(), "drive_log", "driver/cmd")
-"""Topics a replay does not publish: made from others, not a bus topic, or the orders the driver took."""
+NOT_PLAYED = (*(c for cs in COMPANIONS.values() for c in cs), "drive_log", "driver/cmd")
+"""Topics a replay does not publish: written beside others, not a bus topic, or the orders the driver took."""
 
 
 def test_replay_publishes_every_message_as_recorded(recording):

@@ -1,9 +1,9 @@
 """Fixed-size ROS 2 messages in CDR, packed in bulk into MCAP Message records.
 
-A message whose every field has a fixed size (vilma's numeric topics) is a
-byte template with slots: the stamp (``builtin_interfaces/Time``: int32 sec,
-uint32 nanosec) and float64 values. :class:`CdrBody` lays out such a
-body as CDR does (little endian, each field aligned to its size from the body's
+A message whose every field has a fixed size (vilma's numeric topics; strings,
+such as a header's ``frame_id``, are constants) is a byte template with slots:
+the stamp (``builtin_interfaces/Time``: int32 sec, uint32 nanosec) and float64
+values. :class:`CdrBody` lays out such a body as CDR does (little endian, each field aligned to its size from the body's
 start, after the 4-byte encapsulation header); :func:`pack_records` writes the
 MCAP records of a whole column of messages in one compiled loop (in the
 recorder's process of a ``vilma run``, on another core than the car's loop).
@@ -11,6 +11,7 @@ recorder's process of a ``vilma run``, on another core than the car's loop).
 
 from __future__ import annotations
 
+import functools
 import struct
 
 import numpy as np
@@ -45,6 +46,10 @@ class CdrBody:
         self.data += bytes(8)
         return self
 
+    def header(self, frame_id: str) -> CdrBody:
+        """A ``std_msgs/Header``: the stamp's slot and a constant ``frame_id``."""
+        return self.time().string(frame_id)
+
     def string(self, text: str) -> CdrBody:
         """A constant string."""
         self._align(4)
@@ -66,6 +71,12 @@ class CdrBody:
         self.data += bytes(count * size)
         return self
 
+    def number(self, fmt: str, value: int) -> CdrBody:
+        """A constant integer of ``struct`` format ``fmt`` (``b`` int8, ``H`` uint16...): an enum's value."""
+        self._align(struct.calcsize(fmt))
+        self.data += struct.pack(f"<{fmt}", value)
+        return self
+
     def payload(self) -> tuple[bytes, tuple[int, ...]]:
         """The payload template (encapsulation header and body) and its slots' offsets in it."""
         return ENCAPSULATION + bytes(self.data), tuple(4 + s for s in self.slots)
@@ -76,9 +87,20 @@ def stamps_of(sec: np.ndarray, nanosec: np.ndarray) -> np.ndarray:
     return sec.astype(np.int64) * 1_000_000_000 + nanosec.astype(np.int64)
 
 
+@functools.cache
+def runs(slots: tuple[int, ...]) -> tuple[tuple[int, int, int], ...]:
+    """The float64 slots (``slots[1:]``) as runs side by side: (offset, index of the first float, count)."""
+    out: list[list[int]] = []
+    for i, at in enumerate(slots[1:]):
+        if out and out[-1][0] + 8 * out[-1][2] == at:
+            out[-1][2] += 1
+        else:
+            out.append([at, i, 1])
+    return tuple(tuple(r) for r in out)
+
+
 @njit(nogil=True, cache=True)
-def _pack(out, template, time_at, floats_at, stamps, float_bytes):
-    size = float_bytes.shape[1]
+def _pack(out, template, time_at, float_runs, stamps, float_bytes):
     for i in range(out.shape[0]):
         row, t = out[i], stamps[i]
         row[:] = template
@@ -90,28 +112,32 @@ def _pack(out, template, time_at, floats_at, stamps, float_bytes):
         for b in range(4):
             row[time_at + b] = (sec >> (8 * b)) & 0xFF
             row[time_at + 4 + b] = (nanosec >> (8 * b)) & 0xFF
-        row[floats_at:floats_at + size] = float_bytes[i]
+        for r in range(float_runs.shape[0]):
+            at, first, size = float_runs[r, 0], 8 * float_runs[r, 1], 8 * float_runs[r, 2]
+            row[at:at + size] = float_bytes[i, first:first + size]
 
 
 def pack_records(payload: bytes, slots: tuple[int, ...], channel: int, stamps: np.ndarray, values: np.ndarray,
                  out: np.ndarray | None = None) -> np.ndarray:
     """The MCAP Message records of ``len(stamps)`` messages on ``channel``, one after the other.
 
-    ``payload`` and ``slots`` come from :meth:`CdrBody.payload` (the stamp's slot first, then the float64 ones,
-    side by side); ``stamps`` [ns] are the log and publish times and the stamp (``builtin_interfaces/Time`` holds
-    68 years), ``values`` (n, len(slots) - 1) the float64s.
+    ``payload`` and ``slots`` come from :meth:`CdrBody.payload` (the stamp's slot first, then the float64 ones);
+    ``stamps`` [ns] are the log and publish times and the stamp (``builtin_interfaces/Time`` holds 68 years),
+    ``values`` (n, len(slots) - 1) the float64s.
     Returns the records' bytes (uint8, in ``out`` if given); each is ``RECORD_HEADER + len(payload)`` long.
     """
     head = MESSAGE_HEADER.pack(Opcode.MESSAGE, 22 + len(payload), channel, 0, 0, 0)
     template = np.frombuffer(head + payload, np.uint8)
     values = np.ascontiguousarray(values, np.float64)
     out = np.empty(len(stamps) * len(template), np.uint8) if out is None else out
-    _pack(out.reshape(len(stamps), len(template)), template, RECORD_HEADER + slots[0], RECORD_HEADER + slots[1],
+    float_runs = np.array([(RECORD_HEADER + at, first, n) for at, first, n in runs(slots)], np.int64)
+    _pack(out.reshape(len(stamps), len(template)), template, RECORD_HEADER + slots[0], float_runs,
           np.asarray(stamps, np.int64), values.view(np.uint8).reshape(len(values), -1))
     return out
 
 
 def payload_dtype(payload: bytes, slots: tuple[int, ...]) -> np.dtype:
-    """A structured dtype reading a payload's stamp (``sec``, ``nanosec``) and float64s (``values``, side by side)."""
-    return np.dtype({"names": ["sec", "nanosec", "values"], "formats": ["<i4", "<u4", ("<f8", (len(slots) - 1,))],
-                     "offsets": [slots[0], slots[0] + 4, slots[1]], "itemsize": len(payload)})
+    """A structured dtype reading a payload's stamp (``sec``, ``nanosec``) and float64s (``f0``, ``f1``...)."""
+    floats = [f"f{i}" for i in range(len(slots) - 1)]
+    return np.dtype({"names": ["sec", "nanosec", *floats], "formats": ["<i4", "<u4", *["<f8"] * len(floats)],
+                     "offsets": [slots[0], slots[0] + 4, *slots[1:]], "itemsize": len(payload)})

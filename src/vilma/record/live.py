@@ -1,8 +1,9 @@
 """``--foxglove``: a Foxglove WebSocket server (foxglove-sdk) broadcasting a car's topics live, with sim time.
 
 The channels and their messages are those of a recording (:mod:`vilma.record.schemas`): the
-sensors as ``vilma_msgs/msg/<Type>`` in CDR, ``vilma/<car>/tf`` as ``foxglove_msgs/msg/FrameTransform``
-and ``.../gps/fix`` as ``foxglove_msgs/msg/LocationFix`` (derived from the pose and the GPS), orders and
+sensors in CDR as standard ROS 2 types where one fits (``geometry_msgs/msg/PoseStamped``,
+``sensor_msgs/msg/Imu``, ``sensor_msgs/msg/NavSatFix``, ``nav_msgs/msg/Odometry``...) with the topics written
+beside them (``vilma/<car>/tf`` as ``foxglove_msgs/msg/FrameTransform``...), orders and
 statuses as JSON ``vilma.<Type>``; the world sensors'
 topics it is given as :mod:`vilma.record.world_schemas` lays them out (colour images JPEG,
 depth ``foxglove.RawImage``, the laser ``foxglove.PointCloud``). Each
@@ -21,7 +22,7 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.messages import Message
 from vilma.core.net import is_loopback
 from vilma.record.recorder import LIVE_TOPICS, msgspec_row
-from vilma.record.schemas import DERIVED, encode_struct, numeric_layouts, struct_schema
+from vilma.record.schemas import COMPANIONS, channels, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
     WorldMessageError,
@@ -61,7 +62,7 @@ class FoxgloveLive:
         self._channels: dict[str, object] = {}
         self.dropped: dict[str, int] = {}
         """Malformed world-sensor messages dropped, by topic."""
-        for name in (*LIVE_TOPICS, *DERIVED.values(), *self._world):
+        for name in (*LIVE_TOPICS, *(c for cs in COMPANIONS.values() for c in cs), *self._world):
             self._channel(name)  # advertised from the start: a client sees every channel at once
         self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in (*LIVE_TOPICS, *self._world)]
 
@@ -101,9 +102,8 @@ class FoxgloveLive:
         def take(msg: Message) -> None:
             if name in SENSOR_TOPICS:
                 values = msgspec_row(msg)
-                for n in (name, DERIVED.get(name)):
-                    if n is not None:
-                        self._channel(n).log(self._layouts[n].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
+                for c in channels(name):
+                    self._channel(c).log(self._layouts[c].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
             else:
                 self._channel(name).log(encode_struct(msg), log_time=msg.stamp_ns)
                 if name == "sim/status":

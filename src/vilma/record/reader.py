@@ -27,7 +27,7 @@ from mcap.stream_reader import StreamReader
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS
 from vilma.core import messages as m
 from vilma.record.mcap_file import MAGIC
-from vilma.record.schemas import DRIVE_LOG, decode_fields, numeric_layouts
+from vilma.record.schemas import DRIVE_LOG, Layout, channels, decode_fields, numeric_layouts, vilma_layouts
 from vilma.record.world_schemas import WORLD_SCHEMAS, decode_world
 from vilma.scenario.drive_log import COLUMNS
 from vilma.sensors import Readings
@@ -125,15 +125,38 @@ def _arrays(rec: Recording, name: str, fields: tuple[str, ...], cls: type[m.Mess
     if rec.encodings.get(name, "json") == "json":  # a recording of vilma 0.1, before CDR
         stamps, values = _json_arrays(data, fields)
     else:
-        lay = numeric_layouts(rec.car).get(name)
-        if lay is None or lay.schema_name != rec.schemas[name] or lay.fields != fields:
-            raise RecordingError(f"{rec.path}: topic {name} is {rec.schemas[name]}, which this vilma does not read")
-        try:
-            stamps, values = lay.decode(data)
-        except ValueError as e:
-            raise RecordingError(f"{rec.path}: topic {name}: {e}") from None
+        stamps, columns = None, {}
+        for part, lay in _parts(rec, name):
+            try:
+                st, floats = lay.decode(rec.raw.get(part, ([], []))[1])
+            except ValueError as e:
+                raise RecordingError(f"{rec.path}: topic {part}: {e}") from None
+            if stamps is not None and not np.array_equal(st, stamps):
+                raise RecordingError(f"{rec.path}: topic {part} does not match {name} message for message")
+            stamps = st
+            columns.update((f, floats[:, j]) for j, f in enumerate(lay.fields) if f is not None)
+        values = np.stack([columns[f] for f in fields], axis=1) if fields else np.empty((len(stamps), 0))
     order = rec._order(name, stamps)
     return Readings(name, cls, stamps[order], values[order])
+
+
+def _parts(rec: Recording, name: str) -> list[tuple[str, Layout]]:
+    """The topics (and their layouts) ``name``'s values are read from: itself in a vilma type (a recording made
+    before the standard types), else itself and the topics beside it that carry some of its fields."""
+    schema = rec.schemas[name]
+    old = vilma_layouts().get(name)
+    if old is not None and schema == old.schema_name:
+        return [(name, old)]
+    layouts = numeric_layouts(rec.car)
+    lay = layouts.get(name)
+    if lay is None or lay.schema_name != schema:
+        raise RecordingError(f"{rec.path}: topic {name} is {schema}, which this vilma does not read")
+    parts = [(c, layouts[c]) for c in channels(name) if any(f is not None for f in layouts[c].fields)]
+    for c, lay in parts[1:]:
+        if rec.schemas.get(c) != lay.schema_name:
+            raise RecordingError(f"{rec.path}: topic {name} needs topic {c} ({lay.schema_name}) beside it, "
+                                 f"which the file lacks")
+    return parts
 
 
 def _json_arrays(data: list[bytes], fields: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:

@@ -25,7 +25,7 @@ from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
-from vilma.record.schemas import DERIVED, DRIVE_LOG, encode_struct, numeric_layouts, struct_schema
+from vilma.record.schemas import DRIVE_LOG, channels, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
     WorldLayout,
@@ -113,14 +113,10 @@ class Recorder:
     # -- what to record ----------------------------------------------------------------------------------------
 
     def add_readings(self, readings: dict[str, Readings]) -> None:
-        """Sensor readings (arrays) of one stretch of sim time, and the topics derived from them
-        (:data:`~vilma.record.schemas.DERIVED`)."""
-        batches = []
-        for name, r in readings.items():
-            if len(r) and name in self._layouts:
-                batches.append((name, r.stamp_ns, r.values))
-                if name in DERIVED:
-                    batches.append((DERIVED[name], r.stamp_ns, r.values))
+        """Sensor readings (arrays) of one stretch of sim time, and the topics written beside them
+        (:data:`~vilma.record.schemas.COMPANIONS`)."""
+        batches = [(c, r.stamp_ns, r.values) for name, r in readings.items() if len(r) and name in self._layouts
+                   for c in channels(name)]
         self._guard(lambda f: self._write(f, batches))
 
     def add_log_rows(self, rows: np.ndarray) -> None:
@@ -146,12 +142,10 @@ class Recorder:
         def put(f: McapFile) -> None:
             if name in SENSOR_TOPICS:
                 values = msgspec_row(msg)
-                derived = DERIVED.get(name)
-                f.write(self._channel(f, name), msg.stamp_ns, self._layouts[name].encode_one(msg.stamp_ns, values),
-                        close_chunk=derived is None)  # a message and the one derived from it in the same chunk
-                if derived is not None:
-                    f.write(self._channel(f, derived), msg.stamp_ns,
-                            self._layouts[derived].encode_one(msg.stamp_ns, values))
+                written = channels(name)
+                for k, c in enumerate(written, 1):  # a message and those beside it in the same chunk
+                    f.write(self._channel(f, c), msg.stamp_ns, self._layouts[c].encode_one(msg.stamp_ns, values),
+                            close_chunk=k == len(written))
             else:
                 f.write(self._channel(f, name), msg.stamp_ns, encode_struct(msg))
         self._guard(put)
