@@ -9,11 +9,13 @@ import math
 import signal
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
 from vilma import programs
 from vilma.bus.local import LocalBus
@@ -80,6 +82,12 @@ def test_up_records_every_topic_and_a_failing_path_does_not_stop_the_drive(tmp_p
     assert back.complete
     assert {"pose", "tf", "velocity", "gps", "imu", "wheel_speed", "odometry", "actuators", "cmd", "driver/status",
             "sim/status"} <= set(back.topics)
+    with (tmp_path / "up.mcap").open("rb") as f:  # Foxglove's ROS 2 decoder reads every CDR topic from the file
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        cdr = [c.topic for c in reader.get_summary().channels.values() if c.message_encoding == "cdr"]
+        decoded = Counter(ch.topic for _, ch, _, _ in reader.iter_decoded_messages(topics=cdr))
+    assert decoded == {f"vilma/vilma/{t}": back.count(t) for t in back.topics if back.encodings[t] == "cdr"}
+    assert len(decoded) == 12  # 7 sensors, tf, and the 4 topics beside pose, velocity, gps and odometry
     pose = back.readings("pose")
     assert pose.stamp_ns[-1] == 2_000_000_000 and np.all(np.diff(pose.stamp_ns) == POSE_PERIOD_NS)
     cmds = back.messages("cmd")

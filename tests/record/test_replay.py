@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
+from tests.record import legacy
 from tests.record.world_messages import PERIOD_NS, WORLD_TOPICS, write_world_recording
 from vilma import programs
 from vilma.bus.base import BoundedQueue
@@ -56,6 +58,21 @@ def test_pause_stops_publishing_and_seek_jumps(recording):
     assert nxt.stamp_ns == min(p.stamp_ns for p in recording.messages("pose") if p.stamp_ns >= 1_500_000_000)
     assert player.wait(timeout=30)
     player.close()
+
+
+def test_a_recording_made_before_the_standard_types_replays_as_written():
+    bus = LocalBus()
+    sensors = {name: BoundedQueue(bus, topic(name), maxsize=1000) for name in legacy.readings()}
+    cmds = BoundedQueue(bus, topic("cmd"), maxsize=10)
+    player = Replayer(legacy.FILE, bus, speed=100.0).start()
+    assert player.wait(timeout=30)
+    player.close()
+    for name, r in legacy.readings().items():
+        got = sensors[name].drain()
+        assert [g.stamp_ns for g in got] == r.stamp_ns.tolist(), name
+        assert np.array([[getattr(g, f) for f in r.message.__struct_fields__[1:]] for g in got]).tobytes() == \
+            r.values.tobytes(), name
+    assert cmds.drain() == [legacy.CMD]
 
 
 def test_bad_speed_is_refused(recording):

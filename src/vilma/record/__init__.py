@@ -1,8 +1,9 @@
 """Recording, replay and the robotics ecosystem.
 
 - :mod:`~vilma.record.mcap_file`, :mod:`~vilma.record.schemas`, :mod:`~vilma.record.cdr`: MCAP files of
-  ROS 2 messages (CDR) for the sensors, Foxglove's well-known types for the car's frame and GPS fix, JSON for
-  orders and statuses, chunks flushed at least every second;
+  ROS 2 messages (CDR) for the sensors, standard types (``geometry_msgs``, ``sensor_msgs``, ``nav_msgs``) where
+  one fits, Foxglove's well-known type for the car's frame, JSON for orders and statuses, chunks flushed at least
+  every second;
   :mod:`~vilma.record.world_schemas`: camera images (JPEG or raw) and laser scans.
 - :mod:`~vilma.record.recorder` (live programs, ``--record``), :mod:`~vilma.record.run` (``run.mcap`` of
   ``vilma run``), :mod:`~vilma.record.reader` (reading back, also files cut short).

@@ -3,8 +3,8 @@
 :class:`Replayer` publishes every bus topic of the recording (sensors,
 ``cmd``, ``driver/status``, ``sim/status``, camera images and laser scans) in stamp order from its own
 thread, paced so that ``speed`` seconds of sim time pass per wall second.
-Derived channels (``tf``, ``drive_log``) are not bus topics and are not
-played. The whole recording is held in memory (about 150 bytes a message;
+The topics written beside a sensor's (``tf``, ``pose/euler``...) and ``drive_log`` are not bus topics
+and are not played. The whole recording is held in memory (about 150 bytes a message;
 camera images and laser scans as recorded, decoded as they are played).
 """
 
