@@ -99,7 +99,8 @@ class Layout:
     """How one numeric topic is written: its ROS 2 type and the CDR payload, a template with slots.
 
     A topic is written from the values (n, k) of a source topic (itself, or the topic it goes beside): its
-    float64 slots take the values ``picks`` points at, or, if ``floats`` is given, what it makes of them.
+    float64 slots take the values ``picks`` points at, or, if ``floats`` is given, what it makes of them (of
+    the values of one message (k,) too).
     ``fields`` names the source's field each float64 slot holds as it is (None where it is computed): what
     reading back takes from this topic.
     """
@@ -138,7 +139,7 @@ class Layout:
         """The payload of one message from its source's values (fields after ``stamp_ns``), as :meth:`encode`
         writes it (without numpy unless computed: a live program's path, message by message)."""
         row = ([values[i] for i in self.picks] if self.floats is None
-               else self.floats(np.array([values], np.float64))[0].tolist())
+               else self.floats(np.array(values, np.float64)).tolist())
         out = bytearray(self.payload)
         struct.pack_into("<iI", out, self.slots[0], *divmod(stamp_ns, 1_000_000_000))
         for at, first, count in runs(self.slots):
@@ -178,9 +179,15 @@ def _fields(name: str) -> tuple[str, ...]:
     return SENSOR_TOPICS[name].__struct_fields__[1:]
 
 
-def _quaternions(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> list[np.ndarray]:
+def _quaternions(roll, pitch, yaw) -> np.ndarray:
+    """Quaternions ``(..., 4)`` of ZYX Euler angles [rad] (arrays of one shape, or numbers)."""
     with np.errstate(invalid="ignore"):  # an infinite angle: no orientation, NaN
-        return list(quaternion_from_euler(roll, pitch, yaw))
+        return np.stack(quaternion_from_euler(roll, pitch, yaw), axis=-1)
+
+
+def _position_quaternion(v: np.ndarray) -> np.ndarray:
+    """x, y, z and the quaternion of a pose's values (..., 6): x, y, z, roll, pitch, yaw."""
+    return np.concatenate([v[..., :3], _quaternions(v[..., 3], v[..., 4], v[..., 5])], axis=-1)
 
 
 def _tf_layout(car: str) -> Layout:
@@ -188,20 +195,15 @@ def _tf_layout(car: str) -> Layout:
                   "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation")
     payload, slots = CdrBody().time().string("map").string(car).float64(7).payload()
 
-    def floats(v):
-        return np.column_stack([v[:, :3], *_quaternions(v[:, 3], v[:, 4], v[:, 5])])
     return Layout("foxglove_msgs/msg/FrameTransform", ros2msg(definition, _TIME, _VECTOR3, _QUATERNION),
-                  payload, slots, (None,) * 7, floats=floats)
+                  payload, slots, (None,) * 7, floats=_position_quaternion)
 
 
 def _pose_layout() -> Layout:
     payload, slots = CdrBody().header("map").float64(7).payload()
-
-    def floats(v):
-        return np.column_stack([v[:, :3], *_quaternions(v[:, 3], v[:, 4], v[:, 5])])
     return Layout("geometry_msgs/msg/PoseStamped",
                   ros2msg(_STAMPED + "geometry_msgs/Pose pose", _HEADER, _TIME, _POSE, _POINT, _QUATERNION),
-                  payload, slots, ("x", "y", "z", None, None, None, None), floats=floats)
+                  payload, slots, ("x", "y", "z", None, None, None, None), floats=_position_quaternion)
 
 
 def _vector3_layout(frame: str, source: tuple[str, ...], fields: tuple[str, ...]) -> Layout:
@@ -252,9 +254,8 @@ def _odometry_layout(car: str) -> Layout:
             .float64(1).zeros(4, 8).float64(1).zeros(36, 8))  # linear x; angular z; covariances unknown
     payload, slots = body.payload()
 
-    def floats(v):
-        _, _, qz, qw = _quaternions(0.0, 0.0, v[:, 2])
-        return np.column_stack([v[:, :2], qz, qw, v[:, 3:5]])
+    def floats(v):  # x, y, the quaternion's z and w, speed, yaw rate
+        return np.concatenate([v[..., :2], _quaternions(0.0, 0.0, v[..., 2])[..., 2:], v[..., 3:5]], axis=-1)
     return Layout("nav_msgs/msg/Odometry", ros2msg(
         definition, _HEADER, _TIME, "MSG: geometry_msgs/PoseWithCovariance\ngeometry_msgs/Pose pose\n"
         "float64[36] covariance", _POSE, _POINT, _QUATERNION, "MSG: geometry_msgs/TwistWithCovariance\n"
