@@ -2,12 +2,24 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
+import pytest
 
 from vilma.core.messages import ActuatorCommand
 from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import NZ
+
+
+@pytest.fixture(autouse=True)
+def _root_log_level():
+    """The root logger's level, put back after each test (``vilma.cli.main`` sets it from -v/-q)."""
+    level = logging.getLogger().level
+    yield
+    logging.getLogger().setLevel(level)
+
 
 STEP = SimConfig().step
 """The default physics step [s]."""

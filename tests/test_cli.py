@@ -138,14 +138,6 @@ def test_run_help_names_the_bundled_scenarios(capsys):
     assert all(f" {n}," in text or text.endswith(f" {n}") for n in names())
 
 
-@pytest.fixture
-def root_level():
-    """The root logger's level, put back after the test (main sets it)."""
-    level = logging.getLogger().level
-    yield
-    logging.getLogger().setLevel(level)
-
-
 def test_every_command_takes_verbose_and_quiet():
     commands = _parser()._subparsers._group_actions[0].choices
     assert {"demo", "run", "sim", "drive", "up", "gui", "report", "trajectory", "scenarios"} <= set(commands)
@@ -156,7 +148,7 @@ def test_every_command_takes_verbose_and_quiet():
 @pytest.mark.parametrize(("flags", "level"), [([], logging.WARNING), (["-v"], logging.INFO), (["-vv"], logging.DEBUG),
                                               (["-v", "--verbose", "-v"], logging.DEBUG), (["-q"], logging.ERROR),
                                               (["--quiet"], logging.ERROR)])
-def test_verbose_and_quiet_set_the_log_level(flags, level, root_level, capsys):
+def test_verbose_and_quiet_set_the_log_level(flags, level, capsys):
     assert main(["scenarios", *flags]) == 0
     assert logging.getLogger().getEffectiveLevel() == level
 
