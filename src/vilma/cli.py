@@ -9,6 +9,7 @@ import os
 import sys
 import time
 
+from vilma.core.extras import MissingExtraError
 from vilma.options import (
     count,
     duration,
@@ -384,7 +385,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger().setLevel(quiet_or_verbose)  # set even when a handler exists (basicConfig would not)
     try:
         return args.func(args)
-    except (ValueError, OSError) as e:
+    except (ValueError, OSError, MissingExtraError) as e:
         print(f"vilma {args.command}: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as e:

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from vilma.bus.base import Bus
+from vilma.core.extras import require
 from vilma.scenario.spec import Scenario
 
 
@@ -20,6 +21,7 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
     it runs ``scenario`` (or the defaults) embedded, paced to ``args.speed`` x
     real time.
     """
+    require("gui", "vilma gui")
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 

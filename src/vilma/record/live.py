@@ -19,6 +19,7 @@ from collections.abc import Callable
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
+from vilma.core.extras import require
 from vilma.core.messages import Message
 from vilma.core.net import is_loopback
 from vilma.record.recorder import LIVE_TOPICS, msgspec_row
@@ -47,6 +48,7 @@ class FoxgloveLive:
 
     def __init__(self, bus: Bus, car: str = "vilma", host: str = "127.0.0.1", port: int = DEFAULT_PORT,
                  world_topics: tuple[str, ...] = (), jpeg_quality: int | None = JPEG_QUALITY) -> None:
+        require("foxglove", "the live Foxglove view")
         import foxglove
         from foxglove.websocket import Capability
 

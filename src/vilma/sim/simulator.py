@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vilma.core.clock import Clock, seconds_to_ns
+from vilma.core.extras import require
 from vilma.core.messages import ActuatorCommand, Message, SimStatus
 from vilma.core.ratelimit import WarningThrottle
 from vilma.plant3d.camera import CameraParams
@@ -105,6 +106,7 @@ class Simulator:
         self._plant3d = None
         self._world_sensors: list[WorldSensor] = []
         if c.model == MUJOCO:
+            require("3d", "the 3D plant (plant: mujoco)")
             from vilma.plant3d.camera import CameraSensor  # imports MuJoCo only when asked for
             from vilma.plant3d.laser import LaserSensor
             from vilma.plant3d.plant import MujocoPlant
