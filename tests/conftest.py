@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import socket
+import subprocess
+import sys
+
 import numpy as np
+import pytest
 
 from vilma.core.messages import ActuatorCommand
 from vilma.sensors import SensorSuite
@@ -11,6 +16,50 @@ from vilma.vehicle.state import NZ
 
 STEP = SimConfig().step
 """The default physics step [s]."""
+
+VILMA = (sys.executable, "-m", "vilma.cli")
+"""The command that runs ``vilma`` in a child process."""
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now, for a child process that must be told its port before it starts."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Processes:
+    """The processes a test starts; at the end of a ``with`` block or of the ``processes`` fixture, whichever still
+    runs is killed and reaped."""
+
+    def __init__(self) -> None:
+        self.started: list[subprocess.Popen] = []
+
+    def start(self, *argv: str, **kw) -> subprocess.Popen:
+        """``Popen(argv, **kw)``; by default its stdout and stderr are one text pipe."""
+        self.started.append(subprocess.Popen(argv, **{"stdout": subprocess.PIPE, "stderr": subprocess.STDOUT,
+                                                       "text": True, **kw}))
+        return self.started[-1]
+
+    def vilma(self, *args: str, **kw) -> subprocess.Popen:
+        """``vilma args`` started as :meth:`start` does."""
+        return self.start(*VILMA, *args, **kw)
+
+    def __enter__(self) -> Processes:
+        return self
+
+    def __exit__(self, *_) -> None:
+        for p in self.started:
+            if p.poll() is None:
+                p.kill()
+            p.communicate(timeout=60)  # reaped, its pipes closed
+
+
+@pytest.fixture
+def processes():
+    """A :class:`Processes`: every process the test starts through it is ended, whatever the test did."""
+    with Processes() as started:
+        yield started
 
 
 def drive(config: SimConfig, cmd: ActuatorCommand, seconds: float, initial=None) -> np.ndarray:

@@ -137,25 +137,9 @@ def test_cli_batch_of_runs_with_one_name_keeps_them_all(tmp_path):
     assert sorted(f.name for f in (tmp_path / "o").iterdir()) == ["step-seed_1", "step-seed_1-2"]
 
 
-def _vilma(*args, **kw) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "vilma.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **kw)
-
-
-@pytest.fixture
-def processes():
-    started: list[subprocess.Popen] = []
-    yield started
-    for p in started:
-        if p.poll() is None:
-            p.kill()
-        p.communicate()
-
-
 def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, processes):
     out = tmp_path / "o"
-    p = _vilma("run", "pi_ff_speed_5", "--realtime", "4", "--out", str(out))
-    processes.append(p)
+    p = processes.vilma("run", "pi_ff_speed_5", "--realtime", "4", "--out", str(out), stderr=subprocess.PIPE)
     part = out / "timeseries.csv.part"
     deadline = time.monotonic() + 120
     while not (part.exists() and part.stat().st_size > 2000) and p.poll() is None and time.monotonic() < deadline:
@@ -177,8 +161,8 @@ def test_a_full_disk_names_the_file(tmp_path, processes):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (64_000, 64_000))
 
-    p = _vilma("run", "pi_ff_speed_5", "--no-record", "--out", str(tmp_path / "o"), preexec_fn=limit)
-    processes.append(p)
+    p = processes.vilma("run", "pi_ff_speed_5", "--no-record", "--out", str(tmp_path / "o"), stderr=subprocess.PIPE,
+                        preexec_fn=limit)
     _, err = p.communicate(timeout=120)
     assert p.returncode == 2 and err.count("\n") == 1 and "Traceback" not in err
     assert "File too large" in err and str(tmp_path / "o" / "timeseries.csv") in err
