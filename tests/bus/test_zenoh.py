@@ -157,6 +157,7 @@ def test_endpoints_beyond_loopback_are_recognised():
     assert cfg.exposed() == ["tcp/0.0.0.0:7450", "udp/10.0.0.5:7451"]
 
 
+@pytest.mark.slow
 def test_zenoh_config_file_and_its_errors(tmp_path):
     good = tmp_path / "z.yaml"
     good.write_text("listen: [tcp/127.0.0.1:0]\nconnect: []\nextra: [[transport/unicast/max_links, '2']]\n")

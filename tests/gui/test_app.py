@@ -19,6 +19,7 @@ from vilma.gui.backend import Remote
 from vilma.gui.main_window import MainWindow
 
 
+@pytest.mark.slow
 def test_vilma_gui_runs_embedded_and_quits_cleanly():
     env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
     r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "--speed", "2", "--quit-after", "2"],

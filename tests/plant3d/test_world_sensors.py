@@ -83,6 +83,7 @@ def test_the_sim_node_publishes_images_and_scans_on_their_topics():
     sim.close()
 
 
+@pytest.mark.slow
 def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path, processes):
     scenario = tmp_path / "eyes.yaml"
     scenario.write_text("plant: mujoco\ncameras: {stereo: {width: 160, height: 120, rate_hz: 10}}\nlaser: true\n"
@@ -101,6 +102,7 @@ def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path, processes
         _stop(sim)
 
 
+@pytest.mark.slow
 def test_a_run_records_its_camera_images_and_scans(tmp_path):
     scenario = tmp_path / "rec.yaml"
     scenario.write_text("plant: mujoco\ncameras: [{name: dash, width: 64, height: 48, rate_hz: 10}]\n"

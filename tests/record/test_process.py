@@ -117,6 +117,7 @@ def test_joined_and_plain_arrays_arrive_as_they_were(tmp_path, ring):
                                                                                    STAMPS)
 
 
+@pytest.mark.slow
 def test_a_run_hands_its_blocks_over_in_parts_the_ring_holds(tmp_path, monkeypatch):
     """While the process starts, and whenever it is behind, a run keeps what the ring has no room for and hands
     it over later, in parts: every reading and log row arrives, in order."""
@@ -173,6 +174,7 @@ def test_an_unwritable_path_is_reported_by_close_and_ok(tmp_path):
     assert not rec.ok and "x.mcap" in rec.error
 
 
+@pytest.mark.slow
 def test_a_killed_paced_run_keeps_its_run_mcap(tmp_path, processes):
     """``vilma run --realtime``: readings reach the recorder at least every half second of wall time; killed,
     the run leaves its file finished by the recorder's process."""

@@ -100,6 +100,7 @@ def _up(path: Path, name: str, duration: float) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "duration"), [("course_30kmh_stanley", 20.0), ("pi_ff_speed_5", 10.0)])
 def test_report_of_vilma_up_gives_the_figures_of_vilma_run(tmp_path, name, duration):
     """The nodes drive as the runner's loop does (tests/bus/test_nodes.py) and a pose is recorded each control
@@ -125,6 +126,7 @@ def _stretches(stamps: np.ndarray, *values: np.ndarray) -> list[list[np.ndarray]
     return [np.split(v, cut) for v in (stamps * 1e-9, *values)]
 
 
+@pytest.mark.slow
 def test_report_of_vilma_sim_scores_each_segment_between_resets(tmp_path, processes):
     """``vilma sim --record`` and ``vilma drive`` holding 5 m/s (a speed task: straight along x) on Zenoh; the
     simulator is reset through the bus once the car is 40 m on, and stopped 30 m after the start again. Each
@@ -282,6 +284,7 @@ def test_report_counts_the_world_sensors(tmp_path):
         "camera/front_left": 5, "camera/front_left/depth": 5, "laser": 5}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["course_30kmh_stanley", "pi_ff_speed_5"])
 def test_without_the_drivers_orders_the_task_is_its_mode_and_the_scenarios(tmp_path, name):
     """A recording whose driver did not publish the orders it took: the task is told by the driver's mode, a

@@ -91,6 +91,7 @@ def _sigint(p: subprocess.Popen, err: Path) -> str:
     return text
 
 
+@pytest.mark.slow
 def test_a_ros_command_moves_the_car_and_the_watchdog_stops_it_when_the_publisher_stops(ros_env, bridge, tmp_path):
     force = 3000.0  # forward drive force [N], wheels straight: as [steer, drive, brake], the 3-number form
     first, moved, stopped, rest = _probe(ros_env, "drive", str(force))
@@ -113,6 +114,7 @@ def test_a_ros_command_moves_the_car_and_the_watchdog_stops_it_when_the_publishe
     assert rest["speed"] < 0.05 and stopped["x"] < rest["x"] < stopped["x"] + bound
 
 
+@pytest.mark.slow
 def test_bad_messages_on_cmd_are_dropped_with_a_warning_a_second_and_commands_still_drive(ros_env, bridge,
                                                                                            tmp_path):
     n = 300

@@ -105,6 +105,7 @@ def test_sweeps_and_bundled_names():
         parse_sets([f"k{i}=" + ",".join("0123456789") for i in range(10)])  # 10^10 combinations: never built
 
 
+@pytest.mark.slow
 def test_cli_run_sweep_writes_a_folder_per_run(tmp_path, capsys):
     p = tmp_path / "step.yaml"
     p.write_text("task: {speed: 5}\nduration: 4\n")
@@ -137,6 +138,7 @@ def test_cli_batch_of_runs_with_one_name_keeps_them_all(tmp_path):
     assert sorted(f.name for f in (tmp_path / "o").iterdir()) == ["step-seed_1", "step-seed_1-2"]
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, processes):
     out = tmp_path / "o"
     p = processes.vilma("run", "pi_ff_speed_5", "--realtime", "4", "--out", str(out), stderr=subprocess.PIPE)
@@ -153,6 +155,7 @@ def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, pro
     assert rec.complete and rec.count("pose") > 0
 
 
+@pytest.mark.slow
 def test_a_full_disk_names_the_file(tmp_path, processes):
     """Files may grow to 64 kB only (RLIMIT_FSIZE, as a full disk for this process): one line names the file."""
     run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml", {"duration": "1"}))  # numba's cache written beforehand
