@@ -52,6 +52,7 @@ class Processes:
         for p in self.started:
             if p.poll() is None:
                 p.kill()
+        for p in self.started:
             p.communicate(timeout=60)  # reaped, its pipes closed
 
 
