@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import socket
 import subprocess
 import sys
@@ -61,6 +62,16 @@ def processes():
     """A :class:`Processes`: every process the test starts through it is ended, whatever the test did."""
     with Processes() as started:
         yield started
+
+
+@pytest.fixture(autouse=True)
+def root_log_level():
+    """Each test starts at the root logger's level pytest set: ``vilma.cli.main`` sets it for its process (-q, -v),
+    which in a test run is every later test's."""
+    root = logging.getLogger()
+    level = root.level
+    yield
+    root.setLevel(level)
 
 
 def drive(config: SimConfig, cmd: ActuatorCommand, seconds: float, initial=None) -> np.ndarray:
