@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import logging
+import socket
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -12,17 +15,63 @@ from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import NZ
 
-
-@pytest.fixture(autouse=True)
-def _root_log_level():
-    """The root logger's level, put back after each test (``vilma.cli.main`` sets it from -v/-q)."""
-    level = logging.getLogger().level
-    yield
-    logging.getLogger().setLevel(level)
-
-
 STEP = SimConfig().step
 """The default physics step [s]."""
+
+VILMA = (sys.executable, "-m", "vilma.cli")
+"""The command that runs ``vilma`` in a child process."""
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 now, for a child process that must be told its port before it starts."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Processes:
+    """The processes a test starts; at the end of a ``with`` block or of the ``processes`` fixture, whichever still
+    runs is killed and reaped."""
+
+    def __init__(self) -> None:
+        self.started: list[subprocess.Popen] = []
+
+    def start(self, *argv: str, **kw) -> subprocess.Popen:
+        """``Popen(argv, **kw)``; by default its stdout and stderr are one text pipe."""
+        self.started.append(subprocess.Popen(argv, **{"stdout": subprocess.PIPE, "stderr": subprocess.STDOUT,
+                                                       "text": True, **kw}))
+        return self.started[-1]
+
+    def vilma(self, *args: str, **kw) -> subprocess.Popen:
+        """``vilma args`` started as :meth:`start` does."""
+        return self.start(*VILMA, *args, **kw)
+
+    def __enter__(self) -> Processes:
+        return self
+
+    def __exit__(self, *_) -> None:
+        for p in self.started:
+            if p.poll() is None:
+                p.kill()
+        for p in self.started:
+            p.communicate(timeout=60)  # reaped, its pipes closed
+
+
+@pytest.fixture
+def processes():
+    """A :class:`Processes`: every process the test starts through it is ended, whatever the test did."""
+    with Processes() as started:
+        yield started
+
+
+@pytest.fixture(autouse=True)
+def root_log_level():
+    """Each test starts at the root logger's level pytest set: ``vilma.cli.main`` sets it for its process (-q, -v),
+    which in a test run is every later test's."""
+    root = logging.getLogger()
+    level = root.level
+    yield
+    root.setLevel(level)
 
 
 def drive(config: SimConfig, cmd: ActuatorCommand, seconds: float, initial=None) -> np.ndarray:

@@ -6,6 +6,8 @@ import signal
 import subprocess
 import sys
 
+import pytest
+
 from vilma import programs
 from vilma.scenario import load_scenario
 
@@ -21,9 +23,9 @@ def test_up_drives_paced_and_reports_each_second():
     assert 0 < rtf < 10.5  # paced: never faster than 10x real time (how close it gets is a benchmark's business)
 
 
-def test_up_stops_cleanly_on_sigint():
-    p = subprocess.Popen([sys.executable, "-m", "vilma.cli", "up", "--speed", "1"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
+@pytest.mark.slow
+def test_up_stops_cleanly_on_sigint(processes):
+    p = processes.vilma("up", "--speed", "1", stderr=subprocess.PIPE)
     first = p.stdout.readline()  # the banner: it runs
     assert first.startswith("vilma up:")
     p.stdout.readline()  # one status line: the loop is going

@@ -8,10 +8,10 @@ import re
 import shutil
 import signal
 import subprocess
-import sys
 
 import pytest
 
+from tests.conftest import VILMA
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import run
@@ -55,20 +55,18 @@ def two_hosts():
 
 @pytest.mark.slow
 @pytest.mark.skipif(REASON is not None, reason=f"distributed test skipped: {REASON}")
-def test_sim_and_drive_on_two_hosts_follow_the_course(two_hosts):
+def test_sim_and_drive_on_two_hosts_follow_the_course(two_hosts, processes):
     sim_ns, drv_ns = two_hosts
     scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
     run(scenario, compiled=False)  # fill the compiled-code cache first: the programs then start at once
-    vilma = [sys.executable, "-m", "vilma.cli"]
-    sim = subprocess.Popen(["ip", "netns", "exec", sim_ns, *vilma, "sim", "course_30kmh_stanley", "--speed", "4",
-                            "--duration", "80", "--listen", "tcp/10.231.0.1:7447"], stdout=subprocess.PIPE,
-                           stderr=subprocess.STDOUT, text=True)
-    drive = subprocess.Popen(["ip", "netns", "exec", drv_ns, *vilma, "drive", "course_30kmh_stanley", "--connect",
-                              "tcp/10.231.0.1:7447", "--listen", "tcp/10.231.0.2:0"], stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT, text=True)
-    sim_out, _ = sim.communicate(timeout=150)
+    sim_at = "tcp/10.231.0.1:7447"  # a fixed port is free: the namespace is the test's own, no other program in it
+    sim = processes.start("ip", "netns", "exec", sim_ns, *VILMA, "sim", "course_30kmh_stanley", "--speed", "4",
+                          "--duration", "80", "--listen", sim_at)
+    drive = processes.start("ip", "netns", "exec", drv_ns, *VILMA, "drive", "course_30kmh_stanley", "--connect",
+                            sim_at, "--listen", "tcp/10.231.0.2:0")
+    sim_out, _ = sim.communicate(timeout=240)
     drive.send_signal(signal.SIGINT)
-    drive_out, _ = drive.communicate(timeout=10)
+    drive_out, _ = drive.communicate(timeout=60)
     assert sim.returncode == 0 and drive.returncode == 0, sim_out + drive_out
     assert "beyond this machine" in sim_out  # listening on a non-loopback address is warned about
     m = re.search(r"the car at x=(\S+) y=(\S+) m, speed (\S+) m/s; commands (\d+) on time", sim_out)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import logging
 import math
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -15,6 +14,7 @@ import pytest
 import zenoh
 
 from tests.bus.conftest import data_folder
+from tests.conftest import free_port
 from vilma.bus import Latest, topic
 from vilma.bus.codec import MAX_FRAME_BYTES, decode, encode
 from vilma.bus.zenoh_bus import MAX_MESSAGE_BYTES, ZenohBus, ZenohConfig
@@ -25,17 +25,6 @@ from vilma.scenario.runner import run
 
 SPEED = 4.0
 """The simulator runs at this many times real time in these tests."""
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _vilma(*args: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "vilma.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
 
 
 def _wait(predicate, timeout: float, what: str) -> None:
@@ -53,24 +42,24 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 @pytest.fixture
-def sim_endpoint():
+def sim_endpoint(processes):
     run(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"), compiled=False)  # fill the compiled-code cache first
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    sim = _vilma("sim", "course_30kmh_stanley", "--speed", str(SPEED), "--listen", endpoint, "--no-morse")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    sim = processes.vilma("sim", "course_30kmh_stanley", "--speed", str(SPEED), "--listen", endpoint, "--no-morse")
     watcher = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
     pose = Latest(watcher, topic("pose"))
-    _wait(lambda: pose.value is not None, 20, "the simulator's first pose")
+    _wait(lambda: pose.value is not None, 120, "the simulator's first pose")
     yield endpoint, watcher
     watcher.close()
     _stop(sim)
 
 
 @pytest.mark.slow
-def test_sim_and_drive_in_two_processes_follow_the_course_to_its_end(sim_endpoint):
+def test_sim_and_drive_in_two_processes_follow_the_course_to_its_end(sim_endpoint, processes):
     endpoint, watcher = sim_endpoint
     status = Latest(watcher, topic("driver/status"))
-    drive = _vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
-    _wait(lambda: status.value is not None and status.value.arrived, 60, "the car to arrive")
+    drive = processes.vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
+    _wait(lambda: status.value is not None and status.value.arrived, 180, "the car to arrive")
     end = load_scenario(BUNDLED / "course_30kmh_stanley.yaml").reference_path().xy[-1]
     _wait(lambda: watcher_speed(watcher) < 0.05, 10, "the car to stop")
     p = Latest(watcher, topic("pose"))
@@ -87,15 +76,15 @@ def watcher_speed(bus: ZenohBus) -> float:
 
 
 @pytest.mark.slow
-def test_killed_driver_the_watchdog_stops_the_car_and_a_new_driver_resumes(sim_endpoint):
+def test_killed_driver_the_watchdog_stops_the_car_and_a_new_driver_resumes(sim_endpoint, processes):
     endpoint, watcher = sim_endpoint
     pose, vel = Latest(watcher, topic("pose")), Latest(watcher, topic("velocity"))
-    drive = _vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
-    _wait(lambda: vel.value is not None and vel.value.speed > 7.0, 30, "cruising speed")
+    drive = processes.vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
+    _wait(lambda: vel.value is not None and vel.value.speed > 7.0, 120, "cruising speed")
     drive.kill()
     drive.communicate()
     v0, x0, y0 = vel.value.speed, pose.value.x, pose.value.y
-    _wait(lambda: vel.value.speed < 0.05, 20, "the watchdog to stop the car")
+    _wait(lambda: vel.value.speed < 0.05, 60, "the watchdog to stop the car")
     travelled = math.hypot(pose.value.x - x0, pose.value.y - y0)
     # The last command holds for the 0.5 s watchdog time (pi_ff requests at most 2 m/s^2), plus the sim time
     # the kill and the poses take to cross the bus (a few ms of wall time, SPEED times more sim time: 0.1 s);
@@ -107,13 +96,13 @@ def test_killed_driver_the_watchdog_stops_the_car_and_a_new_driver_resumes(sim_e
     bound = v0 * hold + 0.5 * a_max * hold**2 + v1 * tau + v1 * v1 / (2 * stop)
     assert travelled < bound
     status = Latest(watcher, topic("driver/status"))
-    again = _vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
-    _wait(lambda: status.value is not None and status.value.arrived, 60, "the new driver to finish the course")
+    again = processes.vilma("drive", "course_30kmh_stanley", "--connect", endpoint)
+    _wait(lambda: status.value is not None and status.value.arrived, 180, "the new driver to finish the course")
     _stop(again)
 
 
 def test_a_malformed_frame_is_dropped_with_a_warning_and_the_next_is_read(caplog):
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     a = ZenohBus(ZenohConfig(listen=(endpoint,)))
     b = ZenohBus(ZenohConfig(connect=(endpoint,)))
     got, ready = [], threading.Event()
@@ -137,7 +126,7 @@ def test_a_malformed_frame_is_dropped_with_a_warning_and_the_next_is_read(caplog
 
 
 def test_a_peer_flooding_malformed_frames_gets_a_warning_a_second_not_one_each(caplog):
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     a = ZenohBus(ZenohConfig(listen=(endpoint,)))
     b = ZenohBus(ZenohConfig(connect=(endpoint,)))
     stamps, done = [], threading.Event()
@@ -168,6 +157,7 @@ def test_endpoints_beyond_loopback_are_recognised():
     assert cfg.exposed() == ["tcp/0.0.0.0:7450", "udp/10.0.0.5:7451"]
 
 
+@pytest.mark.slow
 def test_zenoh_config_file_and_its_errors(tmp_path):
     good = tmp_path / "z.yaml"
     good.write_text("listen: [tcp/127.0.0.1:0]\nconnect: []\nextra: [[transport/unicast/max_links, '2']]\n")
@@ -185,19 +175,16 @@ def test_zenoh_config_file_and_its_errors(tmp_path):
 
 
 @pytest.fixture
-def drive_with_data(tmp_path):
+def drive_with_data(tmp_path, processes):
     """``vilma drive --data-dir`` (a :func:`data_folder`) connected to a Zenoh session of the test's; yields the
-    session and the process (killed at the end if the test did not stop it)."""
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    session and the process."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     bus = ZenohBus(ZenohConfig(listen=(endpoint,)))
-    drive = _vilma("drive", "--connect", endpoint, "--data-dir", str(data_folder(tmp_path)))
-    deadline = time.monotonic() + 30
+    drive = processes.vilma("drive", "--connect", endpoint, "--data-dir", str(data_folder(tmp_path)))
+    deadline = time.monotonic() + 120
     while not bus.request(topic("driver/cmd"), DriverOrder(action="manual"), timeout=0.5).ok:
         assert time.monotonic() < deadline and drive.poll() is None, "the driver never answered"
     yield bus, drive
-    if drive.poll() is None:
-        drive.kill()
-    drive.communicate()
     bus.close()
 
 

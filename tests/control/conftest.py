@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
+from importlib.resources import files
 
 import numpy as np
 
@@ -12,7 +12,8 @@ from vilma.sim import SimConfig, Simulator
 from vilma.trajectory import Trajectory, increase_point_count, load_trajectory, smooth_iterative
 from vilma.vehicle.state import VehicleState
 
-LOGS = Path(__file__).resolve().parents[2].parent / "shared" / "reference" / "original-logs"
+LOGS = files("vilma") / "scenarios" / "data"
+"""The original's recorded logs, as the package ships them (a user's install has no ``../shared``)."""
 
 
 @dataclass

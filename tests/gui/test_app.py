@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import socket
 import subprocess
 import sys
 import time
 
 import pytest
 
+from tests.conftest import Processes, free_port
 from tests.gui.conftest import WAIT_MS
 from vilma.bus import Latest, topic
 from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
@@ -19,6 +19,7 @@ from vilma.gui.backend import Remote
 from vilma.gui.main_window import MainWindow
 
 
+@pytest.mark.slow
 def test_vilma_gui_runs_embedded_and_quits_cleanly():
     env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
     r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "--speed", "2", "--quit-after", "2"],
@@ -37,26 +38,19 @@ def test_vilma_gui_refuses_bad_options_without_a_traceback():
     assert r.returncode == 2 and "no_such_scenario" in r.stderr and "Traceback" not in r.stderr
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _sim(endpoint: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "vilma.cli", "sim", "--listen", endpoint],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+def _sim(processes: Processes, endpoint: str) -> subprocess.Popen:
+    return processes.vilma("sim", "--listen", endpoint, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
 
 def _stop(p: subprocess.Popen) -> None:
     p.terminate()
-    p.communicate(timeout=30)
+    p.communicate(timeout=WAIT_MS / 1000)
 
 
 @pytest.mark.slow
-def test_connect_shows_a_lost_simulator_and_reconnects_by_itself(qtbot):
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    sim = _sim(endpoint)
+def test_connect_shows_a_lost_simulator_and_reconnects_by_itself(qtbot, processes):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    sim = _sim(processes, endpoint)
     backend = Remote(ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,))), endpoint)
     w = MainWindow(backend, refresh_ms=100)
     qtbot.addWidget(w)
@@ -65,21 +59,19 @@ def test_connect_shows_a_lost_simulator_and_reconnects_by_itself(qtbot):
         qtbot.waitUntil(lambda: w.link.text() == "connected", timeout=WAIT_MS)
         _stop(sim)
         qtbot.waitUntil(lambda: w.link.text().startswith("DISCONNECTED"), timeout=WAIT_MS)
-        sim = _sim(endpoint)
+        _sim(processes, endpoint)
         qtbot.waitUntil(lambda: w.link.text() == "connected", timeout=WAIT_MS)
         assert "pose" in w.bridge.latest
     finally:
         w.close()
-        _stop(sim)
         backend.close()
 
 
 @pytest.mark.slow
-def test_connected_gains_and_table_speeds_reach_a_driver_in_another_process():
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    sim = _sim(endpoint)
-    drive = subprocess.Popen([sys.executable, "-m", "vilma.cli", "drive", "--connect", endpoint],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+def test_connected_gains_and_table_speeds_reach_a_driver_in_another_process(processes):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    _sim(processes, endpoint)
+    processes.vilma("drive", "--connect", endpoint, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     backend = Remote(ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,))), endpoint)
     try:
         order = topic("driver/cmd")
@@ -104,5 +96,3 @@ def test_connected_gains_and_table_speeds_reach_a_driver_in_another_process():
             time.sleep(0.05)
     finally:
         backend.close()
-        _stop(drive)
-        _stop(sim)

@@ -60,6 +60,7 @@ def _rms(a: np.ndarray) -> float:
     return float(np.sqrt(np.mean(a**2)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_ekf_meets_the_accuracy_target_on_the_paper_course(seed):
     _, pos, head = _drive_course(seed)

@@ -4,12 +4,14 @@ published on the bus beside the other sensors."""
 from __future__ import annotations
 
 import json
+import re
 import socket
 
 import numpy as np
 import pytest
 
-from tests.bus.test_zenoh import _free_port, _stop, _vilma, _wait
+from tests.bus.test_zenoh import _stop, _wait
+from tests.conftest import free_port
 from vilma.bus import Latest, LocalBus
 from vilma.bus.nodes import SimNode
 from vilma.bus.topics import topic
@@ -81,16 +83,17 @@ def test_the_sim_node_publishes_images_and_scans_on_their_topics():
     sim.close()
 
 
-def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path):
+@pytest.mark.slow
+def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path, processes):
     scenario = tmp_path / "eyes.yaml"
     scenario.write_text("plant: mujoco\ncameras: {stereo: {width: 160, height: 120, rate_hz: 10}}\nlaser: true\n"
                         "task: {speed: 3}\n", encoding="utf-8")
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    sim = _vilma("sim", str(scenario), "--speed", "2", "--listen", endpoint, "--no-morse")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    sim = processes.vilma("sim", str(scenario), "--speed", "2", "--listen", endpoint, "--no-morse")
     watcher = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
     right, scan = Latest(watcher, topic("camera/front_right")), Latest(watcher, topic("laser"))
     try:
-        _wait(lambda: right.value is not None and scan.value is not None, 30, "an image and a scan")
+        _wait(lambda: right.value is not None and scan.value is not None, 120, "an image and a scan")
         assert (right.value.width, right.value.height, len(right.value.data)) == (160, 120, 160 * 120 * 3)
         assert right.value.frame_id == "front_right"
         assert len(scan.value.ranges) == 4 * len(LaserParams().bearings)
@@ -99,6 +102,7 @@ def test_vilma_sim_serves_camera_images_and_scans_over_zenoh(tmp_path):
         _stop(sim)
 
 
+@pytest.mark.slow
 def test_a_run_records_its_camera_images_and_scans(tmp_path):
     scenario = tmp_path / "rec.yaml"
     scenario.write_text("plant: mujoco\ncameras: [{name: dash, width: 64, height: 48, rate_hz: 10}]\n"
@@ -110,14 +114,13 @@ def test_a_run_records_its_camera_images_and_scans(tmp_path):
     assert [s.stamp_ns for s in rec.messages("laser")] == [k * 200_000_000 for k in range(1, 11)]
 
 
-def test_vilma_sim_streams_the_laser_to_morse_clients(tmp_path):
+def test_vilma_sim_streams_the_laser_to_morse_clients(tmp_path, processes):
     scenario = tmp_path / "laser.yaml"
     scenario.write_text("plant: mujoco\nlaser: {max_range: 20}\ntask: {speed: 0.0001}\n", encoding="utf-8")
-    port = _free_port()
-    sim = _vilma("sim", str(scenario), "--listen", f"tcp/127.0.0.1:{_free_port()}", "--morse-port", str(port),
-                 "--morse-stream-port", str(_free_port()))
+    sim = processes.vilma("sim", str(scenario), "--listen", "tcp/127.0.0.1:0", "--morse-port", "0",
+                          "--morse-stream-port", "0")
     try:
-        _wait(lambda: _connects(port), 30, "the MORSE service port")
+        port = _morse_port(sim)
         with socket.create_connection(("127.0.0.1", port)) as c:
             c.sendall(b'1 simulation get_stream_port ["vilma.laser"]\n')
             stream = int(c.makefile("rb").readline().split()[2])
@@ -129,9 +132,9 @@ def test_vilma_sim_streams_the_laser_to_morse_clients(tmp_path):
         _stop(sim)
 
 
-def _connects(port: int) -> bool:
-    try:
-        socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-    except OSError:
-        return False
-    return True
+def _morse_port(sim) -> int:
+    """The MORSE service port the program's banner names (it listens before it says so)."""
+    for line in sim.stdout:
+        if m := re.search(r"MORSE services on 127\.0\.0\.1:(\d+)", line):
+            return int(m.group(1))
+    raise AssertionError("vilma sim ended without serving MORSE")

@@ -8,7 +8,6 @@ import csv
 import math
 import signal
 import subprocess
-import sys
 from collections import Counter
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from tests.conftest import Processes
 from vilma import programs
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
@@ -108,9 +108,9 @@ def test_sim_program_records_what_it_publishes(tmp_path):
     assert back.count("sim/status") == back.count("pose")  # a status a frame, a frame a pose period
 
 
-def _start_up(path: Path, speed: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "vilma.cli", "up", "course_30kmh_stanley", "--speed", speed,
-                             "--record", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def _start_up(processes: Processes, path: Path, speed: str) -> subprocess.Popen:
+    return processes.vilma("up", "course_30kmh_stanley", "--speed", speed, "--record", str(path),
+                           stderr=subprocess.PIPE)
 
 
 def _wait_for_status(p: subprocess.Popen, t: float) -> None:
@@ -121,11 +121,11 @@ def _wait_for_status(p: subprocess.Popen, t: float) -> None:
             return
 
 
-def test_sigterm_finishes_the_file(tmp_path):
-    p = _start_up(tmp_path / "a.mcap", "5")
+def test_sigterm_finishes_the_file(tmp_path, processes):
+    p = _start_up(processes, tmp_path / "a.mcap", "5")
     _wait_for_status(p, 2.0)
     p.send_signal(signal.SIGTERM)
-    _, err = p.communicate(timeout=20)
+    _, err = p.communicate(timeout=60)
     assert p.returncode == 0 and "Traceback" not in err
     back = read_recording(tmp_path / "a.mcap")
     assert back.complete
@@ -138,12 +138,11 @@ def test_sigterm_finishes_the_file(tmp_path):
 def killed(tmp_path_factory) -> Path:
     """The recording of a ``vilma up`` killed with SIGKILL after 4 s of wall time (chunks flushed every second)."""
     path = tmp_path_factory.mktemp("killed") / "a.mcap"
-    p = _start_up(path, "1")
-    try:
+    with Processes() as processes:
+        p = _start_up(processes, path, "1")
         _wait_for_status(p, 4.0)
-    finally:
         p.kill()
-        p.communicate(timeout=20)
+        p.communicate(timeout=60)
     assert p.returncode == -signal.SIGKILL
     return path
 

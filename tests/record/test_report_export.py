@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import signal
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -15,6 +14,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore
 
+from tests.conftest import free_port
 from tests.record.world_messages import PERIOD_NS, write_world_recording
 from vilma import programs
 from vilma.bus import BoundedQueue, LocalBus, topic
@@ -100,6 +100,7 @@ def _up(path: Path, name: str, duration: float) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "duration"), [("course_30kmh_stanley", 20.0), ("pi_ff_speed_5", 10.0)])
 def test_report_of_vilma_up_gives_the_figures_of_vilma_run(tmp_path, name, duration):
     """The nodes drive as the runner's loop does (tests/bus/test_nodes.py) and a pose is recorded each control
@@ -113,32 +114,9 @@ def test_report_of_vilma_up_gives_the_figures_of_vilma_run(tmp_path, name, durat
     assert all(got[k] is None for k in TIMING_KEYS)  # a live recording holds no run's timing
 
 
-@pytest.fixture
-def processes():
-    """Starts ``vilma`` commands; whichever still runs at the end is killed."""
-    started: list[subprocess.Popen] = []
-
-    def start(*args: str) -> subprocess.Popen:
-        started.append(subprocess.Popen([sys.executable, "-m", "vilma.cli", *args], stdout=subprocess.PIPE,
-                                        stderr=subprocess.STDOUT, text=True))
-        return started[-1]
-
-    yield start
-    for p in started:
-        if p.poll() is None:
-            p.kill()
-        p.communicate(timeout=30)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _stop(p: subprocess.Popen) -> None:
     p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=30)
+    out, _ = p.communicate(timeout=60)
     assert p.returncode == 0, out
 
 
@@ -148,18 +126,19 @@ def _stretches(stamps: np.ndarray, *values: np.ndarray) -> list[list[np.ndarray]
     return [np.split(v, cut) for v in (stamps * 1e-9, *values)]
 
 
+@pytest.mark.slow
 def test_report_of_vilma_sim_scores_each_segment_between_resets(tmp_path, processes):
     """``vilma sim --record`` and ``vilma drive`` holding 5 m/s (a speed task: straight along x) on Zenoh; the
     simulator is reset through the bus once the car is 40 m on, and stopped 30 m after the start again. Each
     segment's distance is its poses' last x minus the first; the jump back to the start is driven by nobody."""
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    sim = processes("sim", "pi_ff_speed_5", "--listen", endpoint, "--no-morse", "--speed", "10",
-                    "--record", str(tmp_path / "sim.mcap"))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    sim = processes.vilma("sim", "pi_ff_speed_5", "--listen", endpoint, "--no-morse", "--speed", "10",
+                          "--record", str(tmp_path / "sim.mcap"))
     bus = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
     try:
         poses = BoundedQueue(bus, topic("pose"), maxsize=100_000)
         assert poses.wait(lambda _: True, 60), "no pose from vilma sim"
-        drive = processes("drive", "pi_ff_speed_5", "--connect", endpoint)
+        drive = processes.vilma("drive", "pi_ff_speed_5", "--connect", endpoint)
         assert poses.wait(lambda p: p.x > 40.0, 120), "the car did not drive 40 m"
         assert bus.request(topic("sim/cmd"), SimControl(action="reset"), timeout=10).ok
         assert poses.wait(lambda p: p.x < 1.0, 60), "the car was not put back"
@@ -305,6 +284,7 @@ def test_report_counts_the_world_sensors(tmp_path):
         "camera/front_left": 5, "camera/front_left/depth": 5, "laser": 5}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["course_30kmh_stanley", "pi_ff_speed_5"])
 def test_without_the_drivers_orders_the_task_is_its_mode_and_the_scenarios(tmp_path, name):
     """A recording whose driver did not publish the orders it took: the task is told by the driver's mode, a

@@ -28,6 +28,7 @@ def _same(a, b) -> None:
         {k: v for k, v in b.metrics.items() if k not in TIMING_KEYS}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "overrides"), [
     ("course_30kmh_stanley", {}),
     ("course_10kmh_vilma_heading", {}),

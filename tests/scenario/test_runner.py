@@ -105,6 +105,7 @@ def test_sweeps_and_bundled_names():
         parse_sets([f"k{i}=" + ",".join("0123456789") for i in range(10)])  # 10^10 combinations: never built
 
 
+@pytest.mark.slow
 def test_cli_run_sweep_writes_a_folder_per_run(tmp_path, capsys):
     p = tmp_path / "step.yaml"
     p.write_text("task: {speed: 5}\nduration: 4\n")
@@ -137,25 +138,10 @@ def test_cli_batch_of_runs_with_one_name_keeps_them_all(tmp_path):
     assert sorted(f.name for f in (tmp_path / "o").iterdir()) == ["step-seed_1", "step-seed_1-2"]
 
 
-def _vilma(*args, **kw) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "vilma.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **kw)
-
-
-@pytest.fixture
-def processes():
-    started: list[subprocess.Popen] = []
-    yield started
-    for p in started:
-        if p.poll() is None:
-            p.kill()
-        p.communicate()
-
-
+@pytest.mark.slow
 def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, processes):
     out = tmp_path / "o"
-    p = _vilma("run", "pi_ff_speed_5", "--realtime", "4", "--out", str(out))
-    processes.append(p)
+    p = processes.vilma("run", "pi_ff_speed_5", "--realtime", "4", "--out", str(out), stderr=subprocess.PIPE)
     part = out / "timeseries.csv.part"
     deadline = time.monotonic() + 120
     while not (part.exists() and part.stat().st_size > 2000) and p.poll() is None and time.monotonic() < deadline:
@@ -169,6 +155,7 @@ def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, pro
     assert rec.complete and rec.count("pose") > 0
 
 
+@pytest.mark.slow
 def test_a_full_disk_names_the_file(tmp_path, processes):
     """Files may grow to 64 kB only (RLIMIT_FSIZE, as a full disk for this process): one line names the file."""
     run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml", {"duration": "1"}))  # numba's cache written beforehand
@@ -177,8 +164,8 @@ def test_a_full_disk_names_the_file(tmp_path, processes):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (64_000, 64_000))
 
-    p = _vilma("run", "pi_ff_speed_5", "--no-record", "--out", str(tmp_path / "o"), preexec_fn=limit)
-    processes.append(p)
+    p = processes.vilma("run", "pi_ff_speed_5", "--no-record", "--out", str(tmp_path / "o"), stderr=subprocess.PIPE,
+                        preexec_fn=limit)
     _, err = p.communicate(timeout=120)
     assert p.returncode == 2 and err.count("\n") == 1 and "Traceback" not in err
     assert "File too large" in err and str(tmp_path / "o" / "timeseries.csv") in err

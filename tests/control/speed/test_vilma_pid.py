@@ -1,15 +1,12 @@
 """The original speed controller: its rules one by one, then the paper's Figure 11 against the original logs."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from tests.control.conftest import LOGS
 from tests.control.speed.conftest import speed_run, time_to
 from vilma.control.speed import VilmaPid, VilmaPidParams
 from vilma.core.messages import Longitudinal
-
-LOGS = Path(__file__).resolve().parents[3].parent / "shared" / "reference" / "original-logs"
 
 
 def _log(target: int) -> tuple[np.ndarray, np.ndarray]:
