@@ -13,7 +13,7 @@ from vilma.trajectory import Trajectory, increase_point_count, load_trajectory, 
 from vilma.vehicle.state import VehicleState
 
 LOGS = files("vilma") / "scenarios" / "data"
-"""The original's recorded logs, as the package ships them (a user's install has no ``../shared``)."""
+"""The original's recorded logs, as the package ships them (what a user's install reads)."""
 
 
 @dataclass
