@@ -15,6 +15,18 @@ from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import NZ
 
+
+@pytest.fixture
+def full_disk(monkeypatch):
+    """Atomic writes fail as on a full disk, at the rename (:mod:`vilma.core.files`)."""
+    from vilma.core import files
+
+    def full(src, dst):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(files.os, "replace", full)
+
+
 STEP = SimConfig().step
 """The default physics step [s]."""
 

@@ -67,13 +67,12 @@ def port_or_any(text: str) -> int:
 
 def scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", plant: str | None = None):
     """The scenario named (file or bundled), else the defaults with an idle task; ``plant`` overrides its plant."""
-    from vilma.scenario import batch
     from vilma.scenario.fields import load_yaml
     from vilma.scenario.spec import load_scenario, parse_scenario
 
     overrides = {"plant": plant} if plant else None
     if name:
-        return load_scenario(batch.find_scenario(name), overrides)
+        return load_scenario(name, overrides)
     data, src = load_yaml(task, "defaults")
     return parse_scenario(data, src, name="defaults", overrides=overrides)
 

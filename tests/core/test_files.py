@@ -7,7 +7,6 @@ import stat
 
 import pytest
 
-from vilma.core import files
 from vilma.core.files import atomic_path, write_atomic
 
 
@@ -28,14 +27,9 @@ def test_new_and_replaced_files_get_the_umask_mode(tmp_path, umask_027):
     assert os.listdir(tmp_path) == ["metrics.json"]
 
 
-def test_a_failed_write_keeps_the_earlier_file_and_names_it(tmp_path, monkeypatch):
+def test_a_failed_write_keeps_the_earlier_file_and_names_it(tmp_path, full_disk):
     f = tmp_path / "scenario.yaml"
     f.write_text("old\n")
-
-    def full(src, dst):
-        raise OSError(28, "No space left on device")
-
-    monkeypatch.setattr(files.os, "replace", full)
     with pytest.raises(OSError, match="No space left on device") as e:
         write_atomic(f, "new\n")
     assert e.value.filename == str(f) and str(f) in str(e.value)

@@ -24,12 +24,13 @@ from vilma.core.messages import ActuatorState, DriverOrder, Pose, SimControl, Si
 from vilma.options import scenario_or_default
 from vilma.record.reader import read_recording
 from vilma.record.recorder import Recorder
-from vilma.record.report import WATCHDOG, report, world_counts
+from vilma.record.report import report, world_counts
 from vilma.record.rosbag import STORE, export_rosbag2
 from vilma.record.world_schemas import compressed_image
 from vilma.scenario import load_scenario
 from vilma.scenario.batch import BUNDLED
 from vilma.scenario.folder import PLOTS
+from vilma.scenario.metrics import WATCHDOG_STOP
 from vilma.scenario.runner import Interrupted, run
 from vilma.scenario.spec import SCORECARD_KEYS, TIMING_KEYS
 from vilma.sensors import Readings
@@ -340,4 +341,4 @@ def test_a_pose_jump_without_a_clock_reset_starts_a_segment_and_a_tripped_watchd
     assert [s["distance_m"] for s in got.segments] == [pytest.approx(h[-1] - h[0], rel=1e-12) for h in halves]
     assert got.metrics["sim_time_s"] == 4.0  # one clock: no time added by the jump
     assert got.segments[0]["completed"] is True
-    assert (got.metrics["completed"], got.metrics["incomplete_reason"]) == (False, WATCHDOG)
+    assert (got.metrics["completed"], got.metrics["incomplete_reason"]) == (False, WATCHDOG_STOP)

@@ -8,7 +8,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.control.conftest import LOGS
-from vilma.core import files
 from vilma.sensors.gps import GeodeticOrigin
 from vilma.trajectory import Trajectory, TrajectoryFileError, load_trajectory, save_trajectory
 from vilma.trajectory.io import MAX_FILE_BYTES
@@ -108,14 +107,9 @@ def test_save_round_trip(tmp_path, name):
     assert np.allclose(back.xy, t.xy, atol=1e-6)
 
 
-def test_failed_save_keeps_the_old_file(tmp_path, monkeypatch):
+def test_failed_save_keeps_the_old_file(tmp_path, full_disk):
     f = tmp_path / "p.txt"
     f.write_text("1 2\n")
-
-    def boom(src, dst):
-        raise OSError(28, "No space left on device")
-
-    monkeypatch.setattr(files.os, "replace", boom)
     with pytest.raises(TrajectoryFileError, match="untouched"):
         save_trajectory(f, Trajectory.from_points([(5, 6)]))
     assert f.read_text() == "1 2\n" and os.listdir(tmp_path) == ["p.txt"]

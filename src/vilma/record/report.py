@@ -49,7 +49,7 @@ from vilma.record.reader import Recording, RecordingError, read_recording
 from vilma.record.schemas import DRIVE_LOG
 from vilma.scenario.drive_log import COLUMNS, PLANT_COLUMNS, DriveLog
 from vilma.scenario.fields import load_yaml
-from vilma.scenario.metrics import check_expectations, expectation_failures, scorecard, timing
+from vilma.scenario.metrics import WATCHDOG_STOP, check_expectations, expectation_failures, scorecard, timing
 from vilma.scenario.runner import RunResult
 from vilma.scenario.spec import TIMING_KEYS, Scenario, TaskSpec, parse_scenario
 from vilma.trajectory import Trajectory
@@ -62,7 +62,6 @@ MAX_ACCEL = 20.0
 """More than any car's speed changes in a second [m/s^2] (2 g): what bounds its move between two rows."""
 JUMP_SLACK = 0.5
 """A move between two rows this much [m] beyond what the car's speed allows is a jump (a reset)."""
-WATCHDOG = "the watchdog stopped the car (the driver sent no command in time)"
 
 
 @dataclass(frozen=True)
@@ -232,7 +231,7 @@ def score_segment(rows: np.ndarray, epoch: int, task: Task, base: Scenario, stat
     scenario = dataclasses.replace(base, task=task.spec or UNKNOWN)
     log = DriveLog(capacity=len(rows) + 1)
     log.extend(rows)
-    broke_down = WATCHDOG if status is not None and status.watchdog_tripped else None
+    broke_down = WATCHDOG_STOP if status is not None and status.watchdog_tripped else None
     m = scorecard(log, scenario, task.path, t_start, broke_down, truncated)
     if task.spec is None and m["completed"]:
         m.update(completed=None, incomplete_reason=task.why)

@@ -29,6 +29,9 @@ from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, Scenario
 from vilma.trajectory import Trajectory
 
+WATCHDOG_STOP = "the watchdog stopped the car (the driver sent no command in time)"
+"""Why a run whose watchdog tripped did not complete (the runner's and the report's words)."""
+
 
 def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_start: float,
               broke_down: str | None = None, truncated: bool = False) -> dict:
@@ -49,9 +52,10 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
         broke_down = "the car's state became NaN or infinite"
     elif truncated:
         broke_down = "the recording was cut short"
-    out.update(completion(scenario, np.column_stack([x, y]), c("vx"), path, broke_down))
-    if path is not None and counted.any():
-        proj = path.project_track(np.column_stack([x, y]))
+    xy = np.column_stack([x, y])
+    proj = path.project_track(xy) if path is not None else None  # once, for the coverage and the errors
+    out.update(completion(scenario, xy, c("vx"), path, broke_down, None if proj is None else proj[:, 0]))
+    if proj is not None and counted.any():
         e = np.abs(proj[counted, 1])
         out.update(lateral_error_rms_m=_rms(e), lateral_error_max_m=float(e.max()),
                    lateral_error_p95_m=float(np.percentile(e, 95)),
@@ -86,10 +90,11 @@ def timing(sim_time: float, wall: float, loop: float | None, load: float | None)
 
 
 def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Trajectory | None,
-               broke_down: str | None = None) -> dict:
+               broke_down: str | None = None, s: np.ndarray | None = None) -> dict:
     """``completed``, ``incomplete_reason``, ``end_error_m``, ``path_progress`` and ``waypoints_skipped`` of a
     drive ``xy`` (n, 2) [m] at longitudinal speed ``vx`` (n,) [m/s] on the task's ``path`` (for a go-to, the
-    line to the target); at rest means below the driver's ``rest_speed``, as the driver and the runner judge."""
+    line to the target); at rest means below the driver's ``rest_speed``, as the driver and the runner judge.
+    ``s`` is the drive's arc length projected on the path, if the caller has it (:func:`coverage`)."""
     m, kind = scenario.metrics, scenario.task.kind
     out: dict = {}
     why = [broke_down] if broke_down else []
@@ -98,7 +103,7 @@ def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Traject
     elif kind != "speed" and path is not None:
         end = float(np.hypot(*(xy[-1] - path.xy[-1])))
         out["end_error_m"] = end
-        covered, reached = coverage(path, xy, m.path_tolerance)
+        covered, reached = coverage(path, xy, m.path_tolerance, s)
         out["path_progress"] = covered / path.length if path.length > 0 else 1.0
         out["waypoints_skipped"] = int(len(reached) - reached.sum())
         target = "target" if kind == "go_to" else "end of the path"
@@ -114,15 +119,18 @@ def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Traject
     return out
 
 
-def coverage(path: Trajectory, xy: np.ndarray, tolerance: float) -> tuple[float, np.ndarray]:
+def coverage(path: Trajectory, xy: np.ndarray, tolerance: float,
+             s: np.ndarray | None = None) -> tuple[float, np.ndarray]:
     """How much of ``path`` the drive ``xy`` (n, 2) [m] covered in order: (arc length [m], reached (len(path),)).
 
     The drive is projected in order (:meth:`~vilma.trajectory.Trajectory.project_track`); each step between
     two samples within ``tolerance`` [m] of their projections that moves forward along the path, by no more
     than the distance driven plus twice the tolerance, covers the arc between the projections, widened by
-    the tolerance at both ends. A waypoint is reached when its arc length is covered.
+    the tolerance at both ends. A waypoint is reached when its arc length is covered. ``s`` [m], (n,): the
+    projections' arc lengths, if already made.
     """
-    s = path.project_track(xy)[:, 0] if len(path) > 1 else np.zeros(len(xy))
+    if s is None:
+        s = path.project_track(xy)[:, 0]
     near = np.hypot(xy[:, 0] - np.interp(s, path.s, path.xy[:, 0]),
                     xy[:, 1] - np.interp(s, path.s, path.xy[:, 1])) <= tolerance
     ds, moved = np.diff(s), np.hypot(*np.diff(xy, axis=0).T)

@@ -23,7 +23,7 @@ from vilma.core.files import write_atomic
 from vilma.scenario.drive_log import DriveLog, TimeseriesWriter
 from vilma.scenario.fields import SpecError
 from vilma.scenario.lockstep import compiled_ok, run_compiled
-from vilma.scenario.metrics import expectation_failures, scorecard, timing
+from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, scorecard, timing
 from vilma.scenario.spec import Scenario, beside, to_yaml
 from vilma.sensors import Readings
 from vilma.sim import Pacer, Simulator
@@ -205,8 +205,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
         Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(remaining, on_period=step,
                                                                          should_stop=finished)
     loop = time.perf_counter() - wall0 - (loading.seconds - load0)
-    stop = "the watchdog stopped the car (the driver sent no command in time)" if sim.watchdog_tripped else None
-    metrics = scorecard(log, scenario, path, t_start, broke_down=stop)
+    metrics = scorecard(log, scenario, path, t_start, broke_down=WATCHDOG_STOP if sim.watchdog_tripped else None)
     metrics.update(collisions=sim.collisions[0], loop_wall_time_s=loop)
     return RunResult(scenario, metrics, expectation_failures(metrics, scenario), log, path, t_start)
 
