@@ -79,7 +79,7 @@ def _receive(mode: str, n: int) -> dict:
 
 def _closed_loop(seconds: float) -> dict:
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
-    cli = [sys.executable, "-m", "vilma.cli"]
+    cli = [sys.executable, "-m", "vilma.app.cli"]
     sim = subprocess.Popen([*cli, "sim", "course_30kmh_stanley", "--listen", endpoint], stdout=subprocess.PIPE,
                            text=True)
     time.sleep(2.0)

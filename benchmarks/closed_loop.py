@@ -19,8 +19,8 @@ import subprocess
 import sys
 import time
 
+from vilma.app.batch import BUNDLED
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import run
 from vilma.sim import Simulator
 

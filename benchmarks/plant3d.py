@@ -20,10 +20,10 @@ import statistics
 import sys
 import time
 
+from vilma.app.batch import find_scenario
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.plant3d.camera import stereo_pair
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import find_scenario
 from vilma.scenario.runner import run
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import VX

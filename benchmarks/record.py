@@ -29,10 +29,10 @@ import threading
 import time
 from pathlib import Path
 
-from vilma import programs
+from vilma.app import programs
+from vilma.app.batch import BUNDLED
 from vilma.record.reader import read_recording
 from vilma.record.run import RunRecorder
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import run
 from vilma.scenario.spec import Scenario, load_scenario
 

@@ -30,7 +30,7 @@ def full_disk(monkeypatch):
 STEP = SimConfig().step
 """The default physics step [s]."""
 
-VILMA = (sys.executable, "-m", "vilma.cli")
+VILMA = (sys.executable, "-m", "vilma.app.cli")
 """The command that runs ``vilma`` in a child process."""
 
 
@@ -78,7 +78,7 @@ def processes():
 
 @pytest.fixture(autouse=True)
 def root_log_level():
-    """Each test starts at the root logger's level pytest set: ``vilma.cli.main`` sets it for its process (-q, -v),
+    """Each test starts at the root logger's level pytest set: ``vilma.app.cli.main`` sets it for its process (-q, -v),
     which in a test run is every later test's."""
     root = logging.getLogger()
     level = root.level

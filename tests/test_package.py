@@ -40,7 +40,7 @@ def test_completion_offers_commands_options_and_bundled_scenarios(tmp_path):
     assert set(_complete("vilma sim course_m", tmp_path)) == {"course_mine.yaml"}  # files too
 
 
-@pytest.mark.parametrize("path", ["src/vilma/cli.py", "src/vilma/__main__.py"])
+@pytest.mark.parametrize("path", ["src/vilma/app/cli.py", "src/vilma/__main__.py"])
 def test_marked_for_global_completion(path):
     # activate-global-python-argcomplete completes a script whose first 1024 bytes hold the marker
     assert "# PYTHON_ARGCOMPLETE_OK" in (ROOT / path).read_text()[:1024]

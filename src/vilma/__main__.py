@@ -3,6 +3,6 @@
 
 import sys
 
-from vilma.cli import main
+from vilma.app.cli import main
 
 sys.exit(main())

@@ -6,10 +6,10 @@ import os
 import socket
 from pathlib import Path
 
+from vilma.app.batch import BUNDLED
 from vilma.bus.nodes import DriverNode
 from vilma.control.driver import Driver
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.trajectory.io import MAX_FILE_BYTES
 
 SECRET = "hunter2"

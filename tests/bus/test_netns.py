@@ -12,8 +12,8 @@ import subprocess
 import pytest
 
 from tests.conftest import VILMA
+from vilma.app.batch import BUNDLED
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import run
 
 

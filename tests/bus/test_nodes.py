@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.bus.conftest import SECRET, data_folder, driver_on, free_endpoint
+from vilma.app.batch import BUNDLED
 from vilma.bus import Latest, LocalBus, topic
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
@@ -27,7 +28,6 @@ from vilma.core.messages import (
     SimStatus,
 )
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import initial_state, run, start_task
 from vilma.sim import Simulator
 from vilma.trajectory.io import MAX_FILE_BYTES

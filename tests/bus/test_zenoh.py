@@ -15,12 +15,12 @@ import zenoh
 
 from tests.bus.conftest import data_folder
 from tests.conftest import free_port
+from vilma.app.batch import BUNDLED
 from vilma.bus import Latest, topic
 from vilma.bus.codec import MAX_FRAME_BYTES, decode, encode
 from vilma.bus.zenoh_bus import MAX_MESSAGE_BYTES, ZenohBus, ZenohConfig
 from vilma.core.messages import MAX_ORDER_POINTS, DriverOrder, Pose, Reply
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.runner import run
 
 SPEED = 4.0
@@ -163,14 +163,14 @@ def test_endpoints_beyond_loopback_are_recognised():
 def test_zenoh_config_file_and_its_errors(tmp_path):
     good = tmp_path / "z.yaml"
     good.write_text("listen: [tcp/127.0.0.1:0]\nconnect: []\nextra: [[transport/unicast/max_links, '2']]\n")
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--zenoh-config", str(good), "--duration", "0.1",
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "sim", "--zenoh-config", str(good), "--duration", "0.1",
                         "--no-morse"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     assert "Zenoh listens on tcp/127.0.0.1:0" in r.stdout
     bad = tmp_path / "bad.yaml"
     bad.write_text("listen: tcp/127.0.0.1:0\n")
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--zenoh-config", str(bad)], capture_output=True,
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "sim", "--zenoh-config", str(bad)], capture_output=True,
                        text=True, timeout=60)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert f"{bad}:1: listen: expected a list" in r.stderr

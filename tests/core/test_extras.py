@@ -12,7 +12,7 @@ from vilma.core.extras import EXTRAS, MissingExtraError, require
 WITHOUT_EXTRAS = ("import sys\n"
                   f"for m in {[m for ms in EXTRAS.values() for m in ms]!r}:\n"
                   "    sys.modules[m] = None  # as if not installed: importing it raises ImportError\n"
-                  "from vilma.cli import main\n"
+                  "from vilma.app.cli import main\n"
                   "sys.exit(main(sys.argv[1:]))\n")
 
 

@@ -22,7 +22,7 @@ from vilma.gui.main_window import MainWindow
 @pytest.mark.slow
 def test_vilma_gui_runs_embedded_and_quits_cleanly():
     env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "--speed", "2", "--quit-after", "2"],
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "gui", "--speed", "2", "--quit-after", "2"],
                        capture_output=True, text=True, timeout=120, env=env)
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr
@@ -30,10 +30,10 @@ def test_vilma_gui_runs_embedded_and_quits_cleanly():
 
 def test_vilma_gui_refuses_bad_options_without_a_traceback():
     env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "--speed", "-1"], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "gui", "--speed", "-1"], capture_output=True, text=True,
                        timeout=60, env=env)
     assert r.returncode == 2 and "--speed" in r.stderr and "Traceback" not in r.stderr
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "gui", "no_such_scenario"], capture_output=True,
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "gui", "no_such_scenario"], capture_output=True,
                        text=True, timeout=60, env=env)
     assert r.returncode == 2 and "no_such_scenario" in r.stderr and "Traceback" not in r.stderr
 

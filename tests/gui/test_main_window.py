@@ -9,8 +9,8 @@ import pytest
 from PySide6.QtCore import Qt
 
 from tests.gui.conftest import SPEED, WAIT_MS, shown_window, speed_of
+from vilma.app.batch import find_scenario
 from vilma.gui.backend import Embedded
-from vilma.scenario.batch import find_scenario
 from vilma.scenario.spec import load_scenario
 from vilma.trajectory import Trajectory
 

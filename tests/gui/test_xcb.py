@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from vilma import cli
+from vilma.app import cli
 from vilma.gui import xcb
 
 PLUGIN = Path("/venv/PySide6/Qt/plugins/platforms/libqxcb.so")

@@ -9,10 +9,10 @@ from dataclasses import dataclass
 
 import pytest
 
+from vilma.app.programs import run_paced
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import SimNode
 from vilma.morse import MorseServer
-from vilma.programs import run_paced
 from vilma.sensors import SensorSuite
 from vilma.sensors.imu import ImuParams
 from vilma.sim import SimConfig, Simulator

@@ -37,7 +37,7 @@ def test_vilma_sim_serves_morse_until_quit(processes):
 
 
 def test_bad_morse_options_exit_with_one_line():
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "sim", "--allow-commands-from", "no.such/99"],
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "sim", "--allow-commands-from", "no.such/99"],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.strip().splitlines() == [

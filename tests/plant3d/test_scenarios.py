@@ -6,7 +6,7 @@ import dataclasses
 
 import pytest
 
-from vilma.scenario.batch import BUNDLED
+from vilma.app.batch import BUNDLED
 from vilma.scenario.runner import run
 from vilma.scenario.spec import load_scenario
 

@@ -100,10 +100,10 @@ def test_a_foxglove_client_gets_channels_messages_and_sim_time(live):
 
 
 def test_up_serves_foxglove_and_run_needs_realtime():
-    from vilma import programs
-    from vilma.record.commands import foxglove_observer
+    from vilma.app import programs
+    from vilma.app.batch import BUNDLED
+    from vilma.app.record import foxglove_observer
     from vilma.scenario import load_scenario
-    from vilma.scenario.batch import BUNDLED
 
     lines: list[str] = []
     assert programs.up(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"), 50.0, 0.5, lines.append,

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vilma.app.batch import BUNDLED
 from vilma.core.messages import Pose
 from vilma.record import run as run_module
 from vilma.record.process import Joined, RecorderProcess
@@ -21,7 +22,6 @@ from vilma.record.reader import RecordingError, read_recording
 from vilma.record.recorder import Recorder
 from vilma.record.run import RunRecorder, _write
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.sensors import Readings
 

@@ -18,6 +18,7 @@ from tests.record.world_messages import (
     wall_scan,
     world_at,
 )
+from vilma.app.batch import BUNDLED
 from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
 from vilma.core.messages import Image, PointCloud
@@ -26,7 +27,6 @@ from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.run import RunRecorder
 from vilma.record.world_schemas import COMPRESSED_IMAGE, POINT_CLOUD, RAW_IMAGE
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import DriveLog
 
 

@@ -17,18 +17,18 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from tests.conftest import Processes
-from vilma import programs
+from vilma.app import programs
+from vilma.app.batch import BUNDLED
+from vilma.app.cli import main
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.topics import topic
-from vilma.cli import main
 from vilma.control.driver import Driver
 from vilma.core.messages import DriverOrder
 from vilma.record.reader import read_recording
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.report import report
 from vilma.scenario import load_scenario, to_yaml
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.runner import run
 from vilma.scenario.spec import TIMING_KEYS

@@ -7,7 +7,8 @@ import pytest
 
 from tests.record import legacy
 from tests.record.world_messages import PERIOD_NS, WORLD_TOPICS, write_world_recording
-from vilma import programs
+from vilma.app import programs
+from vilma.app.batch import BUNDLED
 from vilma.bus.base import BoundedQueue
 from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
@@ -15,7 +16,6 @@ from vilma.record.reader import read_recording
 from vilma.record.replay import Replayer
 from vilma.record.schemas import COMPANIONS
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_replay_cli_plays_to_the_end_on_zenoh(recording):
     import subprocess
     import sys
 
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "replay", str(recording.path), "--speed", "50",
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "replay", str(recording.path), "--speed", "50",
                         "--listen", "tcp/127.0.0.1:0"], stdin=subprocess.DEVNULL, capture_output=True, text=True,
                        timeout=120)
     assert r.returncode == 0, r.stderr

@@ -16,19 +16,19 @@ from rosbags.typesys import get_typestore
 
 from tests.conftest import free_port
 from tests.record.world_messages import PERIOD_NS, write_world_recording
-from vilma import programs
+from vilma.app import programs
+from vilma.app.batch import BUNDLED
+from vilma.app.options import scenario_or_default
 from vilma.bus import BoundedQueue, LocalBus, topic
 from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
 from vilma.core.geometry import quaternion_from_euler
 from vilma.core.messages import ActuatorState, DriverOrder, Pose, SimControl, SimStatus, Velocity
-from vilma.options import scenario_or_default
 from vilma.record.reader import read_recording
 from vilma.record.recorder import Recorder
 from vilma.record.report import report, world_counts
 from vilma.record.rosbag import STORE, export_rosbag2
 from vilma.record.world_schemas import compressed_image
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.folder import PLOTS
 from vilma.scenario.metrics import WATCHDOG_STOP
 from vilma.scenario.runner import Interrupted, run
@@ -95,7 +95,7 @@ def test_report_of_an_interrupted_run_is_truncated(tmp_path):
 
 
 def _up(path: Path, name: str, duration: float) -> Path:
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "up", name, "--speed", "50", "--duration", str(duration),
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "up", name, "--speed", "50", "--duration", str(duration),
                         "--record", str(path)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     return path
@@ -171,7 +171,7 @@ def test_report_of_vilma_sim_scores_each_segment_between_resets(tmp_path, proces
 
 def test_report_cli_writes_beside_the_recording(finished_run):
     _, out = finished_run
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "report", str(out / "run.mcap")], capture_output=True,
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "report", str(out / "run.mcap")], capture_output=True,
                        text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert (out / "run-report" / "metrics.json").exists()
@@ -179,7 +179,7 @@ def test_report_cli_writes_beside_the_recording(finished_run):
 
 def test_report_of_a_non_recording_is_one_line(tmp_path):
     (tmp_path / "x.mcap").write_text("hello")
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "report", str(tmp_path / "x.mcap")], capture_output=True,
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "report", str(tmp_path / "x.mcap")], capture_output=True,
                        text=True, timeout=60)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "not a readable MCAP recording" in r.stderr
 
@@ -228,7 +228,7 @@ def test_rosbag2_export_reads_back_with_values_and_timestamps(finished_run, tmp_
 
 def test_export_refuses_an_existing_folder(finished_run, tmp_path):
     _, out = finished_run
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "export", "rosbag2", str(out / "run.mcap"),
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "export", "rosbag2", str(out / "run.mcap"),
                         str(tmp_path)], capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "exists" in r.stderr
 
@@ -277,7 +277,7 @@ def test_raw_colour_images_export_as_ros2_rgb8_images(tmp_path):
 
 def test_report_counts_the_world_sensors(tmp_path):
     write_world_recording(tmp_path / "w.mcap")
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "report", str(tmp_path / "w.mcap")], capture_output=True,
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "report", str(tmp_path / "w.mcap")], capture_output=True,
                        text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "world sensors: camera/front_left 5, camera/front_left/depth 5, laser 5" in r.stdout.splitlines()

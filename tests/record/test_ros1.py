@@ -23,7 +23,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from tests.conftest import free_port
-from vilma.options import scenario_or_default
+from vilma.app.options import scenario_or_default
 from vilma.record.ros1 import CommandMessageError, command_numbers, rospy_or_reason
 
 rospy, WHY = rospy_or_reason()  # every ROS module the bridge and the probe import; the probe runs in its own process

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
+from vilma.app.batch import Job
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import Job
 from vilma.scenario.fields import SpecError
 from vilma.scenario.folder import RUN_FILES, claim, out_dirs
 

@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
+from vilma.app.batch import BUNDLED
 from vilma.control.driver import Driver
 from vilma.scenario import load_scenario
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.lockstep import compiled_ok
 from vilma.scenario.runner import run

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from matplotlib.patches import Polygon
 
-from vilma.scenario.batch import find_scenario
+from vilma.app.batch import find_scenario
 from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.scenario.report import figures, footprint, plot_run
 from vilma.scenario.runner import RunResult

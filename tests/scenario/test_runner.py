@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from tests.control.speed.conftest import time_to
-from vilma.cli import main
+from vilma.app.batch import BUNDLED, find_scenario, parse_sets
+from vilma.app.cli import main
 from vilma.record.reader import read_recording
 from vilma.scenario import SCORECARD_KEYS, load_scenario
-from vilma.scenario.batch import BUNDLED, find_scenario, parse_sets
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.fields import SpecError
 from vilma.scenario.runner import run
@@ -190,7 +190,7 @@ def test_cli_run_exits_1_when_a_scenario_fails_its_expectations(tmp_path, capsys
     (["run", "pi_ff_speed_5", "--set", "duration=1e9"], "duration: 1000000000 s is more than the 4320000 driver"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(args, message):
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", *args], capture_output=True, text=True)
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", *args], capture_output=True, text=True)
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1 and message in r.stderr
 

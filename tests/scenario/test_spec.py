@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from vilma.app.batch import BUNDLED
+from vilma.app.options import zenoh_bus
 from vilma.control.speed import PiFfParams
-from vilma.options import zenoh_bus
 from vilma.scenario import SpecError, load_scenario, parse_scenario, to_yaml
-from vilma.scenario.batch import BUNDLED
 from vilma.scenario.drive_log import MAX_ROWS
 from vilma.scenario.fields import MAX_YAML_VALUES, load_yaml
 from vilma.scenario.spec import Bound

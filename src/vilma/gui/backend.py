@@ -16,13 +16,13 @@ import logging
 import math
 import threading
 
+from vilma.app.programs import run_paced
 from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.topics import topic
 from vilma.control.driver import Driver, DriverParams
 from vilma.core.messages import DriverOrder
-from vilma.programs import run_paced
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import initial_state
 from vilma.scenario.spec import Scenario, parse_scenario

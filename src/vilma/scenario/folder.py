@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from vilma.scenario.fields import SpecError
 
 if TYPE_CHECKING:
-    from vilma.scenario.batch import Job
+    from vilma.app.batch import Job
 
 PLOTS = ("path.png", "speed.png", "cross_track.png", "effort.png")
 """The plots of a run (:func:`vilma.scenario.report.plot_run`)."""

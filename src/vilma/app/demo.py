@@ -14,7 +14,7 @@ from pathlib import Path
 from rich.table import Table
 from rich.text import Text
 
-from vilma.scenario import batch
+from vilma.app import batch
 from vilma.scenario.metrics import step_response
 from vilma.scenario.runner import RunResult
 from vilma.trajectory import load_speed_log

@@ -1,4 +1,4 @@
-"""The handlers of ``vilma report``, ``vilma export`` and ``vilma replay`` (the parser is in :mod:`vilma.cli`)."""
+"""The handlers of ``vilma report``, ``vilma export`` and ``vilma replay`` (the parser is in :mod:`vilma.app.cli`)."""
 
 from __future__ import annotations
 
@@ -46,9 +46,9 @@ def replay_command(args: argparse.Namespace) -> int:
     import sys
     import threading
 
+    from vilma.app.options import zenoh_bus
+    from vilma.app.programs import stop_on_signals
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
-    from vilma.options import zenoh_bus
-    from vilma.programs import stop_on_signals
     from vilma.record.replay import Replayer
 
     bus, cfg = zenoh_bus(args, (DEFAULT_ENDPOINT,), ())
@@ -106,9 +106,9 @@ def ros1_bridge_command(args: argparse.Namespace) -> int:
 
 def _ros1_bridge(args: argparse.Namespace) -> int:
     """The bridge, once the ROS node runs."""
-    from vilma import programs
+    from vilma.app import programs
+    from vilma.app.options import scenario_or_default, zenoh_bus
     from vilma.bus.local import LocalBus
-    from vilma.options import scenario_or_default, zenoh_bus
     from vilma.record.ros1 import Ros1Bridge
 
     if args.connect or args.zenoh_config:

@@ -8,12 +8,12 @@ import sys
 
 import pytest
 
-from vilma import programs
+from vilma.app import programs
 from vilma.scenario import load_scenario
 
 
 def test_up_drives_paced_and_reports_each_second():
-    r = subprocess.run([sys.executable, "-m", "vilma.cli", "up", "course_30kmh_stanley", "--speed", "10",
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "up", "course_30kmh_stanley", "--speed", "10",
                         "--duration", "6"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     lines = [line for line in r.stdout.splitlines() if line.startswith("t ")]

@@ -8,11 +8,11 @@ import sys
 
 from rich.console import Console
 
-from vilma.scenario import batch
+from vilma.app import batch
 from vilma.scenario.runner import run
 from vilma.scenario.spec import load_scenario
 
-COLD = "from vilma.scenario.batch import numba_cache_cold; print(numba_cache_cold())"
+COLD = "from vilma.app.batch import numba_cache_cold; print(numba_cache_cold())"
 
 
 def test_an_empty_cache_is_cold(tmp_path):

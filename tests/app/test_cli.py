@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from vilma.cli import _parser, main
+from vilma.app.cli import _parser, main
 from vilma.scenario.bundled import BUNDLED, names, summary
 from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory

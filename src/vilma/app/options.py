@@ -1,5 +1,5 @@
 """What the programs' command-line options become: numbers and ports checked (argparse ``type=`` functions), a
-scenario (a file, a bundled name or the defaults), a Zenoh bus. Shared by :mod:`vilma.cli` and the recording
+scenario (a file, a bundled name or the defaults), a Zenoh bus. Shared by :mod:`vilma.app.cli` and the recording
 commands."""
 
 from __future__ import annotations

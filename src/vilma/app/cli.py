@@ -9,8 +9,7 @@ import os
 import sys
 import time
 
-from vilma.core.extras import MissingExtraError
-from vilma.options import (
+from vilma.app.options import (
     count,
     duration,
     non_negative,
@@ -22,6 +21,7 @@ from vilma.options import (
     wall_delay,
     zenoh_bus,
 )
+from vilma.core.extras import MissingExtraError
 
 STARTED = time.perf_counter()
 """When the command began (its imports aside: a few ms): the first run's ``wall_time_s`` counts from here."""
@@ -30,8 +30,7 @@ STARTED = time.perf_counter()
 def _demo(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from vilma import demo
-    from vilma.scenario import batch
+    from vilma.app import batch, demo
 
     console = _console(args)
     jobs = batch.plan(demo.scenario_names(), [])
@@ -73,13 +72,13 @@ def _run(args: argparse.Namespace) -> int:
 
     from rich.text import Text
 
-    from vilma.scenario import batch
+    from vilma.app import batch
 
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
     console = _console(args)
     live = None
     if args.foxglove is not None:
-        from vilma.record.commands import foxglove_observer
+        from vilma.app.record import foxglove_observer
 
         live = foxglove_observer(args.foxglove, args.realtime, console.print)
     try:
@@ -140,7 +139,7 @@ def _trajectory(args: argparse.Namespace) -> int:
 
 
 def _sim(args: argparse.Namespace) -> int:
-    from vilma import programs
+    from vilma.app import programs
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 
     scenario = scenario_or_default(args.scenario, plant=args.plant)
@@ -159,7 +158,7 @@ def _sim(args: argparse.Namespace) -> int:
 
 
 def _drive(args: argparse.Namespace) -> int:
-    from vilma import programs
+    from vilma.app import programs
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT, LOOPBACK_ANY_PORT
 
     scenario = scenario_or_default(args.scenario) if args.scenario else None
@@ -174,7 +173,7 @@ def _drive(args: argparse.Namespace) -> int:
 
 
 def _up(args: argparse.Namespace) -> int:
-    from vilma import programs
+    from vilma.app import programs
 
     scenario = scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
                                                      "[60, 0]], speed: 8.33}", args.plant)
@@ -206,9 +205,9 @@ def _gui(args: argparse.Namespace) -> int:
 
 
 def _record_command(name: str):
-    """The handler ``name`` of :mod:`vilma.record.commands`, imported when it runs."""
+    """The handler ``name`` of :mod:`vilma.app.record`, imported when it runs."""
     def handler(args: argparse.Namespace) -> int:
-        from vilma.record import commands
+        from vilma.app import record as commands
 
         return getattr(commands, name)(args)
     return handler

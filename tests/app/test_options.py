@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from vilma.app.options import count, duration, non_negative, port, port_or_any, positive, sim_time, wall_delay
 from vilma.core.clock import MAX_NS, NS_PER_S
-from vilma.options import count, duration, non_negative, port, port_or_any, positive, sim_time, wall_delay
 
 FLOATS = {
     positive: lambda v: 0 < v < math.inf,
