@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.control.conftest import LOGS
-from vilma.sensors.gps import GeodeticOrigin
+from vilma.core.geodesy import GeodeticOrigin
 from vilma.trajectory import Trajectory, TrajectoryFileError, load_trajectory, save_trajectory
 from vilma.trajectory.io import MAX_FILE_BYTES
 

@@ -43,6 +43,7 @@ import yaml
 
 from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, DriverParams
 from vilma.core.clock import Clock, RateError, seconds_to_ns
+from vilma.core.geodesy import GeodeticOrigin
 from vilma.localization import SOURCES
 from vilma.plant3d.camera import CameraParams, stereo_pair
 from vilma.plant3d.laser import LaserParams
@@ -51,7 +52,6 @@ from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
 from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_yaml, read_yaml
 from vilma.sensors import SensorSuite
-from vilma.sensors.gps import GeodeticOrigin
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
 from vilma.trajectory import Trajectory, TrajectoryFileError, densify, load_trajectory, resample

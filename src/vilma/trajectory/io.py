@@ -24,7 +24,7 @@ import numpy as np
 import pymap3d
 
 from vilma.core.files import write_atomic
-from vilma.sensors.gps import GeodeticOrigin
+from vilma.core.geodesy import GeodeticOrigin
 from vilma.trajectory.trajectory import Trajectory
 
 MAX_FILE_BYTES = 8 * 2**20

@@ -1,0 +1,27 @@
+"""Geodesy against pymap3d, an independent implementation of the same WGS84 formulas."""
+
+import numpy as np
+import pymap3d
+import pytest
+
+from vilma.core.geodesy import EnuFrame, GeodeticOrigin, ecef_to_geodetic
+
+
+@pytest.mark.parametrize(("lat", "lon", "h"), [(-22.8195, -47.0663, 600.0), (89.9, 10.0, 0.0), (0.0, 179.9, -50.0),
+                                               (45.0, -120.0, 8000.0)])
+def test_ecef_to_geodetic_inverts_pymap3ds_geodetic2ecef(lat, lon, h):
+    out = ecef_to_geodetic(*pymap3d.geodetic2ecef(lat, lon, h))
+    assert out == pytest.approx((lat, lon, h), abs=1e-7)
+
+
+def test_enu_points_go_where_pymap3d_puts_them():
+    o = GeodeticOrigin()
+    enu = np.array([[0.0, 0.0, 0.0], [1000.0, -250.0, 3.0], [-5e4, 2e4, 100.0]])
+    expected = np.array(pymap3d.enu2geodetic(enu[:, 0], enu[:, 1], enu[:, 2], o.latitude, o.longitude,
+                                             o.altitude)).T
+    np.testing.assert_allclose(EnuFrame(o).to_geodetic(enu), expected, rtol=0, atol=1e-6)
+
+
+def test_an_origin_off_the_globe_is_refused():
+    with pytest.raises(ValueError, match="not a valid lat/lon"):
+        GeodeticOrigin(latitude=91.0)
