@@ -9,9 +9,9 @@ from dataclasses import dataclass
 
 import pytest
 
-from vilma.app.programs import run_paced
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import SimNode
+from vilma.bus.paced import run_paced
 from vilma.morse import MorseServer
 from vilma.sensors import SensorSuite
 from vilma.sensors.imu import ImuParams

@@ -11,7 +11,6 @@ import logging
 import math
 import signal
 import threading
-import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,17 +18,14 @@ from pathlib import Path
 from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
+from vilma.bus.paced import run_paced
 from vilma.control.driver import Driver
 from vilma.core.messages import DriverOrder
 from vilma.scenario.runner import initial_state
 from vilma.scenario.spec import Scenario, to_yaml
-from vilma.sim import Pacer, Simulator
+from vilma.sim import Simulator
 
 log = logging.getLogger(__name__)
-
-FRAME = 0.02
-"""Sim time the simulator advances between publications [s] (the pose and velocity sensors' default period)."""
-
 
 @dataclass(frozen=True)
 class MorseOptions:
@@ -62,27 +58,6 @@ def stop_on_signals() -> Iterator[threading.Event]:
     finally:
         for s, h in old.items():
             signal.signal(s, h)
-
-
-def run_paced(sim: Simulator, node: SimNode, speed: float, duration: float, stop: threading.Event,
-              every: Callable[[], None] | None = None) -> None:
-    """Advance ``sim`` frame by frame at ``speed`` x real time for ``duration`` [s] (inf: until ``stop``)."""
-    wall0, sim0 = time.monotonic(), sim.clock.time_s
-    pacer = Pacer(sim, speed=speed, period=FRAME)
-
-    def frame(readings) -> None:
-        wall = time.monotonic() - wall0
-        node.real_time_factor = (sim.clock.time_s - sim0) / wall if wall > 0 else math.nan
-        node.frame(readings, frame_ns)
-
-    frame_ns = round(pacer.period * 1e9)
-    left = duration
-    while left > 0 and not stop.is_set():
-        chunk = min(left, 1.0)
-        pacer.run(chunk, on_period=frame, should_stop=stop.is_set, before_period=node.apply_pending)
-        left -= chunk
-        if every is not None:
-            every()
 
 
 def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Scenario | None,

@@ -16,10 +16,10 @@ import logging
 import math
 import threading
 
-from vilma.app.programs import run_paced
 from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
+from vilma.bus.paced import run_paced
 from vilma.bus.topics import topic
 from vilma.control.driver import Driver, DriverParams
 from vilma.core.messages import DriverOrder
