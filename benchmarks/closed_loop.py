@@ -20,6 +20,7 @@ import sys
 import time
 
 from vilma.app.batch import BUNDLED
+from vilma.record.run import record_run
 from vilma.scenario import load_scenario
 from vilma.scenario.runner import run
 from vilma.sim import Simulator
@@ -60,7 +61,7 @@ def _one_hour() -> dict:
     tmp = Path(sys.argv[2])
     tmp.write_text("task: {speed: 15}\nduration: 3600\n", encoding="utf-8")
     t0 = time.perf_counter()
-    r = run(load(tmp), out_dir=tmp.parent / "out")
+    r = record_run(load(tmp), tmp.parent / "out")
     size = (tmp.parent / "out" / "timeseries.csv").stat().st_size
     return {"sim_seconds": r.metrics["sim_time_s"], "wall_seconds_with_files": round(time.perf_counter() - t0, 1),
             "log_rows": len(r.log), "timeseries_csv_mb": round(size / 2**20, 1),

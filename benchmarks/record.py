@@ -32,7 +32,8 @@ from pathlib import Path
 from vilma.app import programs
 from vilma.app.batch import BUNDLED
 from vilma.record.reader import read_recording
-from vilma.record.run import RunRecorder
+from vilma.record.run import RunRecorder, record_run
+from vilma.scenario.result import OnReadings
 from vilma.scenario.runner import run
 from vilma.scenario.spec import Scenario, load_scenario
 
@@ -101,7 +102,7 @@ def _pair(scenario: Scenario, tmp: Path, first: int) -> tuple[_Turns, float]:
             turns.take(i)
 
         try:
-            run(scenario, out_dir=tmp / f"run{i}", record=bool(i), observe=block)
+            record_run(scenario, tmp / f"run{i}", record=bool(i), observers=[OnReadings(block)])
         except BaseException as e:
             failed.append(e)
         finally:
@@ -122,7 +123,7 @@ def _hour(tmp: Path) -> dict:
     f = tmp / "hour.yaml"
     f.write_text("task: {speed: 15}\nduration: 3600\n", encoding="utf-8")
     scenario = load_scenario(f)
-    r = run(scenario, out_dir=tmp / "warm")  # numba caches, imports
+    r = record_run(scenario, tmp / "warm")  # numba caches, imports
     alone = statistics.median(_timed(lambda: run(scenario)) for _ in range(3))
     whole, loop, in_rec, held, plain_loop = [], [], [], [], []
     for i in range(REPEAT):

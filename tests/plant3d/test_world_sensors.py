@@ -21,8 +21,8 @@ from vilma.plant3d.camera import stereo_pair
 from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import Box, World
 from vilma.record.reader import read_recording
+from vilma.record.run import record_run
 from vilma.scenario import load_scenario
-from vilma.scenario.runner import run
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import VehicleState
 
@@ -107,7 +107,7 @@ def test_a_run_records_its_camera_images_and_scans(tmp_path):
     scenario = tmp_path / "rec.yaml"
     scenario.write_text("plant: mujoco\ncameras: [{name: dash, width: 64, height: 48, rate_hz: 10}]\n"
                         "laser: {rate_hz: 5}\ntask: {speed: 3}\nduration: 2\n", encoding="utf-8")
-    run(load_scenario(scenario), out_dir=tmp_path / "out")
+    record_run(load_scenario(scenario), tmp_path / "out")
     rec = read_recording(tmp_path / "out" / "run.mcap")
     images = rec.messages("camera/dash")
     assert len(images) == 20 and {(i.width, i.height) for i in images} == {(64, 48)}  # 2 s at 10 Hz

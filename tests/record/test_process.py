@@ -124,7 +124,8 @@ def test_a_run_hands_its_blocks_over_in_parts_the_ring_holds(tmp_path, monkeypat
     monkeypatch.setattr(run_module, "RecorderProcess", functools.partial(RecorderProcess, ring=1 << 20))
     monkeypatch.setattr(RunRecorder, "BLOCK", 100)  # a hand-over tried every other block
     log = DriveLog(capacity=16)
-    rec = RunRecorder(tmp_path / "run.mcap", load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"), log)
+    rec = RunRecorder(tmp_path / "run.mcap", load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"))
+    rec.started(None, log)  # the recorder reads the log alone
     rng = np.random.default_rng(2)
     n, periods = 3000, 50  # a block: 168 kB of poses; the ring takes two or three at a time
     values = rng.normal(size=(30 * n, 6))
@@ -135,7 +136,7 @@ def test_a_run_hands_its_blocks_over_in_parts_the_ring_holds(tmp_path, monkeypat
         log.extend(rows[k * periods:(k + 1) * periods])
         part = slice(k * n, (k + 1) * n)
         rec.add({"pose": Readings("pose", Pose, stamps[part], values[part])})
-    rec.abort()
+    rec.failed(interrupted=False)
     back = read_recording(tmp_path / "run.mcap")
     assert rec.recorder.error is None and back.complete
     assert np.array_equal(back.readings("pose").values, values) and np.array_equal(back.readings("pose").stamp_ns,

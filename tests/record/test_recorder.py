@@ -108,9 +108,10 @@ def test_bad_world_topics_and_quality_are_refused_at_once(tmp_path):
 
 def test_a_run_records_the_captures_it_is_handed(tmp_path):
     scenario = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml")
-    run = RunRecorder(tmp_path / "run.mcap", scenario, DriveLog(capacity=10))
+    run = RunRecorder(tmp_path / "run.mcap", scenario)
+    run.started(None, DriveLog(capacity=10))  # the recorder reads the log alone
     run.add_captures([("laser", wall_scan(PERIOD_NS)), ("camera/front_left/depth", depth_image(PERIOD_NS))])
-    run.abort()
+    run.failed(interrupted=False)
     back = read_recording(tmp_path / "run.mcap")
     assert back.messages("laser") == [wall_scan(PERIOD_NS)]
     assert back.messages("camera/front_left/depth") == [depth_image(PERIOD_NS)]

@@ -28,9 +28,9 @@ from vilma.core.messages import DriverOrder
 from vilma.record.reader import read_recording
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.report import report
+from vilma.record.run import record_run
 from vilma.scenario import load_scenario, to_yaml
 from vilma.scenario.drive_log import COLUMNS
-from vilma.scenario.runner import run
 from vilma.scenario.spec import TIMING_KEYS
 from vilma.sim import Simulator
 
@@ -40,7 +40,7 @@ POSE_PERIOD_NS = 20_000_000
 
 def test_run_writes_run_mcap_equal_to_its_log_and_timeseries(tmp_path):
     scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
-    result = run(scenario, out_dir=tmp_path)
+    result = record_run(scenario, tmp_path)
     back = read_recording(tmp_path / "run.mcap")
     assert back.complete
     assert np.array_equal(back.drive_log(), result.log.rows, equal_nan=True)

@@ -27,10 +27,12 @@ from vilma.record.reader import read_recording
 from vilma.record.recorder import Recorder
 from vilma.record.report import report, world_counts
 from vilma.record.rosbag import STORE, export_rosbag2
+from vilma.record.run import record_run
 from vilma.record.world_schemas import compressed_image
 from vilma.scenario import load_scenario
 from vilma.scenario.folder import PLOTS
 from vilma.scenario.metrics import WATCHDOG_STOP
+from vilma.scenario.result import OnReadings
 from vilma.scenario.runner import Interrupted, run
 from vilma.scenario.spec import SCORECARD_KEYS, TIMING_KEYS
 from vilma.sensors import Readings
@@ -39,7 +41,7 @@ from vilma.sensors import Readings
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run")
-    return run(load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"), out_dir=out), out
+    return record_run(load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"), out), out
 
 
 GO_TO = "task: {go_to: [40, 10], speed: 5}\nduration: 30\n"
@@ -55,7 +57,7 @@ def scored_run(request, tmp_path_factory):
         scenario = load_scenario(out / "go_to.yaml")
     else:
         scenario = load_scenario(BUNDLED / f"{request.param}.yaml")
-    run(scenario, out_dir=out / "run")
+    record_run(scenario, out / "run")
     return out / "run", json.loads((out / "run" / "metrics.json").read_text())
 
 
@@ -84,7 +86,8 @@ def test_report_of_an_interrupted_run_is_truncated(tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(Interrupted):
-        run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml"), out_dir=tmp_path, compiled=False, observe=ctrl_c)
+        record_run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml"), tmp_path, compiled=False,
+                   observers=[OnReadings(ctrl_c)])
     rec = read_recording(tmp_path / "run.mcap")
     assert rec.complete and "run" not in rec.metadata
     got = report(rec, tmp_path / "rep").metrics

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from vilma.app.batch import Job
+from vilma.app.batch import Job, out_dirs
 from vilma.scenario import load_scenario
 from vilma.scenario.fields import SpecError
-from vilma.scenario.folder import RUN_FILES, claim, out_dirs
+from vilma.scenario.folder import RUN_FILES, claim
 
 
 def _job(tmp_path: Path, folder: str, sets: tuple = ()) -> Job:

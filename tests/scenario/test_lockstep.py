@@ -9,10 +9,10 @@ import pytest
 
 from vilma.app.batch import BUNDLED
 from vilma.control.driver import Driver
+from vilma.record.run import record_run
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.lockstep import compiled_ok
-from vilma.scenario.runner import run
 from vilma.scenario.spec import TIMING_KEYS
 from vilma.sensors.pose import PoseParams
 from vilma.sim import Simulator
@@ -39,8 +39,8 @@ def _same(a, b) -> None:
 ])
 def test_compiled_and_python_loops_drive_alike(name, overrides, tmp_path):
     s = load_scenario(BUNDLED / f"{name}.yaml", overrides)
-    compiled = run(s, out_dir=tmp_path / "compiled")
-    python = run(s, out_dir=tmp_path / "python", compiled=False)
+    compiled = record_run(s, tmp_path / "compiled")
+    python = record_run(s, tmp_path / "python", compiled=False)
     _same(compiled, python)
     csv = [(tmp_path / loop / "timeseries.csv").read_bytes() for loop in ("compiled", "python")]
     assert csv[0] == csv[1]  # no wall-clock column in it

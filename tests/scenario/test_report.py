@@ -12,7 +12,7 @@ from matplotlib.patches import Polygon
 from vilma.app.batch import find_scenario
 from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.scenario.report import figures, footprint, plot_run
-from vilma.scenario.runner import RunResult
+from vilma.scenario.result import RunResult
 from vilma.scenario.spec import load_scenario
 
 

@@ -17,6 +17,7 @@ from tests.control.speed.conftest import time_to
 from vilma.app.batch import BUNDLED, find_scenario, parse_sets
 from vilma.app.cli import main
 from vilma.record.reader import read_recording
+from vilma.record.run import record_run
 from vilma.scenario import SCORECARD_KEYS, load_scenario
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.fields import SpecError
@@ -27,7 +28,7 @@ from vilma.trajectory import load_speed_log
 
 def test_paper_fig11_at_10_ms_matches_the_original_log(tmp_path):
     s = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml")
-    r = run(s, out_dir=tmp_path)
+    r = record_run(s, tmp_path)
     t_log, v_log = load_speed_log(BUNDLED / "data" / "SpeedLog10.txt")
     assert r.passed and r.metrics["completed"]
     assert r.metrics["speed_rise_time_90_s"] == pytest.approx(time_to(t_log, v_log, 9.0), rel=0.25)
@@ -53,8 +54,8 @@ def test_paper_fig11_at_10_ms_matches_the_original_log(tmp_path):
 def test_a_resolved_scenario_repeats_byte_for_byte(tmp_path):
     """Two runs differ only in the timing keys: the CSV, the resolved scenario and every other key are equal."""
     s = load_scenario(BUNDLED / "course_30kmh_ekf.yaml", {"duration": "12"})
-    first = run(s, out_dir=tmp_path / "a", record=False)
-    again = run(load_scenario(tmp_path / "a" / "scenario.yaml"), out_dir=tmp_path / "b", record=False)
+    first = record_run(s, tmp_path / "a", record=False)
+    again = record_run(load_scenario(tmp_path / "a" / "scenario.yaml"), tmp_path / "b", record=False)
     keep = [i for i, c in enumerate(COLUMNS) if c != "controller_us"]
     assert np.array_equal(first.log.rows[:, keep], again.log.rows[:, keep], equal_nan=True)
     csv = (tmp_path / "a" / "timeseries.csv").read_bytes()
@@ -66,7 +67,7 @@ def test_a_resolved_scenario_repeats_byte_for_byte(tmp_path):
 def test_the_timing_keys_say_what_they_measure(tmp_path):
     """The loop's own time gives the real-time factor; loading compiled code is counted apart; the whole
     command's share holds both and the files."""
-    m = run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml", {"duration": "6"}), out_dir=tmp_path, record=False).metrics
+    m = record_run(load_scenario(BUNDLED / "pi_ff_speed_5.yaml", {"duration": "6"}), tmp_path, record=False).metrics
     assert m["realtime_factor"] == pytest.approx(m["sim_time_s"] / m["loop_wall_time_s"])
     assert m["load_time_s"] >= 0 and m["wall_time_s"] >= m["loop_wall_time_s"] + m["load_time_s"]
 

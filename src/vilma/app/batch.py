@@ -5,8 +5,10 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 
 from rich.console import Console
@@ -14,11 +16,12 @@ from rich.progress import Progress
 from rich.table import Table
 from rich.text import Text
 
+from vilma.record.run import record_run
 from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the demo and the tests find them
 from vilma.scenario.bundled import find_scenario as find_scenario
 from vilma.scenario.fields import SpecError
-from vilma.scenario.folder import claim, out_dirs
-from vilma.scenario.runner import RunResult, run
+from vilma.scenario.folder import claim
+from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario, load_scenario
 
 SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("lateral_error_max_m", "lat max [m]"),
@@ -77,13 +80,13 @@ def plan(files: Sequence[str], sets: Sequence[str]) -> list[Job]:
 
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,
-            observe=None, record: bool = True, overwrite: bool = False,
+            observers: Sequence[RunObserver] = (), record: bool = True, overwrite: bool = False,
             started: float | None = None) -> list[RunResult]:
     """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``)
-    into its own folder (:func:`~vilma.scenario.folder.out_dirs`); returns the results.
+    into its own folder (:func:`out_dirs`); returns the results.
 
     A folder that holds anything stops the batch before it runs, unless ``overwrite`` (then the earlier
-    run's files go first). ``observe`` gets each run's sensor readings as they are made (see
+    run's files go first). The ``observers`` watch each run as it goes (see
     :func:`~vilma.scenario.runner.run`); ``started`` is when the command began (:func:`time.perf_counter`),
     counted in the first run's ``wall_time_s``.
     """
@@ -98,7 +101,8 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             name = job.scenario.name + (f" {job.label}" if job.label else "")
             bar.update(task, description=Text(name))
             t0 = time.perf_counter()
-            r = run(job.scenario, realtime, out_dir, record=record, observe=observe, started=started)
+            r = record_run(job.scenario, out_dir, record=record, realtime=realtime, observers=observers,
+                           started=started)
             results.append(r)
             started = time.perf_counter()  # each run's share of the command starts where the last one's ended
             bar.advance(task)
@@ -106,6 +110,29 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
                 verdict = "pass" if r.passed else "FAIL"
                 console.print(Text(f"[{i}/{len(jobs)}] {name}: {verdict} in {started - t0:.1f} s"))
     return results
+
+
+def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:
+    """Each run's folder: ``out`` for a single run, else ``<out>/<name>`` (``runs/<name>-<timestamp>``
+    without ``out``); a name is the scenario's, its ``--set`` values, and where two runs would still share
+    it, the scenario file's folder, then ``-2``, ``-3``..."""
+    if out is not None and len(jobs) == 1:
+        return [out]
+    names = [job.scenario.name + "".join(f"-{k}_{v}" for k, v in job.overrides) for job in jobs]
+    files: dict[str, set] = {}
+    for job, n in zip(jobs, names, strict=True):
+        files.setdefault(n, set()).add(job.scenario.file)
+    names = [f"{job.scenario.file.parent.name}-{n}" if len(files[n]) > 1 and job.scenario.file else n
+             for job, n in zip(jobs, names, strict=True)]
+    seen: Counter[str] = Counter()
+    unique = []
+    for n in names:
+        seen[n] += 1
+        unique.append(n if seen[n] == 1 else f"{n}-{seen[n]}")
+    if out is None:
+        stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
+        return [Path("runs") / f"{n}-{stamp}" for n in unique]
+    return [out / n for n in unique]
 
 
 def numba_cache_cold() -> bool:

@@ -79,11 +79,13 @@ def _run(args: argparse.Namespace) -> int:
     live = None
     if args.foxglove is not None:
         from vilma.app.record import foxglove_observer
+        from vilma.scenario.result import OnReadings
 
         live = foxglove_observer(args.foxglove, args.realtime, console.print)
     try:
         results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
-                                live.observe if live else None, record=not args.no_record, overwrite=args.overwrite,
+                                [OnReadings(live.observe)] if live else (), record=not args.no_record,
+                                overwrite=args.overwrite,
                                 started=STARTED)
     finally:
         if live is not None:

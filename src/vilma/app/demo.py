@@ -16,7 +16,7 @@ from rich.text import Text
 
 from vilma.app import batch
 from vilma.scenario.metrics import step_response
-from vilma.scenario.runner import RunResult
+from vilma.scenario.result import RunResult
 from vilma.trajectory import load_speed_log
 
 

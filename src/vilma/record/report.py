@@ -50,7 +50,7 @@ from vilma.record.schemas import DRIVE_LOG
 from vilma.scenario.drive_log import COLUMNS, PLANT_COLUMNS, DriveLog
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.metrics import WATCHDOG_STOP, check_expectations, expectation_failures, scorecard, timing
-from vilma.scenario.runner import RunResult
+from vilma.scenario.result import RunResult
 from vilma.scenario.spec import TIMING_KEYS, Scenario, TaskSpec, parse_scenario
 from vilma.trajectory import Trajectory
 

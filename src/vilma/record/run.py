@@ -17,8 +17,8 @@ from __future__ import annotations
 import io
 import json
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,31 +26,54 @@ from vilma.core.messages import Message
 from vilma.record.process import Joined, RecorderProcess
 from vilma.record.recorder import Recorder
 from vilma.scenario.drive_log import DriveLog
-from vilma.scenario.folder import RECORDING
+from vilma.scenario.folder import RECORDING, RunFolder, write_metrics
+from vilma.scenario.result import RunObserver, RunResult
+from vilma.scenario.runner import Interrupted, run
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sensors import Readings
-
-if TYPE_CHECKING:
-    from vilma.scenario.runner import RunResult
+from vilma.sim import Simulator
 
 RUN_FILE = RECORDING
 """The recording's name in a run's output folder."""
 
 
-class RunRecorder:
-    """Records one run into ``path`` as it goes (see the module docstring)."""
+def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, realtime: float | None = None,
+               compiled: bool = True, observers: Sequence[RunObserver] = (), started: float | None = None) -> RunResult:
+    """Run ``scenario`` (:func:`~vilma.scenario.runner.run`) writing its folder ``out_dir`` as it goes: the
+    timeseries, the recording ``run.mcap`` (unless ``record`` is False), ``scenario.yaml`` and the plots, then
+    ``metrics.json`` last. The other ``observers`` watch it too (a live view).
+
+    Raises:
+        SpecError: the scenario's files cannot be used.
+        Interrupted: Ctrl-C; the files so far are kept, the recording finished.
+    """
+    mine: list[RunObserver] = [RunRecorder(out_dir / RUN_FILE, scenario)] if record else []
+    try:
+        result = run(scenario, realtime, compiled, [*mine, RunFolder(out_dir), *observers], started)
+    except Interrupted as e:
+        raise Interrupted(e.t, out_dir) from None
+    write_metrics(result, out_dir)  # last: a folder with metrics.json holds a whole run
+    return result
+
+
+class RunRecorder(RunObserver):
+    """Records one run into ``path`` as it goes (see the module docstring); its process starts with the run."""
 
     BLOCK = 2048
     """Control periods gathered before they are handed over (41 s of sim time at 50 Hz)."""
     HAND_OVER_S = 0.5
     """Wall time between hand-overs at most [s] (a paced run's chunks still reach the disk every second)."""
 
-    def __init__(self, path: Path, scenario: Scenario, log: DriveLog) -> None:
-        self.log = log
-        self.recorder = RecorderProcess(path, source="vilma run")
-        self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(scenario).encode())
-        self.recorder.call(Recorder.add_metadata, "scenario",
-                           {"name": scenario.name, "description": scenario.description})
+    def __init__(self, path: Path, scenario: Scenario) -> None:
+        self.path, self.scenario = path, scenario
+        self.recorder: RecorderProcess | None = None
+
+    def started(self, sim: Simulator, log: DriveLog) -> None:
+        self.log, s = log, self.scenario
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.recorder = RecorderProcess(self.path, source="vilma run")
+        self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(s).encode())
+        self.recorder.call(Recorder.add_metadata, "scenario", {"name": s.name, "description": s.description})
         self._row_bytes = log.rows.strides[0]
         self._written = self._marked = self._tried = 0  # log rows handed over, added, at the last hand-over
         self._pending: list[tuple[dict[str, Readings], int, int]] = []  # readings, log rows up to, bytes
@@ -96,7 +119,7 @@ class RunRecorder:
             self._written = upto
         self._pending.clear()  # nothing more goes in once the recording stopped
 
-    def finish(self, result: RunResult) -> None:
+    def finished(self, result: RunResult) -> None:
         """Hand over what is left, the run's facts, the path and the scorecard, and have the file finished
         (:meth:`close` waits for it)."""
         self._hand_over()
@@ -118,10 +141,11 @@ class RunRecorder:
         """Wait until the file is finished."""
         self.recorder.close()
 
-    def abort(self) -> None:
+    def failed(self, interrupted: bool) -> None:
         """The run failed: keep what was recorded and close the file."""
-        self._hand_over()
-        self.recorder.close()
+        if self.recorder is not None:
+            self._hand_over()
+            self.recorder.close()
 
 
 def _write(recorder: Recorder, readings: dict[str, tuple[type[Message], np.ndarray, np.ndarray]],

@@ -7,17 +7,20 @@ is refused unless the user says ``--overwrite``, and then the earlier run's file
 
 from __future__ import annotations
 
+import json
 import shutil
-from collections import Counter
 from collections.abc import Sequence
-from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+import numpy as np
+
+from vilma.core.files import write_atomic
+from vilma.scenario.drive_log import DriveLog, TimeseriesWriter
 from vilma.scenario.fields import SpecError
-
-if TYPE_CHECKING:
-    from vilma.app.batch import Job
+from vilma.scenario.result import RunObserver, RunResult
+from vilma.scenario.spec import Scenario, beside, to_yaml
+from vilma.sim import Simulator
+from vilma.trajectory import load_speed_log
 
 PLOTS = ("path.png", "speed.png", "cross_track.png", "effort.png")
 """The plots of a run (:func:`vilma.scenario.report.plot_run`)."""
@@ -27,29 +30,6 @@ RUN_FILES = ("metrics.json", "timeseries.csv", "timeseries.csv.part", "scenario.
 """The files a run writes in its folder."""
 REPORT_DIR = "run-report"
 """Where ``vilma report`` puts the report of the folder's recording."""
-
-
-def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:
-    """Each run's folder: ``out`` for a single run, else ``<out>/<name>`` (``runs/<name>-<timestamp>``
-    without ``out``); a name is the scenario's, its ``--set`` values, and where two runs would still share
-    it, the scenario file's folder, then ``-2``, ``-3``..."""
-    if out is not None and len(jobs) == 1:
-        return [out]
-    names = [job.scenario.name + "".join(f"-{k}_{v}" for k, v in job.overrides) for job in jobs]
-    files: dict[str, set] = {}
-    for job, n in zip(jobs, names, strict=True):
-        files.setdefault(n, set()).add(job.scenario.file)
-    names = [f"{job.scenario.file.parent.name}-{n}" if len(files[n]) > 1 and job.scenario.file else n
-             for job, n in zip(jobs, names, strict=True)]
-    seen: Counter[str] = Counter()
-    unique = []
-    for n in names:
-        seen[n] += 1
-        unique.append(n if seen[n] == 1 else f"{n}-{seen[n]}")
-    if out is None:
-        stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
-        return [Path("runs") / f"{n}-{stamp}" for n in unique]
-    return [out / n for n in unique]
 
 
 def claim(dirs: Sequence[Path], overwrite: bool) -> None:
@@ -72,3 +52,47 @@ def claim(dirs: Sequence[Path], overwrite: bool) -> None:
                 (d / name).unlink()
             elif name == REPORT_DIR and (d / name).is_dir():
                 shutil.rmtree(d / name)
+
+
+class RunFolder(RunObserver):
+    """Writes a run's folder as it goes: ``timeseries.csv`` streamed, then ``scenario.yaml`` and the plots
+    (:func:`write_metrics` comes last, from whoever ran it: a folder with ``metrics.json`` holds a whole run)."""
+
+    def __init__(self, out_dir: Path) -> None:
+        self.out_dir = out_dir
+        self.series: TimeseriesWriter | None = None
+
+    def started(self, sim: Simulator, log: DriveLog) -> None:
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.series = TimeseriesWriter(self.out_dir / "timeseries.csv", sim.sensors, log)
+
+    def add(self, readings) -> None:
+        self.series.add(readings)
+
+    def finished(self, result: RunResult) -> None:
+        from vilma.scenario.report import plot_run  # matplotlib (a second to import) only once there is a plot
+
+        self.series.close()
+        write_atomic(self.out_dir / "scenario.yaml", to_yaml(result.scenario))
+        plot_run(result, self.out_dir, speed_log(result.scenario))
+        result.out_dir = self.out_dir
+
+    def failed(self, interrupted: bool) -> None:
+        if self.series is not None:  # Ctrl-C keeps the timeseries so far; an error marks it unfinished
+            self.series.close() if interrupted else self.series.abort()
+
+
+def write_metrics(result: RunResult, out_dir: Path) -> Path:
+    """``metrics.json``: the scorecard."""
+    return write_atomic(out_dir / "metrics.json", json.dumps(result.metrics, indent=2) + "\n")
+
+
+def speed_log(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
+    """The recorded speed log the scenario compares with (``speed_log`` beside the scenario), or None."""
+    if scenario.speed_log is None:
+        return None
+    p = beside(scenario.file, scenario.speed_log)
+    try:
+        return load_speed_log(p)
+    except (OSError, ValueError) as e:
+        raise SpecError(f"{scenario.file or scenario.name}: speed_log: cannot read {p}: {e}") from None

@@ -19,7 +19,7 @@ from vilma.core.files import atomic_path
 from vilma.plant3d.world import World
 
 if TYPE_CHECKING:
-    from vilma.scenario.runner import RunResult
+    from vilma.scenario.result import RunResult
 
 MAX_POINTS = 20_000
 """Points drawn per line at most (every k-th sample of longer runs: a PNG cannot show more)."""

@@ -1,0 +1,41 @@
+"""The house: imports flow down the layers of pyproject's import-linter contract, with no circles."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+LINT = Path(sys.executable).with_name("lint-imports")
+
+
+def lint(src: Path, tmp_path: Path) -> subprocess.CompletedProcess:
+    """``lint-imports`` with the project's contracts on the package in ``src`` (its cache kept in ``tmp_path``)."""
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    return subprocess.run([str(LINT), "--config", str(ROOT / "pyproject.toml"), "--cache-dir", str(tmp_path / "cache")],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+
+
+def test_the_package_keeps_its_layers_and_has_no_circles(tmp_path):
+    out = lint(ROOT / "src", tmp_path)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "2 kept, 0 broken" in out.stdout
+
+
+@pytest.mark.parametrize(("module", "line", "broken"), [
+    ("core/clock.py", "import vilma.app.cli", "vilma.core is not allowed to import vilma.app"),
+    ("bus/topics.py", "import vilma.morse", "vilma.bus is not allowed to import vilma.morse"),
+    ("scenario/fields.py", "import vilma.scenario.runner", "No cycles are allowed in vilma.scenario"),
+])
+def test_an_upward_import_or_a_circle_breaks_the_contract(tmp_path, module, line, broken):
+    """A copy of the package with one bad import: the check fails and names it."""
+    shutil.copytree(ROOT / "src" / "vilma", tmp_path / "src" / "vilma", ignore=shutil.ignore_patterns("__pycache__"))
+    with (tmp_path / "src" / "vilma" / module).open("a") as f:
+        f.write(f"\n{line}  # noqa\n")
+    out = lint(tmp_path / "src", tmp_path)
+    assert out.returncode == 1 and broken in out.stdout
