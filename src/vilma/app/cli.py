@@ -237,12 +237,23 @@ def _folder(name: str):
 
 def _parser() -> argparse.ArgumentParser:
     from vilma import __version__
-    from vilma.scenario import bundled
-    from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
 
     p = argparse.ArgumentParser(prog="vilma", description="Simulate, drive and monitor an autonomous car.")
     p.add_argument("--version", action="version", version=f"vilma {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
+    for add in (_add_runs, _add_programs, _add_gui, _add_recording_commands, _add_tools):
+        add(sub)
+    for q in sub.choices.values():
+        loud = q.add_mutually_exclusive_group()
+        loud.add_argument("-v", "--verbose", action="count", default=0, help="log more: -v info, -vv debug")
+        loud.add_argument("-q", "--quiet", action="store_true", help="errors only: no progress bars, tables or notes")
+    return p
+
+
+def _add_runs(sub) -> None:
+    """``vilma demo`` and ``vilma run``."""
+    from vilma.scenario import bundled
+
     d = sub.add_parser("demo", help="the paper's figures and vilma's side by side: runs the bundled scenarios")
     d.add_argument("--out", metavar="DIR", help="where the runs' files go (default runs/demo-<timestamp>/)")
     d.add_argument("--overwrite", action="store_true", help="replace the files of earlier runs in --out")
@@ -265,6 +276,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--overwrite", action="store_true", help="replace the files of an earlier run in the --out folder "
                    "(without it, a folder that holds anything is refused)")
     r.set_defaults(func=_run)
+
+
+def _add_programs(sub) -> None:
+    """The long-running programs on the bus: ``vilma sim``, ``drive`` and ``up``."""
     for name, helptext in (("sim", "the simulator as a server on Zenoh, paced to real time"),
                            ("drive", "the self-driver as its own process on Zenoh"),
                            ("up", "simulator and driver in one process, real time")):
@@ -288,17 +303,26 @@ def _parser() -> argparse.ArgumentParser:
         if name == "drive":
             q.add_argument("--data-dir", type=_folder, metavar="DIR", help="follow orders on driver/cmd may name "
                            "trajectory files in DIR (default: none, orders carry their points)")
-        if name == "sim":
-            q.add_argument("--morse-host", default="127.0.0.1", metavar="ADDR",
-                           help="address of the MORSE socket interface (default 127.0.0.1; others are exposed)")
-            q.add_argument("--morse-port", type=port_or_any, default=4000, metavar="PORT",
-                           help="MORSE service port, the next free up to +9 (default 4000; 0: any free)")
-            q.add_argument("--morse-stream-port", type=port_or_any, default=60000, metavar="PORT",
-                           help="first MORSE datastream port (default 60000; 0: any free)")
-            q.add_argument("--allow-commands-from", action="append", metavar="ADDR",
-                           help="take MORSE commands only from this address or network (repeatable)")
-            q.add_argument("--no-morse", action="store_true", help="do not serve the MORSE socket interface")
         q.set_defaults(func={"sim": _sim, "drive": _drive, "up": _up}[name])
+        if name == "sim":
+            _add_morse_options(q)
+
+
+def _add_morse_options(q) -> None:
+    """``vilma sim``'s MORSE socket interface."""
+    q.add_argument("--morse-host", default="127.0.0.1", metavar="ADDR",
+                   help="address of the MORSE socket interface (default 127.0.0.1; others are exposed)")
+    q.add_argument("--morse-port", type=port_or_any, default=4000, metavar="PORT",
+                   help="MORSE service port, the next free up to +9 (default 4000; 0: any free)")
+    q.add_argument("--morse-stream-port", type=port_or_any, default=60000, metavar="PORT",
+                   help="first MORSE datastream port (default 60000; 0: any free)")
+    q.add_argument("--allow-commands-from", action="append", metavar="ADDR",
+                   help="take MORSE commands only from this address or network (repeatable)")
+    q.add_argument("--no-morse", action="store_true", help="do not serve the MORSE socket interface")
+
+
+def _add_gui(sub) -> None:
+    """``vilma gui``."""
     g = sub.add_parser("gui", help="the control and monitoring window (embedded simulator, or --connect)")
     g.add_argument("scenario", nargs="?", metavar="SCENARIO", help="embedded: scenario file or bundled name (car, "
                    "sensors, controllers; its path fills the table)").completer = _complete_scenario
@@ -312,6 +336,10 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--record-dir", metavar="DIR", help="where Record Trajectory / Speed write (default .)")
     g.add_argument("--quit-after", type=wall_delay, metavar="S", help="close after S wall seconds (for scripts)")
     g.set_defaults(func=_gui)
+
+
+def _add_recording_commands(sub) -> None:
+    """What works on recordings and ROS: ``report``, ``export``, ``replay``, ``ros1-bridge``."""
     rp = sub.add_parser("report", help="scorecard and plots of a recording (run.mcap) alone")
     rp.add_argument("recording", metavar="RUN.mcap")
     rp.add_argument("--out", metavar="DIR", help="where metrics.json and the plots go (default RUN-report/)")
@@ -341,6 +369,12 @@ def _parser() -> argparse.ArgumentParser:
     rb.add_argument("--listen", action="append", metavar="ENDPOINT", help=argparse.SUPPRESS)
     rb.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
     rb.set_defaults(func=_record_command("ros1_bridge_command"))
+
+
+def _add_tools(sub) -> None:
+    """``vilma trajectory`` and ``vilma scenarios``."""
+    from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
+
     t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
                        description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "
                                    "transform it and write it (.csv: CSV, else the original's format).")
@@ -357,11 +391,6 @@ def _parser() -> argparse.ArgumentParser:
     t.set_defaults(func=_trajectory)
     sc = sub.add_parser("scenarios", help="the bundled scenarios, one line each (run them by name)")
     sc.set_defaults(func=_scenarios)
-    for q in sub.choices.values():
-        loud = q.add_mutually_exclusive_group()
-        loud.add_argument("-v", "--verbose", action="count", default=0, help="log more: -v info, -vv debug")
-        loud.add_argument("-q", "--quiet", action="store_true", help="errors only: no progress bars, tables or notes")
-    return p
 
 
 def _complete_scenario(prefix: str, **_) -> list[str]:
