@@ -8,6 +8,7 @@ import logging
 import os
 import sys
 import time
+from pathlib import Path
 
 from vilma.app.options import (
     count,
@@ -28,8 +29,6 @@ STARTED = time.perf_counter()
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from vilma.app import batch, demo
 
     console = _console(args)
@@ -68,8 +67,6 @@ def _scenarios(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from rich.text import Text
 
     from vilma.app import batch
@@ -190,8 +187,6 @@ def _say(args: argparse.Namespace):
 
 
 def _record_path(args: argparse.Namespace):
-    from pathlib import Path
-
     return Path(args.record) if args.record else None
 
 
@@ -228,8 +223,6 @@ def _plant(name: str) -> str:
 
 
 def _folder(name: str):
-    from pathlib import Path
-
     if not Path(name).is_dir():
         raise argparse.ArgumentTypeError(f"{name!r} is not a folder; create it or give another")
     return Path(name)

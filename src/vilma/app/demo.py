@@ -9,6 +9,7 @@ original program's (measured on its logs with the same code as vilma's runs).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 
 from rich.table import Table
@@ -92,6 +93,4 @@ def _f(v) -> str:
 
 def out_root(out: Path | None) -> Path:
     """Where the demo's runs go: ``out``, else ``runs/demo-<timestamp>``."""
-    from datetime import datetime
-
     return out or Path("runs") / f"demo-{datetime.now().strftime('%Y%m%d-%H%M%S')}"

@@ -5,8 +5,10 @@ commands."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from collections.abc import Callable
+from pathlib import Path
 
 from vilma.core.clock import MAX_NS, NS_PER_S
 
@@ -79,9 +81,6 @@ def scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", p
 
 def zenoh_bus(args: argparse.Namespace, listen_default: tuple[str, ...], connect_default: tuple[str, ...]):
     """A Zenoh bus from ``--listen``, ``--connect`` and ``--zenoh-config`` (else the defaults), and its config."""
-    import dataclasses
-    from pathlib import Path
-
     from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
     from vilma.scenario.fields import build, read_yaml
 
