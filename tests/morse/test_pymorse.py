@@ -59,9 +59,24 @@ def test_streams_get_last_and_subscribe(sim):
     assert set(frames[0]) == {"timestamp", "w_fl", "w_fr", "w_rl", "w_rr"}
 
 
-def test_steer_force_follows_morses_reference_drive(sim):
+@pytest.fixture
+def real_time_sim(fixed_close):
+    """pymorse on a simulator paced at real time, as MORSE runs: the client's commands follow its ``sleep``
+    replies over the socket, and every wall second they lag costs a sim second, not four."""
+    s = serve(speed=1.0)
+    try:
+        with pymorse.Morse("127.0.0.1", s.port) as m:
+            yield m
+    finally:
+        s.stop.set()
+        s.server.stop()
+
+
+@pytest.mark.slow
+def test_steer_force_follows_morses_reference_drive(real_time_sim):
     """MORSE's testing/base/steer_force_testing.py: force -20 for 3 s then brake 10 for 1 s moves the car about
     8.5 m forward (+-1); force -40 for 3 s then brake for 2 s, about 28 m in total."""
+    sim = real_time_sim
     x0 = sim.vilma.pose.get()["x"]
     sim.vilma.steer_force.publish({"steer": 0.0, "force": -20.0, "brake": 0.0})
     sim.sleep(3.0)
