@@ -39,7 +39,7 @@ class MorseOptions:
     allow_commands_from: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
-        from vilma.morse.core import parse_networks
+        from vilma.morse.access import parse_networks
 
         for name in ("service_port", "stream_port"):
             if not 0 <= getattr(self, name) <= 65535:

@@ -10,7 +10,6 @@ reports (frame times, resets applied), which is behind locks.
 
 from __future__ import annotations
 
-import ipaddress
 import json
 import logging
 import math
@@ -20,15 +19,11 @@ from collections.abc import Callable, Collection, Container, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from vilma.core.geometry import quaternion_from_euler
 from vilma.core.messages import ActuatorCommand, Message
 from vilma.morse import protocol as p
+from vilma.morse.access import CommandAccess
 from vilma.morse.components import (
     LASER_RANGE,
-    ROBOT_SERVICES,
-    ROBOT_TYPE,
-    SERVICE_MANAGER,
-    STREAM_MANAGER,
     CommandValueError,
     ComponentSpec,
     OriginalCar,
@@ -39,25 +34,22 @@ from vilma.morse.components import (
     motion_command,
     motion_target,
     mounts,
-    rotate,
     steer_force_command,
 )
+from vilma.morse.frames import FrameTimes
+from vilma.morse.scene import configurations, details, scene_objects
 from vilma.sensors import SensorSuite
 from vilma.sensors.base import Readings
 from vilma.vehicle.params import VehicleParams, vilma
 
 log = logging.getLogger(__name__)
 
-ENVIRONMENT = "vilma/flat"
-"""The ``environment`` of ``simulation details``: vilma's flat ground."""
 MAX_PENDING = 256
 """Most ``reset_objects`` requests waiting at once for the simulator to reset."""
 SLEEP_BUSY = "A service (sleep) is already running. I do not know what to do."
 """MORSE's reply to a ``time sleep`` while one runs (its ``time`` component runs one asynchronous service)."""
 RESET_DONE = "Objects restored to initial position"
 """MORSE's reply to ``reset_objects``."""
-IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
-"""The rotation from every component's frame to the robot's (their axes are the body's), as rows."""
 
 UNSUPPORTED = (
     "suspend_dynamics", "restore_dynamics", "set_log_level", "set_object_position",
@@ -98,68 +90,6 @@ class _Pending:
 _ASYNC = object()
 
 
-def parse_networks(allow: Collection[str] | None) -> tuple[ipaddress.IPv4Network | ipaddress.IPv6Network, ...] | None:
-    """``allow_commands_from`` as networks (an address is a /32 or /128); ValueError on a bad entry."""
-    if allow is None:
-        return None
-    if isinstance(allow, str):
-        allow = (allow,)
-    nets = []
-    for a in allow:
-        try:
-            nets.append(ipaddress.ip_network(a, strict=False))
-        except ValueError:
-            raise ValueError(f"allow_commands_from: {a!r} is not an IP address or network; "
-                             f"use e.g. '127.0.0.1' or '192.168.1.0/24'") from None
-    return tuple(nets)
-
-
-class FrameTimes:
-    """The wall-clock time between the simulator's frames, MORSE's ``time statistics`` in fixed-step mode.
-
-    ``mean_time`` and ``variance_time`` are the mean [s] and sample variance [s^2] of the intervals (MORSE's
-    ``Stats``: Welford; the variance is 0 before two intervals). ``diff_real_time`` is the simulated time minus
-    the real time, both since the first frame after the start or the last reset (vilma's clock then starts
-    again) [s]: positive when the simulation runs ahead of real time. Frames come from the simulator's thread,
-    questions from the server's.
-
-    Args:
-        time_ns: sim time [ns].
-        wall_ns: a monotonic wall clock [ns].
-    """
-
-    def __init__(self, time_ns: Callable[[], int], wall_ns: Callable[[], int] = time.monotonic_ns) -> None:
-        self._time_ns, self._wall_ns = time_ns, wall_ns
-        self._lock = threading.Lock()
-        self._n, self._mean, self._m2 = 0, 0.0, 0.0
-        self._last: tuple[int, int] | None = None  # (wall, sim) [ns] of the last frame
-        self._origin: tuple[int, int] | None = None  # of the first frame since the start or the last reset
-
-    def frame(self) -> None:
-        """Note a frame, now."""
-        wall, sim = self._wall_ns(), int(self._time_ns())
-        with self._lock:
-            if self._last is not None:
-                dt = (wall - self._last[0]) / 1e9
-                self._n += 1
-                delta = dt - self._mean
-                self._mean += delta / self._n
-                self._m2 += delta * (dt - self._mean)
-            if self._last is None or sim < self._last[1]:
-                self._origin = (wall, sim)
-            self._last = (wall, sim)
-
-    def statistics(self) -> dict[str, float]:
-        """``{"mean_time", "variance_time", "diff_real_time"}`` (see the class docstring)."""
-        wall = self._wall_ns()
-        with self._lock:
-            diff = 0.0
-            if self._last is not None and self._origin is not None:
-                diff = ((self._last[1] - self._origin[1]) - (wall - self._origin[0])) / 1e9
-            return {"mean_time": self._mean, "variance_time": self._m2 / (self._n - 1) if self._n > 1 else 0.0,
-                    "diff_real_time": diff}
-
-
 class MorseCore:
     """State and services of one robot on a MORSE socket interface.
 
@@ -193,7 +123,7 @@ class MorseCore:
         self.robot = robot
         self._on_command, self._on_reset, self._on_quit = on_command, on_reset, on_quit
         self._time_ns = time_ns
-        self._allow = parse_networks(allow_commands_from)
+        self.access = CommandAccess(allow_commands_from)
         self.vehicle = vehicle or vilma()
         self._shutdown = shutdown
         if not 0 < laser_range < math.inf:
@@ -220,26 +150,6 @@ class MorseCore:
         self.frames = FrameTimes(time_ns, wall_ns)
         self._quitting = False
         self._services = self._registry()
-
-    # -- permissions -----------------------------------------------------------------------------------------
-
-    def allowed(self, address: str) -> bool:
-        """Whether commands from peer ``address`` are taken."""
-        if self._allow is None:
-            return True
-        try:
-            ip = ipaddress.ip_address(address.split("%", 1)[0])
-        except ValueError:
-            return False
-        if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
-            ip = ip.ipv4_mapped
-        return any(ip.version == n.version and ip in n for n in self._allow)
-
-    def refusal(self, address: str) -> str:
-        """The one-line error for a command from a peer outside ``allow_commands_from``."""
-        allowed = ", ".join(str(n) for n in self._allow or ())
-        return (f"vilma: commands from {address} are refused; this simulator takes commands only from "
-                f"{allowed} (allow_commands_from)")
 
     # -- service requests ----------------------------------------------------------------------------------
 
@@ -287,8 +197,8 @@ class MorseCore:
                 return p.FAILED, (f"simulation {req.service} is not supported by vilma's MORSE interface: "
                                   f"vilma has no 3D scene, physics engine or camera to change")
             return p.FAILED, p.not_registered(req.service)
-        if svc.command and not self.allowed(peer.address):
-            return p.FAILED, self.refusal(peer.address)
+        if svc.command and not self.access.allowed(peer.address):
+            return p.FAILED, self.access.refusal(peer.address)
         if len(req.params) != len(svc.params):
             if not req.params:
                 return p.FAILED, p.missing_params(req.service, svc.params)
@@ -307,7 +217,7 @@ class MorseCore:
         r = self.robot
         reg = {
             ("simulation", "list_robots"): _Service(lambda: [r]),
-            ("simulation", "details"): _Service(self.details),
+            ("simulation", "details"): _Service(lambda: details(r, self.specs, self.stream_ports)),
             ("simulation", "list_streams"): _Service(lambda: list(self.stream_ports)),
             ("simulation", "get_stream_port"): _Service(self._get_stream_port, ("component",)),
             ("simulation", "get_all_stream_ports"): _Service(lambda: dict(self.stream_ports)),
@@ -317,7 +227,8 @@ class MorseCore:
             ("simulation", "activate"): _Service(lambda c: self._activate(c, True), ("component",), command=True),
             ("simulation", "deactivate"): _Service(lambda c: self._activate(c, False), ("component",),
                                                    command=True),
-            ("simulation", "get_scene_objects"): _Service(self._scene_objects),
+            ("simulation", "get_scene_objects"): _Service(
+                lambda: scene_objects(r, self.specs, self.mounts, self._local_data(f"{r}.pose"))),
             ("time", "now"): _Service(lambda: self._now() / 1e9),
             ("time", "sleep"): _Service(self._sleep, ("time",), is_async=True),
             ("time", "mode"): _Service(lambda: "Fixed Simulation Step"),
@@ -336,26 +247,11 @@ class MorseCore:
         for fqn, spec in self.specs.items():
             calls = {"get_local_data": lambda fqn=fqn: self._local_data(fqn),
                      "get_properties": lambda spec=spec: {"properties": dict(spec.properties)},
-                     "get_configurations": lambda spec=spec: self._configurations(spec)}
+                     "get_configurations": lambda spec=spec: configurations(spec, self.mounts)}
             reg.update({(fqn, name): _Service(call) for name, call in calls.items() if name in spec.services})
         return reg
 
     # -- simulation and time services -----------------------------------------------------------------------
-
-    def details(self) -> dict[str, Any]:
-        """The scene structure pymorse builds its proxies from (``reference/morse-protocol.md`` section 4)."""
-        comps: dict[str, Any] = {}
-        for fqn, spec in self.specs.items():
-            c: dict[str, Any] = {"type": spec.type}
-            if spec.services:
-                c["services"] = list(spec.services)
-                c["service_interfaces"] = [SERVICE_MANAGER]
-            if fqn in self.stream_ports:
-                c["stream_interfaces"] = [[STREAM_MANAGER, spec.direction]]
-            comps[fqn] = c
-        robot = {"name": self.robot, "type": ROBOT_TYPE, "components": comps,
-                 "services": list(ROBOT_SERVICES), "services_interfaces": [SERVICE_MANAGER]}
-        return {"robots": [robot], "environment": ENVIRONMENT}
 
     def _get_stream_port(self, component: Any) -> int:
         port = self.stream_ports.get(component) if isinstance(component, str) else None
@@ -368,26 +264,6 @@ class MorseCore:
             verb = "activate" if on else "deactivate"
             raise p.RequestError(f"Component {component!r} not found. Can't {verb}")
         self.active[component] = on
-
-    def _scene_objects(self) -> dict[str, Any]:
-        """``{robot: [children, [x, y, z], [qx, qy, qz, qw]]}``: the robot where its pose sensor last put it,
-        its components at their mounts (``{fqn: [{}, position, quaternion]}``); vilma's flat ground has no
-        objects (the 3D plant's obstacles and laser are not listed)."""
-        pose = self._local_data(f"{self.robot}.pose")
-        at = [pose["x"], pose["y"], pose["z"]]
-        q = tuple(float(v) for v in quaternion_from_euler(pose["roll"], pose["pitch"], pose["yaw"]))
-        children = {}
-        for fqn, spec in self.specs.items():
-            if spec.name in self.mounts:
-                offset = rotate(q, self.mounts[spec.name])
-                children[fqn] = [{}, [a + d for a, d in zip(at, offset, strict=True)], list(q)]
-        return {self.robot: [children, at, list(q)]}
-
-    def _configurations(self, spec: ComponentSpec) -> dict[str, Any]:
-        """MORSE's ``get_configurations``: the properties' values and where the component sits on the robot."""
-        return {"configurations": {**{name: value[0] for name, value in spec.properties},
-                                   "object_to_robot": {"rotation": IDENTITY,
-                                                       "translation": list(self.mounts[spec.name])}}}
 
     def _reset(self, peer: Peer, rid: str) -> object:
         if self._on_reset is None:
@@ -519,8 +395,8 @@ class MorseCore:
 
     def actuator_line(self, fqn: str, address: str, line: bytes) -> str | None:
         """Apply one line received on actuator stream ``fqn`` from ``address``; the error text, or None."""
-        if not self.allowed(address):
-            return self.refusal(address)
+        if not self.access.allowed(address):
+            return self.access.refusal(address)
         if not self.active.get(fqn, False):
             return None  # a deactivated actuator ignores its stream, as in MORSE
         try:

@@ -158,8 +158,8 @@ class _InConn(asyncio.Protocol):
         self.address = str(peer[0]) if peer else "?"
         self.server._in_conns.add(self)
         core = self.server.core
-        if not core.allowed(self.address):
-            msg = core.refusal(self.address)
+        if not core.access.allowed(self.address):
+            msg = core.access.refusal(self.address)
             log.warning("%s stream: %s", self.fqn, msg)
             transport.write(p.format_reply("", p.FAILED, msg).lstrip())
             transport.close()
