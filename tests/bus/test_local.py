@@ -57,3 +57,19 @@ def test_request_reply():
     assert bus.request(key, SimControl(action="reset")).ok
     bus.close()
     assert not bus.request(key, SimControl(action="reset")).ok
+
+
+def test_a_bus_and_its_helpers_in_a_with_block_are_closed_even_when_the_block_raises():
+    got = []
+    try:
+        with LocalBus() as bus, Latest(bus, topic("gps")) as latest, BoundedQueue(bus, topic("imu")) as queue:
+            assert isinstance(bus, LocalBus) and isinstance(latest, Latest) and isinstance(queue, BoundedQueue)
+            bus.subscribe(topic("pose"), got.append)
+            bus.publish(topic("pose"), _pose(1))
+            raise RuntimeError("boom")
+    except RuntimeError as e:
+        assert str(e) == "boom"  # the exception goes on
+    for name in ("pose", "gps", "imu"):
+        bus.publish(topic(name), _pose(2))
+    assert [m.stamp_ns for m in got] == [1] and latest.value is None and queue.drain() == []
+    bus.close()  # a second close does nothing

@@ -278,3 +278,13 @@ def test_any_order_gets_a_one_line_answer_and_the_node_keeps_serving(orders_bus,
     assert isinstance(reply, Reply) and (reply.ok or reply.error) and "\n" not in reply.error
     assert SECRET not in reply.error and "nobody answered" not in reply.error
     assert orders_bus.request(ORDERS, DriverOrder(action="set_speed", speed=1.0), timeout=30).ok
+
+
+def test_nodes_in_a_with_block_leave_the_bus_even_when_the_block_raises():
+    bus = LocalBus()
+    with pytest.raises(RuntimeError, match="boom"), SimNode(Simulator(), bus) as sim_node, driver_on(bus) as drv:
+        assert isinstance(sim_node, SimNode) and isinstance(drv, DriverNode)
+        assert bus.request(topic("sim/cmd"), SimControl(action="status")).ok
+        raise RuntimeError("boom")
+    for key in (topic("sim/cmd"), topic("driver/cmd")):
+        assert bus.request(key, SimControl(action="status")).error == f"nobody answers on {key}"

@@ -215,3 +215,11 @@ def test_a_driver_process_refuses_hostile_orders_unread_and_keeps_serving(drive_
     assert _ask(bus, bytes(MAX_MESSAGE_BYTES + 1)) == []  # Zenoh drops it before it reaches vilma
     assert bus.request(key, DriverOrder(action="set_speed", speed=2.0)).ok
     _stop(drive)  # and it stops cleanly
+
+
+def test_a_zenoh_bus_in_a_with_block_closes_its_session_even_when_the_block_raises():
+    with pytest.raises(RuntimeError, match="boom"), ZenohBus(ZenohConfig()) as bus:
+        assert isinstance(bus, ZenohBus) and not bus.session.is_closed()
+        raise RuntimeError("boom")
+    assert bus.session.is_closed()
+    bus.close()  # a second close does nothing

@@ -576,3 +576,19 @@ def test_resets_waiting_for_a_stalled_simulator_are_bounded():
         c.close()
     finally:
         server.stop()
+
+
+def test_a_server_in_a_with_block_serves_then_closes_its_ports_even_when_the_block_raises():
+    try:
+        with MorseServer(service_port=0, stream_port=0, on_command=lambda _: None, time_ns=lambda: 0) as server:
+            assert isinstance(server, MorseServer)
+            ports = [server.service_address[1], *server.stream_ports.values()]
+            with socket.create_connection(("127.0.0.1", ports[0]), timeout=5) as s:
+                s.sendall(b"r1 simulation list_robots\n")
+                assert s.makefile("rb").readline() == b'r1 SUCCESS ["vilma"]\n'
+            raise RuntimeError("boom")
+    except RuntimeError as e:
+        assert str(e) == "boom"  # the exception goes on
+    for port in ports:
+        with pytest.raises(ConnectionRefusedError):
+            socket.create_connection(("127.0.0.1", port), timeout=5).close()

@@ -152,3 +152,12 @@ def test_world_sensors_are_served_in_foxglove_schemas():
     assert jpeg["format"] == "jpeg" and base64.b64decode(jpeg["data"])[:2] == b"\xff\xd8"
     assert base64.b64decode(depth["data"]) == depth_image().data and depth["encoding"] == "32FC1"
     assert base64.b64decode(laser["data"]) == wall_scan().points and laser["point_stride"] == 12
+
+
+def test_a_live_server_in_a_with_block_stops_listening_even_when_the_block_raises():
+    with pytest.raises(RuntimeError, match="boom"), FoxgloveLive(LocalBus(), port=_free_port()) as live:
+        assert isinstance(live, FoxgloveLive)
+        socket.create_connection(("127.0.0.1", live.port), timeout=5).close()  # it listens
+        raise RuntimeError("boom")
+    with pytest.raises(ConnectionRefusedError):
+        socket.create_connection(("127.0.0.1", live.port), timeout=5).close()

@@ -21,7 +21,7 @@ from tests.record.world_messages import (
 from vilma.app.batch import BUNDLED
 from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
-from vilma.core.messages import Image, PointCloud
+from vilma.core.messages import Image, PointCloud, SimStatus
 from vilma.record.reader import read_recording
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.run import RunRecorder
@@ -115,3 +115,14 @@ def test_a_run_records_the_captures_it_is_handed(tmp_path):
     back = read_recording(tmp_path / "run.mcap")
     assert back.messages("laser") == [wall_scan(PERIOD_NS)]
     assert back.messages("camera/front_left/depth") == [depth_image(PERIOD_NS)]
+
+
+def test_a_recording_in_a_with_block_is_finished_even_when_the_block_raises(tmp_path):
+    bus = LocalBus()
+    with pytest.raises(RuntimeError, match="boom"), BusRecorder(bus, Recorder(tmp_path / "r.mcap")) as rec:
+        assert isinstance(rec, BusRecorder)
+        bus.publish(topic("sim/status"), SimStatus(stamp_ns=7))
+        raise RuntimeError("boom")
+    bus.publish(topic("sim/status"), SimStatus(stamp_ns=8))  # after the end: not recorded
+    with open(tmp_path / "r.mcap", "rb") as f:
+        assert [m.log_time for _, _, m in make_reader(f).iter_messages()] == [7]  # read from its summary: finished

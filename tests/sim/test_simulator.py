@@ -144,3 +144,17 @@ def test_status_message():
     st = sim.status(real_time_factor=2.0)
     assert st.stamp_ns == 500_000_000 and st.real_time_factor == 2.0 and not st.autonomous
     assert math.isnan(sim.status().real_time_factor)
+
+
+def test_a_simulator_in_a_with_block_frees_its_renderers_even_when_the_block_raises():
+    pytest.importorskip("mujoco")
+    from vilma.plant3d.camera import CameraParams
+
+    config = SimConfig(model="mujoco", cameras=(CameraParams(width=32, height=24),))
+    with pytest.raises(RuntimeError, match="boom"), Simulator(config) as sim:
+        assert isinstance(sim, Simulator)
+        camera = sim._world_sensors[0]
+        assert camera._gl is not None  # it holds an EGL context
+        raise RuntimeError("boom")
+    assert camera._gl is None and camera._context is None
+    sim.close()  # a second close does nothing

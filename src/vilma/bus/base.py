@@ -6,8 +6,9 @@ import collections
 import threading
 import time
 from collections.abc import Callable
-from typing import Protocol
+from typing import Protocol, Self
 
+from vilma.core.closing import Closeable
 from vilma.core.messages import Message, Reply
 
 Handler = Callable[[Message], None]
@@ -41,10 +42,15 @@ class Bus(Protocol):
         """Send a request and wait for its reply; a :class:`Reply` with ``ok`` False if none came."""
 
     def close(self) -> None:
-        """End every subscription and release the bus."""
+        """End every subscription and release the bus; closing again does nothing."""
+
+    def __enter__(self) -> Self:
+        """The bus, closed at the end of the ``with`` block."""
+
+    def __exit__(self, *exc: object) -> None: ...
 
 
-class Latest:
+class Latest(Closeable):
     """The latest message of a topic (older ones are overwritten): for a display that samples."""
 
     def __init__(self, bus: Bus, key: str) -> None:
@@ -57,10 +63,11 @@ class Latest:
         self.count += 1
 
     def close(self) -> None:
+        """Unsubscribe (closing again does nothing)."""
         self._sub.close()
 
 
-class BoundedQueue:
+class BoundedQueue(Closeable):
     """Messages of a topic kept in order, at most ``maxsize``; when full the oldest is dropped and counted."""
 
     def __init__(self, bus: Bus, key: str, maxsize: int = 1000) -> None:
@@ -100,4 +107,5 @@ class BoundedQueue:
                     return None
 
     def close(self) -> None:
+        """Unsubscribe (closing again does nothing)."""
         self._sub.close()

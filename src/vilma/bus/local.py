@@ -6,6 +6,7 @@ import logging
 import threading
 
 from vilma.bus.base import Handler, Server
+from vilma.core.closing import Closeable
 from vilma.core.messages import Message, Reply
 
 log = logging.getLogger(__name__)
@@ -22,7 +23,7 @@ class _Sub:
                 items.remove(self._item)
 
 
-class LocalBus:
+class LocalBus(Closeable):
     """A :class:`~vilma.bus.base.Bus` inside one process. Subscribers run in the publisher's thread;
     one that raises is logged and the others still get the message."""
 
@@ -62,6 +63,7 @@ class LocalBus:
             return Reply(ok=False, error=f"{key}: {e}")
 
     def close(self) -> None:
+        """Drop every subscriber and server (closing again does nothing)."""
         with self._lock:
             self._subs.clear()
             self._servers.clear()

@@ -30,6 +30,7 @@ import numpy as np
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, topic
 from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, Driver, DriverMode, DriverParams
+from vilma.core.closing import Closeable
 from vilma.core.messages import MAX_ORDER_POINTS, ActuatorCommand, DriverOrder, Message, Reply, SimControl, SimStatus
 from vilma.core.ratelimit import WarningThrottle
 from vilma.sensors import Readings
@@ -41,7 +42,7 @@ from vilma.vehicle.state import VehicleState
 log = logging.getLogger(__name__)
 
 
-class SimNode:
+class SimNode(Closeable):
     """The simulator on a bus (see the module docstring). ``on_frame`` also gets each frame's readings."""
 
     def __init__(self, sim: Simulator, bus: Bus, car: str = "vilma", start: VehicleState | None = None,
@@ -122,6 +123,7 @@ class SimNode:
                 self._warnings.warning("refused", "refused a command: %s", e)
 
     def close(self) -> None:
+        """Leave the bus (closing again does nothing)."""
         for s in self._subs:
             s.close()
 
@@ -148,7 +150,7 @@ MAX_CATCH_UP = 100
 the clock) starts the driver's clock again from it instead of running every period in between."""
 
 
-class DriverNode:
+class DriverNode(Closeable):
     """The self-driver on a bus (see the module docstring)."""
 
     def __init__(self, driver: Driver, bus: Bus, car: str = "vilma", step_ns: int = 10_000_000,
@@ -252,6 +254,7 @@ class DriverNode:
         self.driver = new
 
     def close(self) -> None:
+        """Leave the bus (closing again does nothing)."""
         for s in self._subs:
             s.close()
 

@@ -24,6 +24,7 @@ import zenoh
 
 from vilma.bus.codec import MAX_WORLD_FRAME_BYTES, DecodeError, decode, encode
 from vilma.bus.topics import SENSOR_TOPICS, WORLD_TOPICS, message_type
+from vilma.core.closing import Closeable
 from vilma.core.messages import Message, Reply
 from vilma.core.net import is_loopback
 from vilma.core.ratelimit import WarningThrottle
@@ -69,7 +70,7 @@ class ZenohConfig:
         return cfg
 
 
-class ZenohBus:
+class ZenohBus(Closeable):
     """A :class:`~vilma.bus.base.Bus` over a Zenoh session. Callbacks run on Zenoh's threads."""
 
     def __init__(self, config: ZenohConfig) -> None:
@@ -149,6 +150,7 @@ class ZenohBus:
         return Reply(ok=False, error=f"nobody answered on {key} within {timeout:g} s (is the program running?)")
 
     def close(self) -> None:
+        """Undeclare the publishers and close the session (closing again does nothing)."""
         with self._lock:
             self._closed = True
             for p in self._publishers.values():

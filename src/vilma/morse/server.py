@@ -282,6 +282,14 @@ class MorseServer:
         log.info("MORSE interface: services on %s:%d, streams %s", *self.service_address,
                  ", ".join(f"{f} {p}" for f, p in self.stream_ports.items()))
 
+    def __enter__(self) -> MorseServer:
+        """Start it (:meth:`start`); it stops at the end of the ``with`` block, however that ends."""
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
     def _bind(self) -> dict[str, socket.socket]:
         socks: dict[str, socket.socket] = {}
         try:

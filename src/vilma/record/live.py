@@ -19,6 +19,7 @@ from collections.abc import Callable
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
+from vilma.core.closing import Closeable
 from vilma.core.extras import require
 from vilma.core.messages import Message
 from vilma.core.net import is_loopback
@@ -38,7 +39,7 @@ DEFAULT_PORT = 8765
 """Foxglove's usual WebSocket port."""
 
 
-class FoxgloveLive:
+class FoxgloveLive(Closeable):
     """Serves car ``car``'s topics on ``bus`` to Foxglove at ``host``:``port`` (0: a free port) until :meth:`close`,
     and the world sensors' ``world_topics`` (colour images as JPEG of ``jpeg_quality``, None: raw).
 
@@ -113,7 +114,7 @@ class FoxgloveLive:
         return take
 
     def close(self) -> None:
-        """Stop listening to the bus and stop the server."""
+        """Stop listening to the bus and stop the server; closing again does nothing."""
         for s in self._subs:
             s.close()
         self.server.stop()

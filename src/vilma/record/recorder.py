@@ -23,6 +23,7 @@ import numpy as np
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
+from vilma.core.closing import Closeable
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
 from vilma.record.schemas import DRIVE_LOG, channels, encode_struct, numeric_layouts, struct_schema
@@ -48,7 +49,7 @@ def _stderr(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
-class Recorder:
+class Recorder(Closeable):
     """One MCAP recording of car ``car`` (see the module docstring); ``source`` says which program made it.
 
     ``jpeg_quality`` (1..95) is that of colour camera images; None records them raw (exact, but some 30 times
@@ -182,7 +183,7 @@ class Recorder:
         return self._file.message_count if self._file is not None else 0
 
     def close(self) -> None:
-        """Finish the file (summary and footer)."""
+        """Finish the file (summary and footer); closing again does nothing."""
         self._guard(lambda f: f.close())
         self._file = None
 
@@ -192,7 +193,7 @@ def msgspec_row(msg: Message) -> list[float]:
     return [getattr(msg, f) for f in msg.__struct_fields__[1:]]
 
 
-class BusRecorder:
+class BusRecorder(Closeable):
     """Records every topic of ``car`` on ``bus`` into ``recorder`` until :meth:`close`, and the world sensors'
     ``world_topics`` (e.g. ``("camera/front_left", "camera/front_left/depth", "laser")``).
 
@@ -213,7 +214,7 @@ class BusRecorder:
         return take
 
     def close(self) -> None:
-        """Stop listening and finish the file."""
+        """Stop listening and finish the file; closing again does nothing."""
         for s in self._subs:
             s.close()
         self.recorder.close()

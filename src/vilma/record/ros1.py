@@ -38,6 +38,7 @@ from pathlib import Path
 from vilma.bus.base import Bus
 from vilma.bus.topics import topic
 from vilma.core import messages as m
+from vilma.core.closing import Closeable
 from vilma.core.geometry import quaternion_from_euler
 from vilma.core.ratelimit import WarningThrottle
 
@@ -113,7 +114,7 @@ def command_numbers(buff: bytes, header: dict[str, str]) -> tuple[float, ...]:
     return d[:4]
 
 
-class Ros1Bridge:
+class Ros1Bridge(Closeable):
     """Car ``car``'s topics on ``bus`` published to ROS 1, and ``/cmd`` taken from it (see the module docstring).
 
     ``rospy.init_node`` must have been called (:func:`init_node`).
@@ -212,7 +213,7 @@ class Ros1Bridge:
         self.commands += 1
 
     def close(self) -> None:
-        """Stop publishing and taking commands."""
+        """Stop publishing and taking commands; closing again does nothing."""
         for s in self._subs:
             s.close()
         self._cmd_sub.unregister()

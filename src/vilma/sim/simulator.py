@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vilma.core.clock import Clock, seconds_to_ns
+from vilma.core.closing import Closeable
 from vilma.core.extras import require
 from vilma.core.messages import ActuatorCommand, Message, SimStatus
 from vilma.core.ratelimit import WarningThrottle
@@ -91,7 +92,7 @@ class SimConfig:
         return (*out, *(["laser"] if self.laser is not None else []))
 
 
-class Simulator:
+class Simulator(Closeable):
     """One car on flat ground.
 
     Use :meth:`command` to set actuator commands and :meth:`run_for` /
@@ -185,7 +186,7 @@ class Simulator:
                          watchdog_tripped=self.watchdog_tripped, collisions=count, last_collision=last)
 
     def close(self) -> None:
-        """Free the world sensors' renderers (the simulator is not used after)."""
+        """Free the world sensors' renderers (the simulator is not used after; closing again does nothing)."""
         for sensor in self._world_sensors:
             sensor.close()
 
