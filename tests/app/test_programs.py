@@ -9,6 +9,7 @@ import sys
 import pytest
 
 from vilma.app import programs
+from vilma.app.batch import BUNDLED
 from vilma.scenario import load_scenario
 
 
@@ -41,3 +42,27 @@ def test_a_task_the_driver_refuses_is_one_warning_and_the_drive_goes_on(tmp_path
     assert [r.getMessage() for r in caplog.records if r.levelname == "WARNING"] == [
         f"{tmp_path / 'here.yaml'}: the task did not start: go_to: go to point: the car is already at that point"]
     assert "manual" in lines[-1]
+
+
+def test_up_closes_its_bus_and_simulator_when_the_loop_fails(monkeypatch):
+    closed = []
+
+    class Bus(programs.LocalBus):
+        def close(self) -> None:
+            closed.append("bus")
+            super().close()
+
+    class Sim(programs.Simulator):
+        def close(self) -> None:
+            closed.append("sim")
+            super().close()
+
+    def fail(*_args, **_kwargs) -> None:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(programs, "LocalBus", Bus)
+    monkeypatch.setattr(programs, "Simulator", Sim)
+    monkeypatch.setattr(programs, "run_paced", fail)
+    with pytest.raises(RuntimeError, match="boom"):
+        programs.up(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"), 1.0, 1.0, print)
+    assert closed == ["sim", "bus"]  # in the reverse order of opening

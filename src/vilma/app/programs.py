@@ -103,14 +103,13 @@ def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, repo
         if record is not None:
             from vilma.record.recorder import BusRecorder, Recorder
 
-            recorder = Recorder(record, source=source)
+            recorder = stack.enter_context(Recorder(record, source=source))
             recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
-            recording = stack.enter_context(contextlib.closing(BusRecorder(bus, recorder, world_topics=world_topics)))
-            tick = recording.recorder.tick
+            tick = stack.enter_context(BusRecorder(bus, recorder, world_topics=world_topics)).recorder.tick
         if foxglove is not None:
             from vilma.record.live import FoxgloveLive
 
-            live = stack.enter_context(contextlib.closing(FoxgloveLive(bus, port=foxglove, world_topics=world_topics)))
+            live = stack.enter_context(FoxgloveLive(bus, port=foxglove, world_topics=world_topics))
             report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
         yield tick
 
@@ -122,30 +121,29 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
     With ``record``, every topic is recorded to that MCAP file (finished on SIGINT or SIGTERM too); with
     ``foxglove`` (a port), they are served live to Foxglove.
     """
-    bus = LocalBus()
-    sim = Simulator(scenario.sim)
-    start = initial_state(scenario, scenario.reference_path())
-    sim.reset(start)
-    driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
-    sim_node = SimNode(sim, bus, start=start)
-    drv = serve_driver(driver, bus, "vilma", sim.clock.step_ns, scenario)
-
-    def line() -> None:
-        if tick is not None:
-            tick()
-        st, s = driver.status, sim.state
-        report(f"t {sim.clock.time_s:7.2f} s  x {s.x:8.2f} y {s.y:8.2f} m  speed {s.speed:5.2f} m/s  "
-               f"{st.mode}{' arrived' if st.arrived else ''}  off path {st.cross_track:+.3f} m  "
-               f"{sim_node.real_time_factor:.2f}x real time")
-
-    with _taps(bus, record, foxglove, "vilma up", report, scenario) as tick, \
-            stop_on_signals() as stop:
-        run_paced(sim, sim_node, speed, duration, stop, line)
-    drv.close()
-    sim_node.close()
-    sim.close()
-    bus.close()
+    with contextlib.ExitStack() as stack:  # everything is closed however the run ends (Ctrl-C, an error)
+        bus = stack.enter_context(LocalBus())
+        sim = stack.enter_context(Simulator(scenario.sim))
+        start = initial_state(scenario, scenario.reference_path())
+        sim.reset(start)
+        driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
+        sim_node = stack.enter_context(SimNode(sim, bus, start=start))
+        stack.enter_context(serve_driver(driver, bus, "vilma", sim.clock.step_ns, scenario))
+        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma up", report, scenario))
+        stop = stack.enter_context(stop_on_signals())
+        run_paced(sim, sim_node, speed, duration, stop, lambda: _line(sim, sim_node, driver, tick, report))
     return 0
+
+
+def _line(sim: Simulator, node: SimNode, driver: Driver, tick: Callable[[], None] | None,
+          report: Callable[[str], None]) -> None:
+    """``vilma up``'s line a second (the recording's ``tick`` first, if recording)."""
+    if tick is not None:
+        tick()
+    st, s = driver.status, sim.state
+    report(f"t {sim.clock.time_s:7.2f} s  x {s.x:8.2f} y {s.y:8.2f} m  speed {s.speed:5.2f} m/s  "
+           f"{st.mode}{' arrived' if st.arrived else ''}  off path {st.cross_track:+.3f} m  "
+           f"{node.real_time_factor:.2f}x real time")
 
 
 def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, report: Callable[[str], None],
@@ -157,33 +155,28 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     from vilma.morse import MorseServer
     from vilma.morse.components import LASER_RANGE
 
-    sim = Simulator(scenario.sim)
-    start = initial_state(scenario, scenario.reference_path())
-    sim.reset(start)
-    node = SimNode(sim, bus, start=start)
     world = scenario.sim.world_topics
-    with _taps(bus, record, foxglove, "vilma sim", report, scenario) as tick, stop_on_signals() as stop:
-        server = None
+    with contextlib.ExitStack() as stack:  # everything is closed however the run ends (Ctrl-C, an error)
+        sim = stack.enter_context(Simulator(scenario.sim))
+        start = initial_state(scenario, scenario.reference_path())
+        sim.reset(start)
+        node = stack.enter_context(SimNode(sim, bus, start=start))
+        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma sim", report, scenario))
+        stop = stack.enter_context(stop_on_signals())
         if morse is not None:
             laser = scenario.sim.laser
-            server = MorseServer(host=morse.host, service_port=morse.service_port, stream_port=morse.stream_port,
-                                 on_command=node.command, on_reset=node.reset, on_quit=stop.set,
-                                 time_ns=lambda: sim.time_ns, allow_commands_from=morse.allow_commands_from,
-                                 vehicle=sim.config.vehicle, sensors=sim.config.sensors, world_topics=world,
-                                 laser_range=laser.max_range if laser is not None else LASER_RANGE)
-            server.start()
+            server = stack.enter_context(MorseServer(
+                host=morse.host, service_port=morse.service_port, stream_port=morse.stream_port,
+                on_command=node.command, on_reset=node.reset, on_quit=stop.set, time_ns=lambda: sim.time_ns,
+                allow_commands_from=morse.allow_commands_from, vehicle=sim.config.vehicle,
+                sensors=sim.config.sensors, world_topics=world,
+                laser_range=laser.max_range if laser is not None else LASER_RANGE))
             node.on_frame, node.on_captures = server.publish, server.publish_captures
             host, port = server.service_address
             first, last = min(server.stream_ports.values()), max(server.stream_ports.values())
             report(f"vilma sim: MORSE services on {host}:{port}, datastreams {first}-{last} "
                    f"(robot vilma: {', '.join(f.split('.', 1)[1] for f in server.stream_ports)})")
-        try:
-            run_paced(sim, node, speed, duration, stop, tick)
-        finally:
-            if server is not None:
-                server.stop()
-    node.close()
-    sim.close()
+        run_paced(sim, node, speed, duration, stop, tick)
     z = sim.state
     report(f"vilma sim: stopped at t={sim.clock.time_s:.2f} s, the car at x={z.x:.2f} y={z.y:.2f} m, "
            f"speed {z.speed:.2f} m/s; commands {node.on_time} on time (within a frame), {node.late} late")
@@ -198,10 +191,9 @@ def drive_program(scenario: Scenario | None, bus: Bus, report: Callable[[str], N
     step = scenario.sim.step if scenario is not None else 0.01
     vehicle = scenario.sim.vehicle if scenario is not None else Simulator().config.vehicle
     driver = Driver(vehicle, params, step=step)
-    node = serve_driver(driver, bus, "vilma", round(step * 1e9), scenario, data_dir)
-    with stop_on_signals() as stop:
+    with serve_driver(driver, bus, "vilma", round(step * 1e9), scenario, data_dir) as node, \
+            stop_on_signals() as stop:
         while not stop.wait(1.0):
             pass
-    node.close()
     report(f"vilma drive: stopped after {node.commands_sent} commands")
     return 0

@@ -97,8 +97,7 @@ class _LoadTimer(TimingListener):
 def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: Sequence[RunObserver],
          loading: _LoadTimer) -> RunResult:
     path = scenario.reference_path()
-    sim = Simulator(scenario.sim)
-    try:
+    with Simulator(scenario.sim) as sim:  # the 3D plant's renderers are freed however the run ends
         sim.reset(initial_state(scenario, path))
         driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
         log = DriveLog(capacity=round(scenario.duration / driver.period) + 2)  # a row a period, allocated once
@@ -129,8 +128,6 @@ def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: 
                           compiled, loading)
         except KeyboardInterrupt:
             raise Interrupted(sim.time_ns * 1e-9) from None
-    finally:
-        sim.close()
 
 
 def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, path: Trajectory | None, step,
