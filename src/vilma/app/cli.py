@@ -149,11 +149,9 @@ def _sim(args: argparse.Namespace) -> int:
     say = _say(args)
     say(f"vilma sim: {scenario.name}, {args.speed:g}x real time; Zenoh listens on {', '.join(cfg.listen) or '-'}, "
         f"connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*")
-    try:
+    with bus:
         return programs.sim_program(scenario, bus, args.speed, args.duration, say, morse,
                                     record=_record_path(args), foxglove=args.foxglove)
-    finally:
-        bus.close()
 
 
 def _drive(args: argparse.Namespace) -> int:
@@ -165,10 +163,8 @@ def _drive(args: argparse.Namespace) -> int:
     say = _say(args)
     say(f"vilma drive: {'task of ' + scenario.name if scenario else 'waiting for orders on vilma/vilma/driver/cmd'}; "
         f"Zenoh connects to {', '.join(cfg.connect) or '-'}")
-    try:
+    with bus:
         return programs.drive_program(scenario, bus, say, args.data_dir)
-    finally:
-        bus.close()
 
 
 def _up(args: argparse.Namespace) -> int:

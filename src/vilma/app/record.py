@@ -52,7 +52,7 @@ def replay_command(args: argparse.Namespace) -> int:
     from vilma.record.replay import Replayer
 
     bus, cfg = zenoh_bus(args, (DEFAULT_ENDPOINT,), ())
-    try:
+    with bus:
         player = Replayer(Path(args.recording), bus, args.speed)
         if args.start:
             player.seek(args.start)
@@ -85,8 +85,6 @@ def replay_command(args: argparse.Namespace) -> int:
         player.close()
         print(f"vilma replay: {player.published} messages published", flush=True)
         return 0
-    finally:
-        bus.close()
 
 
 def ros1_bridge_command(args: argparse.Namespace) -> int:
@@ -113,27 +111,18 @@ def _ros1_bridge(args: argparse.Namespace) -> int:
 
     if args.connect or args.zenoh_config:
         bus, cfg = zenoh_bus(args, (), ())
-        bridge = Ros1Bridge(bus, cmd_topic=args.cmd_topic)
-        print(f"vilma ros1-bridge: Zenoh {', '.join(cfg.connect)} <-> ROS 1; commands on {args.cmd_topic}", flush=True)
-        try:
-            with programs.stop_on_signals() as stop:
-                while not stop.wait(1.0):
-                    pass
-        finally:
-            bridge.close()
-            bus.close()
+        with bus, Ros1Bridge(bus, cmd_topic=args.cmd_topic), programs.stop_on_signals() as stop:
+            print(f"vilma ros1-bridge: Zenoh {', '.join(cfg.connect)} <-> ROS 1; commands on {args.cmd_topic}",
+                  flush=True)
+            while not stop.wait(1.0):
+                pass
         return 0
     scenario = scenario_or_default(args.scenario)
-    bus = LocalBus()
-    bridge = Ros1Bridge(bus, cmd_topic=args.cmd_topic)
-    print(f"vilma ros1-bridge: simulator ({scenario.name}) at {args.speed:g}x real time on ROS 1: /pose /velocity "
-          f"/gps /imu /wheelspeed; commands on {args.cmd_topic}", flush=True)
-    try:
+    with LocalBus() as bus, Ros1Bridge(bus, cmd_topic=args.cmd_topic):
+        print(f"vilma ros1-bridge: simulator ({scenario.name}) at {args.speed:g}x real time on ROS 1: /pose "
+              f"/velocity /gps /imu /wheelspeed; commands on {args.cmd_topic}", flush=True)
         return programs.sim_program(scenario, bus, args.speed, args.duration, lambda s: print(s, flush=True),
                                     morse=None)
-    finally:
-        bridge.close()
-        bus.close()
 
 
 class _LiveRun:
