@@ -161,3 +161,13 @@ def test_a_live_server_in_a_with_block_stops_listening_even_when_the_block_raise
         raise RuntimeError("boom")
     with pytest.raises(ConnectionRefusedError):
         socket.create_connection(("127.0.0.1", live.port), timeout=5).close()
+
+
+def test_a_live_run_view_in_a_with_block_stops_listening_even_when_the_block_raises():
+    from vilma.app.record import foxglove_observer
+
+    with pytest.raises(RuntimeError, match="boom"), foxglove_observer(_free_port(), 1.0, print) as live:
+        socket.create_connection(("127.0.0.1", live.server.port), timeout=5).close()  # it listens
+        raise RuntimeError("boom")
+    with pytest.raises(ConnectionRefusedError):
+        socket.create_connection(("127.0.0.1", live.server.port), timeout=5).close()

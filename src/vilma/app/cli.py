@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
 import sys
@@ -79,14 +80,11 @@ def _run(args: argparse.Namespace) -> int:
         from vilma.scenario.result import OnReadings
 
         live = foxglove_observer(args.foxglove, args.realtime, console.print)
-    try:
+    with live or contextlib.nullcontext():
         results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
                                 [OnReadings(live.observe)] if live else (), record=not args.no_record,
                                 overwrite=args.overwrite,
                                 started=STARTED)
-    finally:
-        if live is not None:
-            live.close()
     if len(results) == 1:
         console.print(batch.scorecard_table(results[0]))
     console.print(batch.summary_table(jobs, results))

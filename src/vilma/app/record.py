@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from vilma.core.closing import Closeable
+
 
 def report_command(args: argparse.Namespace) -> int:
     """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone."""
@@ -125,7 +127,7 @@ def _ros1_bridge(args: argparse.Namespace) -> int:
                                     morse=None)
 
 
-class _LiveRun:
+class _LiveRun(Closeable):
     """Readings of a paced run, put on a local bus that a Foxglove server serves."""
 
     def __init__(self, port: int) -> None:
@@ -143,6 +145,7 @@ class _LiveRun:
         publish_readings(self.bus, self._keys, readings)
 
     def close(self) -> None:
+        """Stop the server and release the bus (closing again does nothing)."""
         self.server.close()
         self.bus.close()
 

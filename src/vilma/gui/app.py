@@ -45,20 +45,20 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
                          driver_params=scenario.driver if scenario is not None else None)
     else:
         backend = Embedded(scenario, speed=getattr(args, "speed", 1.0))
-    app = QApplication.instance() or QApplication([sys.argv[0]])
-    window = MainWindow(backend, refresh_ms=refresh, record_dir=Path(getattr(args, "record_dir", None) or "."))
-    window.show()
-    backend.start()
-    previous = signal.signal(signal.SIGINT, lambda *_: app.quit())
-    tick = QTimer()  # lets Python run its signal handlers while Qt's loop waits
-    tick.timeout.connect(lambda: None)
-    tick.start(200)
-    try:
-        quit_after = getattr(args, "quit_after", None)
-        if quit_after is not None:
-            QTimer.singleShot(int(quit_after * 1000), app.quit)
-        return app.exec()
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        window.close()
-        backend.close()
+    with backend:  # closed however the window ends
+        app = QApplication.instance() or QApplication([sys.argv[0]])
+        window = MainWindow(backend, refresh_ms=refresh, record_dir=Path(getattr(args, "record_dir", None) or "."))
+        window.show()
+        backend.start()
+        previous = signal.signal(signal.SIGINT, lambda *_: app.quit())
+        tick = QTimer()  # lets Python run its signal handlers while Qt's loop waits
+        tick.timeout.connect(lambda: None)
+        tick.start(200)
+        try:
+            quit_after = getattr(args, "quit_after", None)
+            if quit_after is not None:
+                QTimer.singleShot(int(quit_after * 1000), app.quit)
+            return app.exec()
+        finally:
+            signal.signal(signal.SIGINT, previous)
+            window.close()

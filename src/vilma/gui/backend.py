@@ -22,6 +22,7 @@ from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.paced import run_paced
 from vilma.bus.topics import topic
 from vilma.control.driver import Driver, DriverParams
+from vilma.core.closing import Closeable
 from vilma.core.messages import DriverOrder
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import initial_state
@@ -38,7 +39,7 @@ def default_scenario() -> Scenario:
     return parse_scenario(data, src, name="gui")
 
 
-class Embedded:
+class Embedded(Closeable):
     """Simulator and driver in this process on a local bus, paced to ``speed`` x real time.
 
     The scenario gives the car, sensors, start pose and driver parameters; its
@@ -112,7 +113,7 @@ class Embedded:
         return self._thread is not None and self._thread.is_alive()
 
     def close(self) -> None:
-        """Stop the simulation and release the bus."""
+        """Stop the simulation and release the bus (closing again does nothing)."""
         self.stop()
         self.driver_node.close()
         self.sim_node.close()
@@ -120,7 +121,7 @@ class Embedded:
         self.bus.close()
 
 
-class Remote:
+class Remote(Closeable):
     """A bus that reaches a simulator and a driver in other processes (``vilma sim`` / ``vilma drive``);
     ``world_topics``: that simulator's camera and laser topics (its scenario's)."""
 
@@ -157,6 +158,6 @@ class Remote:
         self.driver_params = params
 
     def close(self) -> None:
-        """Close the bus."""
+        """Close the bus (closing again does nothing)."""
         self.bus.close()
 
