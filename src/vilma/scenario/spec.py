@@ -123,8 +123,6 @@ def beside(file: Path | None, name: str) -> Path:
     return p if p.is_absolute() or file is None else file.parent / p
 
 
-
-
 TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "cameras", "laser", "integrator",
             "step", "seed",
             "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
@@ -148,15 +146,16 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     """A :class:`Scenario` from parsed YAML ``data`` (see the module docstring for the keys), read section by
     section in the order of :data:`TOP_KEYS`; each section is checked against the ones before it."""
     data, src = _document(data, src, overrides or {})
+    name, description = get(data, src, ("name",), str, name), get(data, src, ("description",), str, "")
     sim = _sim(data, src, Path(file).parent if file is not None else Path.cwd())
     driver = _driver(data, src)
     period = _driver_period(driver, sim, src)
     top = sim.vehicle.top_speed
     return Scenario(
-        name=get(data, src, ("name",), str, name), description=get(data, src, ("description",), str, ""),
-        file=file, sim=sim, driver=driver, task=_task(data, src, top, file), initial=_initial(data, src, top),
-        duration=_duration(data, src, period), metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)),
-        expect=_expect(data.get("expect"), src), speed_log=get(data, src, ("speed_log",), str, None))
+        name=name, description=description, file=file, sim=sim, driver=driver, task=_task(data, src, top, file),
+        initial=_initial(data, src, top), duration=_duration(data, src, period),
+        metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
+        speed_log=get(data, src, ("speed_log",), str, None))
 
 
 def _document(data: Any, src: Source, overrides: dict[str, str]) -> tuple[dict, Source]:
