@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import ast
+import subprocess
+import sys
 from dataclasses import dataclass
 
 import pytest
@@ -14,6 +17,7 @@ from vilma.scenario.fields import (
     MAX_YAML_VALUES,
     SpecError,
     build,
+    get,
     load_yaml,
     read_yaml,
 )
@@ -72,6 +76,22 @@ def test_errors_name_file_line_and_field(text, message):
         _build(text)
     assert str(e.value).startswith(message)
     assert "\n" not in str(e.value)
+
+
+def test_get_reads_one_value_checked_on_its_line_or_gives_the_default():
+    data, src = load_yaml("a:\n  step: 1\n  name: x\n", "f.yaml")
+    step = get(data["a"], src, ("a", "step"), float, 0.5)
+    assert step == 1.0 and isinstance(step, float)  # YAML's integer 1, as the number the hint asks for
+    assert get(data["a"], src, ("a", "seed"), int, 7) == 7
+    with pytest.raises(SpecError, match=r"^f\.yaml:3: a\.name: expected a number, got 'x'$"):
+        get(data["a"], src, ("a", "name"), float)
+
+
+def test_the_generic_readers_import_nothing_of_vilma_above_them():
+    """Imports flow one way: scenario.spec uses fields, never the reverse (nor anything else of vilma)."""
+    code = "import sys, vilma.scenario.fields; print(sorted(m for m in sys.modules if m.startswith('vilma')))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300)
+    assert ast.literal_eval(out.stdout) == ["vilma", "vilma.scenario", "vilma.scenario.fields"]
 
 
 @given(st.text(max_size=200))

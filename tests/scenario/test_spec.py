@@ -136,6 +136,17 @@ def test_bad_files_give_one_located_line(tmp_path, text, message):
     _refused_on_one_line(tmp_path, text, message)
 
 
+@pytest.mark.parametrize(("text", "message"), [
+    ("task: {speed: 5}\nplant: bullet\nsensors: 3\n", "s.yaml:2: plant: unknown plant 'bullet'"),
+    ("task: {speed: 5}\nsensors: {imu: {rate_hz: 30}}\npath_controller: lqr\n",
+     "s.yaml:2: sensors.imu.rate_hz: sensor imu: 30 Hz"),
+    ("task: {follow: missing.txt, speed: 2}\nduration: 0\n", "s.yaml:1: task.follow: no such trajectory file"),
+])
+def test_of_two_errors_the_first_section_in_reading_order_is_named(tmp_path, text, message):
+    """The sections are read once, top-down in the order of TOP_KEYS, each checked as it is read."""
+    _refused_on_one_line(tmp_path, text, message)
+
+
 def _refused_on_one_line(tmp_path, text: str, message: str) -> None:
     with pytest.raises(SpecError) as e:
         load_scenario(_write(tmp_path, text))

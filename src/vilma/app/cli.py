@@ -97,7 +97,7 @@ def _run(args: argparse.Namespace) -> int:
 def _trajectory(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from vilma.scenario.spec import SmoothSpec
+    from vilma.scenario.task import SmoothSpec
     from vilma.trajectory import (
         Trajectory,
         densify,

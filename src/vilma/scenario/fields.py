@@ -225,6 +225,12 @@ def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None) ->
         raise src.error(key, str(e)) from None
 
 
+def get(data: Mapping, src: Source, key: Key, hint: Any, default: Any = None) -> Any:
+    """The value at ``key`` (its last part a key of the mapping ``data``) checked against the type ``hint``, or
+    ``default`` if ``data`` has none."""
+    return convert(hint, data[key[-1]], src, key, default) if key[-1] in data else default
+
+
 def _default(f: dataclasses.Field) -> Any:
     if f.default is not dataclasses.MISSING:
         return f.default

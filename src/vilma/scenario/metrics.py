@@ -12,7 +12,7 @@ to rest within ``MetricsSpec.end_tolerance`` of the target; a path when, besides
 it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`).
 ``incomplete_reason`` says why not, in words.
 
-The timing keys (:data:`~vilma.scenario.spec.TIMING_KEYS`) are the caller's
+The timing keys (:data:`~vilma.scenario.scorecard.TIMING_KEYS`) are the caller's
 (:func:`timing`); ``controller_time_per_step_us`` is the mean wall time of the
 driver per period; in the compiled loop, of the whole loop per period (an upper
 bound).

@@ -25,11 +25,14 @@ Top-level keys (all optional but ``task``):
   ``type`` and that controller's parameter fields. ``driver``: other
   :class:`~vilma.control.driver.DriverParams` fields, and ``original: true`` for the shipped program.
 - ``speed_log``: a speed log of the original program to overlay and compare (``data/SpeedLog10.txt``).
-- ``task``: see :class:`TaskSpec`. ``initial``: see :class:`InitialSpec`. ``duration``: the longest
+- ``task``: see :class:`~vilma.scenario.task.TaskSpec`. ``initial``: see
+  :class:`~vilma.scenario.task.InitialSpec`. ``duration``: the longest
   drive [s], at most :data:`~vilma.scenario.drive_log.MAX_ROWS` driver periods (the run keeps a log row
-  a period: a day at the default 50 Hz driver, 12 h at 100 Hz). ``metrics``: see :class:`MetricsSpec`.
+  a period: a day at the default 50 Hz driver, 12 h at 100 Hz). ``metrics``: see
+  :class:`~vilma.scenario.scorecard.MetricsSpec`.
   ``expect``: pass criteria, ``{key: {min, max}}`` on scorecard keys (``completed: true`` for a boolean).
 """
+
 
 from __future__ import annotations
 
@@ -50,144 +53,17 @@ from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
 from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
-from vilma.scenario.fields import Key, Source, SpecError, build, convert, load_yaml, read_yaml
+from vilma.scenario.fields import Key, Source, SpecError, build, convert, get, load_yaml, read_yaml
+from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS, Bound, MetricsSpec
+from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
 from vilma.trajectory import Trajectory, TrajectoryFileError, densify, load_trajectory, resample
 from vilma.trajectory.course import spline_course
-from vilma.trajectory.densify import MAX_DENSIFY, MAX_POINTS
-from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE, smooth_banded, smooth_iterative
+from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 from vilma.vehicle import models
 from vilma.vehicle.params import PRESETS, ActuatorParams, VehicleParams, preset
-
-SCORECARD_KEYS = (
-    "completed", "incomplete_reason", "truncated", "sim_time_s", "distance_m", "end_error_m", "path_progress",
-    "waypoints_skipped", "lateral_error_rms_m", "lateral_error_max_m", "lateral_error_p95_m", "heading_error_rms_rad",
-    "speed_rise_time_90_s", "speed_overshoot_pct", "speed_settling_time_2pct_s", "speed_steady_state_error_mps",
-    "speed_error_rms_mps", "steering_rate_rms_radps", "lateral_accel_max_mps2", "longitudinal_jerk_rms_mps3",
-    "pose_error_rms_m", "collisions",
-    "wall_time_s", "loop_wall_time_s", "load_time_s", "realtime_factor", "controller_time_per_step_us",
-)
-"""The keys of ``metrics.json``, in order (see :mod:`vilma.scenario.metrics`)."""
-TIMING_KEYS = SCORECARD_KEYS[-5:]
-"""The keys measured on the wall clock: the only ones two runs of one scenario may differ in."""
-"""The scorecard's keys, in order (``metrics.json``)."""
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class SmoothSpec:
-    """The paper's Smooth Trajectory (Algorithm 1)."""
-
-    alpha: float = ALPHA
-    """weight_data [-]"""
-    beta: float = BETA
-    """weight_smooth [-]"""
-    tolerance: float = TOLERANCE
-    """Stop when a sweep changes the points by less than this in total [m]."""
-    solver: str = "iterative"
-    """``iterative`` (the paper's sweeps) or ``banded`` (the same fixed point solved directly)."""
-
-    def __post_init__(self) -> None:
-        if self.solver not in ("iterative", "banded"):
-            raise ValueError(f"solver must be 'iterative' or 'banded', got {self.solver!r}")
-        if not (self.alpha > 0 and self.beta >= 0 and self.tolerance > 0):
-            raise ValueError("alpha must be > 0, beta >= 0 and tolerance > 0")
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class TaskSpec:
-    """What the driver does. With none of ``go_to``, ``follow``, ``course``: hold ``speed`` straight ahead."""
-
-    speed: float | None = None
-    """Target speed [m/s], at most the car's top speed; with ``follow`` it may be left out to use the file's own
-    speeds."""
-    go_to: tuple[float, float] | None = None
-    """Drive to this point [m] and stop on it."""
-    follow: str | None = None
-    """Follow this trajectory file (original ``x y`` format, CSV or GPX), relative to the scenario file."""
-    course: tuple[tuple[float, float], ...] | None = None
-    """Follow a smooth spline through these points [m]."""
-    densify: int = 0
-    """Apply Increase Point Count this many times (n -> 2n - 1 each), at most
-    :data:`~vilma.trajectory.densify.MAX_DENSIFY`."""
-    smooth: SmoothSpec | None = None
-    """Smooth the path as the paper (``true`` for the original's parameters)."""
-    resample: float | None = None
-    """Resample the path at this spacing [m] (after densify and smooth)."""
-
-    def __post_init__(self) -> None:
-        given = [k for k in ("go_to", "follow", "course") if getattr(self, k) is not None]
-        if len(given) > 1:
-            raise ValueError(f"give one of go_to, follow, course, not {' and '.join(given)}")
-        if self.speed is None and not self.follow:
-            raise ValueError("speed is missing: give the target speed in m/s")
-        if self.speed is not None and not self.speed > 0:
-            raise ValueError(f"speed must be > 0 m/s, got {self.speed}")
-        if self.course is not None and len(self.course) < 2:
-            raise ValueError("course needs at least 2 points")
-        if not 0 <= self.densify <= MAX_DENSIFY:
-            raise ValueError(f"densify must be 0..{MAX_DENSIFY} (each pass doubles the points; a path holds at most "
-                             f"{MAX_POINTS}), got {self.densify}")
-        if self.resample is not None and not self.resample > 0:
-            raise ValueError(f"resample spacing must be > 0 m, got {self.resample}")
-
-    @property
-    def kind(self) -> str:
-        """``speed``, ``go_to``, ``follow`` or ``course``."""
-        return next((k for k in ("go_to", "follow", "course") if getattr(self, k) is not None), "speed")
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class InitialSpec:
-    """Where the car starts; unset position and heading: the path's first point, facing along it (else 0)."""
-
-    x: float | None = None
-    """[m]"""
-    y: float | None = None
-    """[m]"""
-    yaw: float | None = None
-    """[rad], counter-clockwise from east."""
-    speed: float = 0.0
-    """Forward speed [m/s]."""
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class MetricsSpec:
-    """How the scorecard is measured."""
-
-    skip: float = 2.0
-    """Path errors are counted after this much sim time [s]."""
-    settle_band: float = 0.02
-    """Settling band of the speed step, a fraction of the target [-]."""
-    steady_window: float = 5.0
-    """The steady-state speed error is the mean over this last part of the run [s]."""
-    end_tolerance: float = 1.0
-    """A path or go-to task is complete only if the car stops this close to its end [m]."""
-    path_tolerance: float = 2.0
-    """The path is covered where the car passes this close to it, in order [m]."""
-    min_progress: float = 0.95
-    """A path task is complete only if the car covered at least this fraction of the path [-]."""
-
-    def __post_init__(self) -> None:
-        if not (self.skip >= 0 and self.settle_band > 0 and self.steady_window > 0):
-            raise ValueError("skip must be >= 0 s, settle_band > 0 and steady_window > 0 s")
-        if not (self.end_tolerance > 0 and self.path_tolerance > 0 and 0 < self.min_progress <= 1):
-            raise ValueError("end_tolerance and path_tolerance must be > 0 m, min_progress in (0, 1]")
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class Bound:
-    """A pass criterion on a scorecard value."""
-
-    min: float | None = None
-    max: float | None = None
-
-    def check(self, value: Any) -> bool:
-        """Whether ``value`` is within the bound (None or NaN never is)."""
-        if value is None or isinstance(value, bool) or not math.isfinite(value):
-            return False
-        return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -261,71 +137,89 @@ def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> 
     return parse_scenario(data, src, name=path.stem, file=path, overrides=overrides)
 
 
+# The sections are read top-down by the hand-written readers of vilma.scenario.fields, not by msgspec (a
+# dependency already): msgspec.convert onto these dataclasses ignores unknown keys (no "did you mean"), locates
+# an error by path ($.task.speed) but not by line, cannot merge a mapping onto a preset (vehicle: {preset:
+# bmw_320i, mass: 1500}) and refuses "smooth: true" for a SmoothSpec | None.
 def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | None = None,
                    overrides: dict[str, str] | None = None) -> Scenario:
-    """A :class:`Scenario` from parsed YAML ``data`` (see the module docstring for the keys)."""
+    """A :class:`Scenario` from parsed YAML ``data`` (see the module docstring for the keys), read section by
+    section in the order of :data:`TOP_KEYS`; each section is checked against the ones before it."""
+    data, src = _document(data, src, overrides or {})
+    name, description = get(data, src, ("name",), str, name), get(data, src, ("description",), str, "")
+    sim = _sim(data, src, Path(file).parent if file is not None else Path.cwd())
+    driver = _driver(data, src)
+    period = _driver_period(driver, sim, src)
+    top = sim.vehicle.top_speed
+    return Scenario(
+        name=name, description=description, file=file, sim=sim, driver=driver, task=_task(data, src, top, file),
+        initial=_initial(data, src, top), duration=_duration(data, src, period),
+        metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
+        speed_log=get(data, src, ("speed_log",), str, None))
+
+
+def _document(data: Any, src: Source, overrides: dict[str, str]) -> tuple[dict, Source]:
+    """The scenario's mapping with the ``overrides`` applied, its keys checked."""
     if data is None:
         data = {}
     if not isinstance(data, dict):
         raise src.error((), "a scenario must be a mapping of keys such as task, vehicle, speed_controller")
-    data, src = apply_overrides(data, src, overrides or {})
+    data, src = apply_overrides(data, src, overrides)
     for k in data:
         if k not in TOP_KEYS:
             raise src.error((k,), f"unknown key; known: {', '.join(TOP_KEYS)}")
     if "task" not in data:
         raise src.error((), "no task: add e.g. 'task: {speed: 10}' or 'task: {follow: path.txt, speed: 5}'")
+    return data, src
 
-    def get(key: str, hint: Any, default: Any) -> Any:
-        return convert(hint, data[key], src, (key,), default) if key in data else default
 
-    base = Path(file).parent if file is not None else Path.cwd()
+def _sim(data: dict, src: Source, base: Path) -> SimConfig:
+    """The simulator's sections, ``vehicle`` to ``origin``; ``base`` is the folder of a vehicle file."""
     vehicle = _vehicle(data.get("vehicle", "vilma"), src, base)
     if "actuators" in data:
         vehicle = dataclasses.replace(vehicle, actuators=build(ActuatorParams, data["actuators"], src, ("actuators",),
                                                                 vehicle.actuators))
-    sensors = build(SensorSuite, data.get("sensors"), src, ("sensors",), SensorSuite())
-    if "origin" in data:
-        origin = build(GeodeticOrigin, data["origin"], src, ("origin",))
-        if sensors.gps is None:
-            raise src.error(("origin",), "an origin needs the gps sensor; remove 'origin' or 'sensors.gps: false'")
-        sensors = dataclasses.replace(sensors, gps=dataclasses.replace(sensors.gps, origin=origin))
-    model = get("plant", str, "single_track")
+    model = get(data, src, ("plant",), str, "single_track")
     if model not in (*models.MODELS, MUJOCO):
         raise src.error(("plant",), f"unknown plant {model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
     world = build(World, data.get("world"), src, ("world",), World())
+    cameras = _cameras(data.get("cameras"), src)
     laser = data.get("laser")
     laser = build(LaserParams, {} if laser is True else laser, src, ("laser",)) if laser not in (None, False) else None
-    cameras = _cameras(data.get("cameras"), src)
-    integrator, step = get("integrator", str, "rk4"), get("step", float, 0.01)  # their own errors are located
-    seed, watchdog_timeout = get("seed", int, 0), get("watchdog_timeout", float, 0.5)
+    integrator, step = get(data, src, ("integrator",), str, "rk4"), get(data, src, ("step",), float, 0.01)
+    seed, watchdog_timeout = get(data, src, ("seed",), int, 0), get(data, src, ("watchdog_timeout",), float, 0.5)
+    sensors = _sensors(data, src)
     try:
         sim = SimConfig(vehicle=vehicle, model=model, integrator=integrator, step=step, sensors=sensors, seed=seed,
                         watchdog_timeout=watchdog_timeout, world=world, cameras=cameras, laser=laser)
-    except ValueError as e:
+    except ValueError as e:  # SimConfig checks the keys together; its message names the one at fault
         culprit = next((k for k, word in (("step", "step"), ("integrator", "integrator"),
                                           ("watchdog_timeout", "watchdog"), ("world", "world"),
                                           ("cameras", "camera"), ("laser", "laser")) if word in str(e)), None)
         raise src.error((culprit,) if culprit else (), str(e)) from None
-    driver = _driver(data, src)
-    period = _check_times(sim, driver, src)
-    task = build(TaskSpec, data["task"], src, ("task",))
-    initial = build(InitialSpec, data.get("initial"), src, ("initial",))
-    _check_speeds(task, initial, sim.vehicle, src)
-    duration = get("duration", float, 120.0)
-    if not duration > 0:
-        raise src.error(("duration",), f"must be > 0 s, got {duration}")
-    if duration / period > MAX_ROWS:  # the log keeps a row a driver period
-        raise src.error(("duration",), f"{duration:.12g} s is more than the {MAX_ROWS} driver periods of {period:g} "
-                                       f"s a run keeps (a log row each, {MAX_ROWS * 8 * len(COLUMNS) / 1e9:.2f} GB); "
-                                       f"give at most {MAX_ROWS * period:g} s")
-    scenario = Scenario(
-        name=get("name", str, name), description=get("description", str, ""), file=file, sim=sim, driver=driver,
-        task=task, initial=initial, duration=duration,
-        metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
-        speed_log=get("speed_log", str, None))
-    if task.kind == "follow" and not scenario.trajectory_file().is_file():
-        raise src.error(("task", "follow"), f"no such trajectory file {scenario.trajectory_file()}")
-    return scenario
+    _check_sim_times(sim, src)
+    return sim
+
+
+def _vehicle(value: Any, src: Source, base: Path) -> VehicleParams:
+    """``vehicle``: a preset name, a parameter file (relative to ``base``) or a mapping of fields."""
+    key: Key = ("vehicle",)
+    if isinstance(value, str) and value.endswith((".yaml", ".yml")):
+        data, src = read_yaml(base / value)
+        key = ()
+    else:
+        data = value
+    if isinstance(data, str):
+        if data not in PRESETS:
+            raise src.error(key, f"unknown vehicle preset {data!r}; use one of {', '.join(PRESETS)} or a .yaml file")
+        return preset(data)
+    if not isinstance(data, dict):
+        raise src.error(key, "expected a preset name, a .yaml parameter file or a mapping of vehicle parameters")
+    data = dict(data)
+    start = data.pop("preset", None)
+    if start is not None and start not in PRESETS:
+        raise src.error((*key, "preset"), f"unknown vehicle preset {start!r}; use one of {', '.join(PRESETS)}")
+    return build(VehicleParams, data, src, key, preset(start) if start else None)
 
 
 def _cameras(raw: Any, src: Source) -> tuple[CameraParams, ...]:
@@ -347,9 +241,20 @@ def _cameras(raw: Any, src: Source) -> tuple[CameraParams, ...]:
     raise src.error(("cameras",), "expected a list of cameras, or {stereo: {baseline: 0.3}} for the front pair")
 
 
-def _check_times(sim: SimConfig, driver: DriverParams, src: Source) -> float:
-    """Every sensor rate and controller period must be a whole number of physics steps, every time within the
-    clock's range; returns the driver's period [s] (the gcd of its controllers')."""
+
+def _sensors(data: dict, src: Source) -> SensorSuite:
+    """``sensors``, with the gps sensor's ``origin``."""
+    sensors = build(SensorSuite, data.get("sensors"), src, ("sensors",), SensorSuite())
+    if "origin" in data:
+        origin = build(GeodeticOrigin, data["origin"], src, ("origin",))
+        if sensors.gps is None:
+            raise src.error(("origin",), "an origin needs the gps sensor; remove 'origin' or 'sensors.gps: false'")
+        sensors = dataclasses.replace(sensors, gps=dataclasses.replace(sensors.gps, origin=origin))
+    return sensors
+
+
+def _check_sim_times(sim: SimConfig, src: Source) -> None:
+    """Every sensor rate must be a whole number of physics steps, every time within the clock's range."""
     clock = Clock(seconds_to_ns(sim.step))
     for key, seconds in ((("watchdog_timeout",), sim.watchdog_timeout),
                          (("actuators", "dead_time"), sim.vehicle.actuators.dead_time)):
@@ -370,43 +275,6 @@ def _check_times(sim: SimConfig, driver: DriverParams, src: Source) -> float:
                 clock.period_ticks(sensor.rate_hz, f"{sensor.name}")
             except RateError as e:
                 raise src.error((*key, "rate_hz"), str(e)) from None
-    ticks = []
-    for key in ("speed_controller", "path_controller"):
-        name = getattr(driver, key)
-        try:
-            ticks.append(clock.period_ticks(1.0 / getattr(driver, name).period, f"{name} period"))
-        except RateError as e:
-            raise src.error((key, "period"), str(e)) from None
-    return math.gcd(*ticks) * clock.step_s
-
-
-def _check_speeds(task: TaskSpec, initial: InitialSpec, vehicle: VehicleParams, src: Source) -> None:
-    """The task's and the start's speeds must be within the car's top speed."""
-    top = vehicle.top_speed
-    for key, speed in ((("task", "speed"), task.speed), (("initial", "speed"), initial.speed)):
-        if speed is not None and abs(speed) > top:
-            raise src.error(key, f"{speed:g} m/s is faster than the car's top speed, {top:.2f} m/s (its max_power "
-                                 "against drag and rolling resistance); give a lower speed")
-
-
-def _vehicle(value: Any, src: Source, base: Path) -> VehicleParams:
-    key: Key = ("vehicle",)
-    if isinstance(value, str) and value.endswith((".yaml", ".yml")):
-        data, src = read_yaml(base / value)
-        key = ()
-    else:
-        data = value
-    if isinstance(data, str):
-        if data not in PRESETS:
-            raise src.error(key, f"unknown vehicle preset {data!r}; use one of {', '.join(PRESETS)} or a .yaml file")
-        return preset(data)
-    if not isinstance(data, dict):
-        raise src.error(key, "expected a preset name, a .yaml parameter file or a mapping of vehicle parameters")
-    data = dict(data)
-    start = data.pop("preset", None)
-    if start is not None and start not in PRESETS:
-        raise src.error((*key, "preset"), f"unknown vehicle preset {start!r}; use one of {', '.join(PRESETS)}")
-    return build(VehicleParams, data, src, key, preset(start) if start else None)
 
 
 def _driver(data: dict, src: Source) -> DriverParams:
@@ -438,6 +306,53 @@ def _driver(data: dict, src: Source) -> DriverParams:
             raise src.error(("pose",), f"unknown pose source {pose!r}; use one of {', '.join(SOURCES)}")
         params = dataclasses.replace(params, pose_source=pose)
     return params
+
+
+def _driver_period(driver: DriverParams, sim: SimConfig, src: Source) -> float:
+    """The driver's period [s] (the gcd of its controllers'); each must be a whole number of physics steps."""
+    clock = Clock(seconds_to_ns(sim.step))
+    ticks = []
+    for key in ("speed_controller", "path_controller"):
+        name = getattr(driver, key)
+        try:
+            ticks.append(clock.period_ticks(1.0 / getattr(driver, name).period, f"{name} period"))
+        except RateError as e:
+            raise src.error((key, "period"), str(e)) from None
+    return math.gcd(*ticks) * clock.step_s
+
+
+def _task(data: dict, src: Source, top_speed: float, file: Path | None) -> TaskSpec:
+    """``task``, its speed within the car's ``top_speed`` [m/s] and its ``follow`` file beside ``file``."""
+    task = build(TaskSpec, data["task"], src, ("task",))
+    _check_speed(task.speed, top_speed, src, ("task", "speed"))
+    if task.follow is not None and not beside(file, task.follow).is_file():
+        raise src.error(("task", "follow"), f"no such trajectory file {beside(file, task.follow)}")
+    return task
+
+
+def _initial(data: dict, src: Source, top_speed: float) -> InitialSpec:
+    """``initial``, its speed within the car's ``top_speed`` [m/s] either way."""
+    initial = build(InitialSpec, data.get("initial"), src, ("initial",))
+    _check_speed(initial.speed, top_speed, src, ("initial", "speed"))
+    return initial
+
+
+def _check_speed(speed: float | None, top: float, src: Source, key: Key) -> None:
+    if speed is not None and abs(speed) > top:
+        raise src.error(key, f"{speed:g} m/s is faster than the car's top speed, {top:.2f} m/s (its max_power "
+                             "against drag and rolling resistance); give a lower speed")
+
+
+def _duration(data: dict, src: Source, period: float) -> float:
+    """``duration`` [s]: positive, and at most :data:`MAX_ROWS` driver periods of ``period`` [s]."""
+    duration = get(data, src, ("duration",), float, 120.0)
+    if not duration > 0:
+        raise src.error(("duration",), f"must be > 0 s, got {duration}")
+    if duration / period > MAX_ROWS:  # the log keeps a row a driver period
+        raise src.error(("duration",), f"{duration:.12g} s is more than the {MAX_ROWS} driver periods of {period:g} "
+                                       f"s a run keeps (a log row each, {MAX_ROWS * 8 * len(COLUMNS) / 1e9:.2f} GB); "
+                                       f"give at most {MAX_ROWS * period:g} s")
+    return duration
 
 
 def _expect(raw: Any, src: Source) -> dict[str, Bound | bool]:
