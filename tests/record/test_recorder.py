@@ -2,19 +2,23 @@
 
 from __future__ import annotations
 
-import json
 import logging
+import math
 
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
 from tests.record.world_messages import (
+    FOXGLOVE_FILE,
     PERIOD_NS,
     SQUARE,
+    WORLD_SENSORS,
     WORLD_TOPICS,
     depth_image,
     red_square,
+    wall_rays,
     wall_scan,
     world_at,
 )
@@ -25,7 +29,7 @@ from vilma.core.messages import Image, PointCloud, SimStatus
 from vilma.record.reader import read_recording
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.run import RunRecorder
-from vilma.record.world_schemas import COMPRESSED_IMAGE, POINT_CLOUD, RAW_IMAGE
+from vilma.record.world_cdr import CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, LASER_SCAN, POINT_CLOUD2
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import DriveLog
 
@@ -39,14 +43,15 @@ def _publish_world(bus: LocalBus, n: int) -> list[tuple[str, object]]:
 
 def test_a_bus_recording_reads_back_images_and_scans(tmp_path):
     bus = LocalBus()
-    recording = BusRecorder(bus, Recorder(tmp_path / "w.mcap"), world_topics=WORLD_TOPICS)
+    recording = BusRecorder(bus, Recorder(tmp_path / "w.mcap", world_sensors=WORLD_SENSORS), world_topics=WORLD_TOPICS)
     sent = _publish_world(bus, 5)
     recording.close()
 
     back = read_recording(tmp_path / "w.mcap")
     assert back.complete and sorted(back.world_topics) == sorted(WORLD_TOPICS)
-    assert {n: back.schemas[n] for n in WORLD_TOPICS} == {"camera/front_left": COMPRESSED_IMAGE,
-                                                   "camera/front_left/depth": RAW_IMAGE, "laser": POINT_CLOUD}
+    written = {"camera/front_left": COMPRESSED_IMAGE, "camera/front_left/camera_info": CAMERA_INFO,
+               "camera/front_left/depth": IMAGE, "laser": LASER_SCAN, "laser/points": POINT_CLOUD2}
+    assert {n: back.schemas[n] for n in written} == written
     assert back.messages("laser") == [m for n, m in sent if n == "laser"]
     assert back.messages("camera/front_left/depth") == [m for n, m in sent if n == "camera/front_left/depth"]
     colour = back.messages("camera/front_left")
@@ -56,16 +61,42 @@ def test_a_bus_recording_reads_back_images_and_scans(tmp_path):
         px = np.frombuffer(c.data, np.uint8).reshape(c.height, c.width, 3).astype(int)
         assert np.abs(px[y + 8:y + h - 8, x + 8:x + w - 8] - (255, 0, 0)).max() <= 12  # lossy JPEG
 
-    with (tmp_path / "w.mcap").open("rb") as f:
-        reader = make_reader(f)
+    with (tmp_path / "w.mcap").open("rb") as f:  # as Foxglove's own decoder reads the file's ROS 2 schemas
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
         by_topic = {c.topic: c for c in summary.channels.values()}
-        for name in WORLD_TOPICS:
+        for name in written:
             ch = by_topic[f"vilma/vilma/{name}"]
-            assert ch.message_encoding == "json" and summary.schemas[ch.schema_id].encoding == "jsonschema"
+            assert ch.message_encoding == "cdr" and summary.schemas[ch.schema_id].encoding == "ros2msg"
             assert summary.statistics.channel_message_counts[ch.id] == 5
-        laser = next(json.loads(msg.data) for _, ch, msg in reader.iter_messages(topics=["vilma/vilma/laser"]))
-    assert laser["point_stride"] == 12 and laser["frame_id"] == "laser"
+        first = {}
+        for _, ch, _, msg in reader.iter_decoded_messages():
+            first.setdefault(ch.topic.removeprefix("vilma/vilma/"), msg)
+    scan, points, info = first["laser"], first["laser/points"], first["camera/front_left/camera_info"]
+    angles, ranges = wall_rays()
+    assert (scan.header.frame_id, scan.angle_min, scan.angle_max) == ("laser", np.float32(angles[0]),
+                                                                      np.float32(angles[-1]))
+    assert scan.angle_increment == np.float32(math.radians(1)) and (scan.range_min, scan.range_max) == (
+        np.float32(0.1), np.float32(30.0))  # LaserParams' defaults
+    assert np.array_equal(scan.ranges, ranges) and len(scan.intensities) == 0
+    assert [(f.name, f.offset, f.datatype, f.count) for f in points.fields] == [("x", 0, 7, 1), ("y", 4, 7, 1),
+                                                                                 ("z", 8, 7, 1)]
+    assert bytes(points.data) == wall_scan(PERIOD_NS).points and points.width == np.isfinite(ranges).sum()
+    f_px = 60 / math.tan(math.radians(30))  # half the 120 px height over tan(half of 60 deg)
+    assert (info.header.frame_id, info.width, info.height, info.distortion_model) == ("front_left", 160, 120,
+                                                                                       "plumb_bob")
+    assert np.allclose(info.k, [f_px, 0, 79.5, 0, f_px, 59.5, 0, 0, 1]) and list(info.d) == [0.0] * 5
+    assert np.allclose(info.p, [f_px, 0, 79.5, 0, 0, f_px, 59.5, 0, 0, 0, 1, 0])
+
+
+def test_a_recording_of_foxglove_json_images_and_scans_still_reads():
+    back = read_recording(FOXGLOVE_FILE)
+    assert back.schemas["laser"] == "foxglove.PointCloud" and sorted(back.world_topics) == sorted(WORLD_TOPICS)
+    stamps = [PERIOD_NS, 2 * PERIOD_NS]
+    assert back.messages("laser") == [wall_scan(t) for t in stamps]
+    assert back.messages("camera/front_left/depth") == [depth_image(t) for t in stamps]
+    assert [(c.stamp_ns, c.width, c.height) for c in back.messages("camera/front_left")] == [
+        (t, 160, 120) for t in stamps]
 
 
 def test_raw_colour_images_read_back_exactly(tmp_path):
@@ -74,7 +105,7 @@ def test_raw_colour_images_read_back_exactly(tmp_path):
     rec.add_message("camera/rear", img)
     rec.close()
     back = read_recording(tmp_path / "raw.mcap")
-    assert back.schemas["camera/rear"] == RAW_IMAGE and back.messages("camera/rear") == [img]
+    assert back.schemas["camera/rear"] == IMAGE and back.messages("camera/rear") == [img]
 
 
 def test_malformed_messages_are_dropped_with_one_warning_a_topic(tmp_path, caplog):
@@ -107,14 +138,16 @@ def test_bad_world_topics_and_quality_are_refused_at_once(tmp_path):
 
 
 def test_a_run_records_the_captures_it_is_handed(tmp_path):
-    scenario = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml")
+    """With the scenario's sensors: the default laser (:func:`wall_scan`'s rays), a 320x240 stereo pair."""
+    scenario = load_scenario(BUNDLED / "course_3d_obstacles.yaml")
     run = RunRecorder(tmp_path / "run.mcap", scenario)
     run.started(None, DriveLog(capacity=10))  # the recorder reads the log alone
-    run.add_captures([("laser", wall_scan(PERIOD_NS)), ("camera/front_left/depth", depth_image(PERIOD_NS))])
+    depth = depth_image(PERIOD_NS, 320, 240)
+    run.add_captures([("laser", wall_scan(PERIOD_NS)), ("camera/front_left/depth", depth)])
     run.failed(interrupted=False)
     back = read_recording(tmp_path / "run.mcap")
-    assert back.messages("laser") == [wall_scan(PERIOD_NS)]
-    assert back.messages("camera/front_left/depth") == [depth_image(PERIOD_NS)]
+    assert back.messages("laser") == [wall_scan(PERIOD_NS)] and back.schemas["laser"] == LASER_SCAN
+    assert back.messages("camera/front_left/depth") == [depth]
 
 
 def test_a_recording_in_a_with_block_is_finished_even_when_the_block_raises(tmp_path):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import signal
 import subprocess
 import sys
@@ -15,7 +16,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore
 
 from tests.conftest import free_port
-from tests.record.world_messages import PERIOD_NS, write_world_recording
+from tests.record.world_messages import FOXGLOVE_FILE, PERIOD_NS, depth_image, wall_scan, write_world_recording
 from vilma.app import programs
 from vilma.app.batch import BUNDLED
 from vilma.app.options import scenario_or_default
@@ -236,38 +237,56 @@ def test_export_refuses_an_existing_folder(finished_run, tmp_path):
     assert r.returncode == 2 and "exists" in r.stderr
 
 
-def test_world_sensors_export_as_ros2_images_and_point_clouds(tmp_path):
+def test_world_sensors_export_as_ros2_images_scans_and_point_clouds(tmp_path):
     sent = write_world_recording(tmp_path / "w.mcap")
     counts = export_rosbag2(tmp_path / "w.mcap", tmp_path / "bag")
-    assert {t: counts[t] for t in ("/camera/front_left/compressed", "/camera/front_left/depth", "/laser")} == {
-        "/camera/front_left/compressed": 5, "/camera/front_left/depth": 5, "/laser": 5}
+    topics = {"/camera/front_left/compressed": "sensor_msgs/msg/CompressedImage",
+              "/camera/front_left/camera_info": "sensor_msgs/msg/CameraInfo",
+              "/camera/front_left/depth": "sensor_msgs/msg/Image", "/laser": "sensor_msgs/msg/LaserScan",
+              "/laser/points": "sensor_msgs/msg/PointCloud2"}
+    assert {t: counts[t] for t in topics} == dict.fromkeys(topics, 5)
     bag = _bag(tmp_path / "bag")
     stamps = [k * PERIOD_NS for k in range(1, 6)]
-    rec = read_recording(tmp_path / "w.mcap")
+    for ros_topic, ros_type in topics.items():
+        assert [(s, t) for s, _, t in bag[ros_topic]] == [(s, ros_type) for s in stamps], ros_topic
+        assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m, _ in bag[ros_topic]] == stamps
 
     jpegs = bag["/camera/front_left/compressed"]
-    assert {t for _, _, t in jpegs} == {"sensor_msgs/msg/CompressedImage"} and [s for s, _, _ in jpegs] == stamps
-    assert [m.data.tobytes() for _, m, _ in jpegs] == [compressed_image(p)[3] for p in rec.payloads(
-        "camera/front_left")]  # the recorded JPEG, not compressed twice
-    assert {(m.format, m.header.frame_id) for _, m, _ in jpegs} == {("jpeg", "front_left")}
+    assert {(m.format, m.header.frame_id, m.data[:2].tobytes()) for _, m, _ in jpegs} == {
+        ("jpeg", "front_left", b"\xff\xd8")}  # a JPEG file (start of image)
+    assert {m.k[0] for _, m, _ in bag["/camera/front_left/camera_info"]} == {60 / math.tan(math.radians(30))}
 
     depth = bag["/camera/front_left/depth"]
     want = [msg for n, msg in sent if n == "camera/front_left/depth"]
-    assert {t for _, _, t in depth} == {"sensor_msgs/msg/Image"}
     assert [(m.encoding, m.width, m.height, m.step, m.is_bigendian) for _, m, _ in depth] == [
         ("32FC1", i.width, i.height, i.step, 0) for i in want]
     assert [m.data.tobytes() for _, m, _ in depth] == [i.data for i in want]
-    assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m, _ in depth] == stamps
 
-    scans = bag["/laser"]
     want = [msg for n, msg in sent if n == "laser"]
+    assert [m.ranges.tobytes() for _, m, _ in bag["/laser"]] == [c.ranges for c in want]
+    assert [m.data.tobytes() for _, m, _ in bag["/laser/points"]] == [c.points for c in want]
+
+
+def test_a_foxglove_json_recording_exports_its_images_and_point_clouds(tmp_path):
+    """``data/foxglove_world.mcap`` (before the ROS 2 types): the recorded JPEG, the depth, the hits."""
+    counts = export_rosbag2(FOXGLOVE_FILE, tmp_path / "bag")
+    assert counts == {"/pose": 10, "/velocity": 10, "/actuators": 10, "/tf": 10, "/camera/front_left/compressed": 2,
+                      "/camera/front_left/depth": 2, "/laser": 2}
+    bag = _bag(tmp_path / "bag")
+    rec = read_recording(FOXGLOVE_FILE)
+    jpegs = bag["/camera/front_left/compressed"]
+    assert [m.data.tobytes() for _, m, _ in jpegs] == [compressed_image(p)[3] for p in rec.payloads(
+        "camera/front_left")]  # the recorded JPEG, not compressed twice
+    stamps = [PERIOD_NS, 2 * PERIOD_NS]
+    assert [m.data.tobytes() for _, m, _ in bag["/camera/front_left/depth"]] == [depth_image(t).data for t in stamps]
+    scans = bag["/laser"]
     assert {t for _, _, t in scans} == {"sensor_msgs/msg/PointCloud2"}
     cloud = scans[0][1]
     assert [(f.name, f.offset, f.datatype, f.count) for f in cloud.fields] == [
         ("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1)]
     assert (cloud.height, cloud.width, cloud.point_step, cloud.row_step) == (1, 79, 12, 79 * 12)
     assert not cloud.is_bigendian and cloud.header.frame_id == "laser"
-    assert [m.data.tobytes() for _, m, _ in scans] == [c.points for c in want]
+    assert [m.data.tobytes() for _, m, _ in scans] == [wall_scan(t).points for t in stamps]
 
 
 def test_raw_colour_images_export_as_ros2_rgb8_images(tmp_path):

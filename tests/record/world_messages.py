@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
 from vilma.core.messages import Image, PointCloud
+from vilma.plant3d.camera import CameraParams
+from vilma.plant3d.laser import LaserParams
 
 GREY = 64
 """Background level of :func:`red_square` images."""
@@ -62,14 +65,20 @@ def wall_scan(stamp_ns: int = 100_000_000, n: int = 181) -> PointCloud:
     return PointCloud(stamp_ns, "laser", points.tobytes(), ranges.tobytes())
 
 
+FOXGLOVE_FILE = Path(__file__).parent / "data" / "foxglove_world.mcap"
+"""Two captures a world topic in Foxglove's JSON schemas, as vilma wrote them before the ROS 2 types (see
+data/README.md)."""
 WORLD_TOPICS = ("camera/front_left", "camera/front_left/depth", "laser")
+WORLD_SENSORS = (CameraParams(name="front_left", width=160, height=120, depth=True), LaserParams())
+"""The sensors making :data:`WORLD_TOPICS`' messages: the laser's defaults are :func:`wall_rays`' 181 rays over
+180 deg."""
 PERIOD_NS = 100_000_000
 """The world sensors' period in :func:`write_world_recording` (10 Hz)."""
 
 
 def world_at(stamp_ns: int) -> list[tuple[str, Image | PointCloud]]:
     """One capture of each of :data:`WORLD_TOPICS` at ``stamp_ns``."""
-    return [("camera/front_left", red_square(stamp_ns)), ("camera/front_left/depth", depth_image(stamp_ns)),
+    return [("camera/front_left", red_square(stamp_ns)), ("camera/front_left/depth", depth_image(stamp_ns, 160, 120)),
             ("laser", wall_scan(stamp_ns))]
 
 
@@ -85,7 +94,7 @@ def write_world_recording(path, n: int = 5, **recorder) -> list[tuple[str, Image
     values[:, 0] = stamps * 1e-9
     velocity = np.zeros((len(stamps), 9))
     velocity[:, [0, 3]] = 1.0  # vx, vx_world
-    rec = Recorder(path, **recorder)
+    rec = Recorder(path, **{"world_sensors": WORLD_SENSORS, **recorder})
     rec.add_readings({"pose": Readings("pose", Pose, stamps, values),
                       "velocity": Readings("velocity", Velocity, stamps, velocity),
                       "actuators": Readings("actuators", ActuatorState, stamps, np.zeros((len(stamps), 3)))})

@@ -103,7 +103,7 @@ def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, repo
         if record is not None:
             from vilma.record.recorder import BusRecorder, Recorder
 
-            recorder = stack.enter_context(Recorder(record, source=source))
+            recorder = stack.enter_context(Recorder(record, source=source, world_sensors=scenario.sim.world_sensors))
             recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
             tick = stack.enter_context(BusRecorder(bus, recorder, world_topics=world_topics)).recorder.tick
         if foxglove is not None:

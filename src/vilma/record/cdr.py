@@ -1,4 +1,4 @@
-"""Fixed-size ROS 2 messages in CDR, packed in bulk into MCAP Message records.
+"""ROS 2 messages in CDR: fixed-size ones packed in bulk into MCAP Message records, and single ones with arrays.
 
 A message whose every field has a fixed size (vilma's numeric topics; strings,
 such as a header's ``frame_id``, are constants) is a byte template with slots:
@@ -7,6 +7,8 @@ values. :class:`CdrBody` lays out such a body as CDR does (little endian, each f
 start, after the 4-byte encapsulation header); :func:`pack_records` writes the
 MCAP records of a whole column of messages in one compiled loop (in the
 recorder's process of a ``vilma run``, on another core than the car's loop).
+A message with arrays (an image, a scan) is a :class:`CdrBody` of constants only (the stamp given, arrays
+with :meth:`CdrBody.sequence`), one message at a time; :class:`CdrReader` reads one back.
 """
 
 from __future__ import annotations
@@ -39,16 +41,18 @@ class CdrBody:
     def _align(self, size: int) -> None:
         self.data += bytes(-len(self.data) % size)
 
-    def time(self) -> CdrBody:
-        """A ``builtin_interfaces/Time`` filled from the stamp (a slot of its own: int32 sec, uint32 nanosec)."""
+    def time(self, stamp_ns: int | None = None) -> CdrBody:
+        """A ``builtin_interfaces/Time`` (int32 sec, uint32 nanosec): ``stamp_ns`` [ns], or if None a slot of its
+        own filled from the stamp."""
         self._align(4)
-        self.slots.append(len(self.data))
-        self.data += bytes(8)
+        if stamp_ns is None:
+            self.slots.append(len(self.data))
+        self.data += struct.pack("<iI", *divmod(stamp_ns or 0, 1_000_000_000))
         return self
 
-    def header(self, frame_id: str) -> CdrBody:
-        """A ``std_msgs/Header``: the stamp's slot and a constant ``frame_id``."""
-        return self.time().string(frame_id)
+    def header(self, frame_id: str, stamp_ns: int | None = None) -> CdrBody:
+        """A ``std_msgs/Header``: the stamp (as :meth:`time`) and a constant ``frame_id``."""
+        return self.time(stamp_ns).string(frame_id)
 
     def string(self, text: str) -> CdrBody:
         """A constant string."""
@@ -71,10 +75,20 @@ class CdrBody:
         self.data += bytes(count * size)
         return self
 
-    def number(self, fmt: str, value: int) -> CdrBody:
-        """A constant integer of ``struct`` format ``fmt`` (``b`` int8, ``H`` uint16...): an enum's value."""
+    def number(self, fmt: str, *values: float) -> CdrBody:
+        """Constant numbers of ``struct`` format ``fmt`` (``b`` int8, ``H`` uint16, ``f`` float32...): an enum's
+        value, a fixed-size array."""
         self._align(struct.calcsize(fmt))
-        self.data += struct.pack(f"<{fmt}", value)
+        self.data += struct.pack(f"<{len(values)}{fmt}", *values)
+        return self
+
+    def sequence(self, data: bytes, size: int = 1) -> CdrBody:
+        """A constant sequence (``uint8[]``, ``float32[]``...) of ``len(data) // size`` numbers of ``size`` bytes,
+        ``data`` little-endian."""
+        self._align(4)
+        self.data += struct.pack("<I", len(data) // size)
+        self._align(size)
+        self.data += data
         return self
 
     def payload(self) -> tuple[bytes, tuple[int, ...]]:
@@ -141,3 +155,43 @@ def payload_dtype(payload: bytes, slots: tuple[int, ...]) -> np.dtype:
     floats = [f"f{i}" for i in range(len(slots) - 1)]
     return np.dtype({"names": ["sec", "nanosec", *floats], "formats": ["<i4", "<u4", *["<f8"] * len(floats)],
                      "offsets": [slots[0], slots[0] + 4, *slots[1:]], "itemsize": len(payload)})
+
+
+class CdrReader:
+    """Reads one CDR payload field by field, in the order :class:`CdrBody` writes them.
+
+    Raises:
+        ValueError: not little-endian CDR, or the payload ends before a field.
+    """
+
+    def __init__(self, payload: bytes) -> None:
+        if payload[:4] != ENCAPSULATION:
+            raise ValueError(f"not little-endian CDR (starts {payload[:4].hex() or 'empty'})")
+        self.data, self.at = memoryview(payload)[4:], 0
+
+    def _take(self, size: int, align: int) -> memoryview:
+        self.at += -self.at % align
+        if self.at + size > len(self.data):
+            raise ValueError(f"the payload ends at byte {len(self.data) + 4}, before a field of {size} bytes")
+        self.at += size
+        return self.data[self.at - size:self.at]
+
+    def number(self, fmt: str, count: int = 1):
+        """The next ``count`` numbers of ``struct`` format ``fmt`` (one number if ``count`` is 1)."""
+        size = struct.calcsize(fmt)
+        out = struct.unpack(f"<{count}{fmt}", self._take(count * size, size))
+        return out[0] if count == 1 else out
+
+    def time(self) -> int:
+        """A ``builtin_interfaces/Time`` [ns]."""
+        sec, nanosec = self.number("i"), self.number("I")
+        return sec * 1_000_000_000 + nanosec
+
+    def string(self) -> str:
+        """A string (without its terminating NUL)."""
+        return bytes(self.sequence())[:-1].decode()
+
+    def sequence(self, size: int = 1) -> memoryview:
+        """The bytes of a sequence of numbers of ``size`` bytes each."""
+        count = self.number("I")
+        return self._take(count * size, size)

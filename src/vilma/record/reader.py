@@ -7,7 +7,8 @@ was there. A reset of the simulator starts its clock again from 0: each message
 gets the epoch it was stamped in (:class:`Epochs`), and a topic comes back in
 epoch order, then stamp order. Camera images and laser scans come back as
 :class:`~vilma.core.messages.Image` and :class:`~vilma.core.messages.PointCloud`
-(a JPEG image as its decoded pixels: see :mod:`vilma.record.world_schemas`).
+(a JPEG image as its decoded pixels: see :mod:`vilma.record.world_cdr`), from ROS 2 types or, in older
+recordings, Foxglove's JSON ones.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS
 from vilma.core import messages as m
 from vilma.record.mcap_file import MAGIC
 from vilma.record.schemas import DRIVE_LOG, Layout, channels, decode_fields, numeric_layouts, vilma_layouts
-from vilma.record.world_schemas import WORLD_SCHEMAS, decode_world
+from vilma.record.world_cdr import WORLD_SCHEMAS, decode_world, points_of
 from vilma.scenario.drive_log import COLUMNS
 from vilma.sensors import Readings
 
@@ -82,6 +83,22 @@ class Recording:
         """The epoch of each message of topic ``name``, in the order the other methods give them."""
         return np.sort(np.asarray(self.epochs.get(name, []), np.int64))
 
+    def world_payloads(self, name: str) -> tuple[list[int], list[tuple[bytes, ...]]]:
+        """Log times [ns] and payloads of world topic ``name`` in file order, each with the payload beside it
+        that decoding needs too (``laser/points`` beside a LaserScan).
+
+        Raises:
+            RecordingError: the topic beside is missing or does not match message for message.
+        """
+        st, data = self.raw.get(name, ([], []))
+        beside = points_of(self.schemas.get(name, ""))
+        if beside is None:
+            return st, [(p,) for p in data]
+        st_beside, data_beside = self.raw.get(beside, ([], []))
+        if st_beside != st:
+            raise RecordingError(f"{self.path}: topic {beside} does not match {name} message for message")
+        return st, list(zip(data, data_beside, strict=True))
+
     def objects(self, name: str) -> list[dict]:
         """The JSON objects of topic ``name``, in epoch then stamp order."""
         data = self.payloads(name)
@@ -105,7 +122,9 @@ class Recording:
         if name in SENSOR_TOPICS:
             return self.readings(name).messages()
         if name not in TOPICS and self.schemas.get(name) in WORLD_SCHEMAS:
-            return [decode_world(self.schemas[name], p) for p in self.payloads(name)]
+            st, payloads = self.world_payloads(name)
+            return [decode_world(self.schemas[name], *payloads[i])
+                    for i in self._order(name, np.asarray(st, np.int64)).tolist()]
         cls = TOPICS[name]
         return [decode_fields(cls, o) for o in self.objects(name)]
 

@@ -4,7 +4,7 @@
 :class:`~vilma.record.mcap_file.McapFile` (layouts in :mod:`vilma.record.schemas`).
 A recording that cannot go on (unwritable path, full disk) says so in one line
 through ``on_error`` and then drops what comes: the drive goes on. Camera images and
-laser scans go in as :mod:`vilma.record.world_schemas` lays them out; a malformed one is
+laser scans go in as :mod:`vilma.record.world_cdr` lays them out; a malformed one is
 dropped with a one-line warning (the first of each topic).
 :class:`BusRecorder` subscribes to every topic of a car on a bus, and to the world
 sensors' topics it is given.
@@ -27,14 +27,13 @@ from vilma.core.closing import Closeable
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
 from vilma.record.schemas import DRIVE_LOG, channels, encode_struct, numeric_layouts, struct_schema
+from vilma.record.world_cdr import SCHEMAS, WorldChannels, WorldSensorParams, sensor_topics, world_channels
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
-    WorldLayout,
     WorldMessageError,
     check_jpeg_quality,
     check_world_topics,
     note_dropped,
-    world_layout,
 )
 from vilma.sensors import Readings
 
@@ -53,18 +52,22 @@ class Recorder(Closeable):
     """One MCAP recording of car ``car`` (see the module docstring); ``source`` says which program made it.
 
     ``jpeg_quality`` (1..95) is that of colour camera images; None records them raw (exact, but some 30 times
-    larger: :mod:`vilma.record.world_schemas`).
+    larger: :mod:`vilma.record.world_cdr`). ``world_sensors``: the parameters of the cameras and laser whose
+    messages will come (a camera's give its ``camera_info``, a laser's its scans' angles and limits).
     """
 
     def __init__(self, path: Path, car: str = "vilma", source: str = "vilma", policy: ChunkPolicy = ChunkPolicy(),
-                 on_error: Callable[[str], None] = _stderr, jpeg_quality: int | None = JPEG_QUALITY) -> None:
+                 on_error: Callable[[str], None] = _stderr, jpeg_quality: int | None = JPEG_QUALITY,
+                 world_sensors: tuple[WorldSensorParams, ...] = ()) -> None:
         self.path, self.car, self.on_error, self.policy = Path(path), car, on_error, policy
         self.jpeg_quality = check_jpeg_quality(jpeg_quality)
+        self._sensors = sensor_topics(world_sensors)
         self.error: str | None = None
         self.dropped: dict[str, int] = {}
         """Malformed world-sensor messages dropped, by topic."""
         self._layouts = numeric_layouts(car)
-        self._world: dict[str, WorldLayout] = {}
+        self._world: dict[str, WorldChannels] = {}
+        self._world_types: dict[str, str] = {}  # each world topic and those beside them -> ROS 2 type
         self._channels: dict[str, int] = {}
         self._lock = threading.Lock()
         self._file: McapFile | None = None
@@ -103,9 +106,9 @@ class Recorder(Closeable):
             if name in self._layouts:
                 lay = self._layouts[name]
                 cid = f.add_channel(key, lay.schema_name, lay.schema, encoding="cdr")
-            elif name in self._world:
-                lay = self._world[name]
-                cid = f.add_channel(key, lay.schema_name, lay.schema)
+            elif name in self._world_types:
+                kind = self._world_types[name]
+                cid = f.add_channel(key, kind, SCHEMAS[kind], encoding="cdr")
             else:
                 cid = f.add_channel(key, f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name]))
             self._channels[name] = cid
@@ -157,13 +160,18 @@ class Recorder(Closeable):
         lay = self._world.get(name)
         if lay is None:
             check_world_topics((name,))
-            lay = self._world[name] = world_layout(name, self.jpeg_quality)
+            lay = self._world[name] = world_channels(name, self._sensors.get(name), self.jpeg_quality)
+            self._world_types.update(lay.topics)
         try:
-            data = lay.encode(msg)  # outside the lock: JPEG takes milliseconds
+            payloads = lay.encode(msg)  # outside the lock: JPEG takes milliseconds
         except WorldMessageError as e:
             note_dropped(self.dropped, "recording", name, e)
             return
-        self._guard(lambda f: f.write(self._channel(f, name), msg.stamp_ns, data))
+
+        def put(f: McapFile) -> None:
+            for k, ((c, _), data) in enumerate(zip(lay.topics, payloads, strict=True), 1):  # in one chunk
+                f.write(self._channel(f, c), msg.stamp_ns, data, close_chunk=k == len(payloads))
+        self._guard(put)
 
     def tick(self) -> None:
         """Flush the open chunk if it is a second old (call it now and then)."""

@@ -22,7 +22,7 @@ from vilma.bus.base import Bus
 from vilma.bus.topics import TOPICS, topic
 from vilma.core.messages import Message
 from vilma.record.reader import Recording, read_recording
-from vilma.record.world_schemas import decode_world
+from vilma.record.world_cdr import decode_world
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +46,8 @@ class Replayer:
                 key = topic(name, self.car)
                 items += [(msg.stamp_ns, order, key, msg) for msg in rec.messages(name)]
         for order, name in enumerate(rec.world_topics, len(PLAYED)):
-            key, stamps, payloads = topic(name, self.car), *rec.raw[name]
-            items += [(t, order, key, functools.partial(decode_world, rec.schemas[name], p))
+            key, (stamps, payloads) = topic(name, self.car), rec.world_payloads(name)
+            items += [(t, order, key, functools.partial(decode_world, rec.schemas[name], *p))
                       for t, p in zip(stamps, payloads, strict=True)]
         items.sort(key=lambda it: (it[0], it[1]))
         self._items = [(t, key, msg) for t, _, key, msg in items]

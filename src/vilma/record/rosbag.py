@@ -21,16 +21,21 @@ topic           type                             content
 ``/drive_log``  std_msgs/msg/Float64MultiArray   the runner's row (labels: the DriveLog columns)
 =============== ================================ =====================================================
 
-and the world sensors' topics, under ROS ``image_transport`` names:
+and the world sensors' topics, under ROS ``image_transport`` names, as recorded
+(:mod:`vilma.record.world_cdr`; the CDR payloads are copied as they are):
 
-================================== ============================== ===========================================
-``/camera/<name>/compressed``      sensor_msgs/msg/CompressedImage  a JPEG-recorded colour image, its JPEG as
-                                                                  recorded (format ``jpeg``)
-``/camera/<name>``                 sensor_msgs/msg/Image          a raw-recorded colour image (``rgb8``)
-``/camera/<name>/depth``           sensor_msgs/msg/Image          depth ``32FC1`` [m], little-endian
-``/laser``                         sensor_msgs/msg/PointCloud2    the hits: one row of ``x, y, z`` float32 [m]
-                                                                  (stride 12), frame the laser's
-================================== ============================== ===========================================
+================================== =============================== ==========================================
+``/camera/<name>/compressed``      sensor_msgs/msg/CompressedImage a JPEG-recorded colour image
+``/camera/<name>``                 sensor_msgs/msg/Image           a raw-recorded colour image (``rgb8``)
+``/camera/<name>/camera_info``     sensor_msgs/msg/CameraInfo      the camera's intrinsics
+``/camera/<name>/depth``           sensor_msgs/msg/Image           depth ``32FC1`` [m], little-endian
+``/laser``                         sensor_msgs/msg/LaserScan       the ranges a ray
+``/laser/points``                  sensor_msgs/msg/PointCloud2     the hits: one row of ``x, y, z`` float32 [m]
+================================== =============================== ==========================================
+
+A recording made before these types (Foxglove's JSON schemas) gives the same topics but camera info and
+LaserScan, which it lacks: its laser's hits go to ``/laser`` as a PointCloud2 (stride 12, the laser's frame),
+its JPEGs as recorded (no second compression).
 
 Each message's bag timestamp and header stamp are its sim time.
 """
@@ -47,6 +52,8 @@ from rosbags.typesys import Stores, get_typestore
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
 from vilma.record.reader import Recording, read_recording
+from vilma.record.world_cdr import COMPRESSED_IMAGE as ROS_COMPRESSED_IMAGE
+from vilma.record.world_cdr import SCHEMAS
 from vilma.record.world_schemas import COMPRESSED_IMAGE, compressed_image
 from vilma.scenario.drive_log import COLUMNS
 
@@ -160,8 +167,12 @@ def _cloud(T: _Types, c: m.PointCloud):
 
 
 def _world(T: _Types, rec: Recording, name: str):
-    """ROS topic, ROS type and the (stamp, message) pairs of world topic ``name``."""
-    if rec.schemas[name] == COMPRESSED_IMAGE:
+    """ROS topic, ROS type and the (stamp, message or its CDR) pairs of world topic ``name``."""
+    schema = rec.schemas[name]
+    if schema in SCHEMAS:  # recorded as ROS 2 messages already
+        ros_topic = f"/{name}/compressed" if schema == ROS_COMPRESSED_IMAGE else f"/{name}"
+        return ros_topic, schema, zip(*rec.raw[name], strict=True)
+    if schema == COMPRESSED_IMAGE:
         return f"/{name}/compressed", "sensor_msgs/msg/CompressedImage", (_jpeg(T, p) for p in rec.payloads(name))
     if name == "laser":
         return "/laser", "sensor_msgs/msg/PointCloud2", ((c.stamp_ns, _cloud(T, c)) for c in rec.messages(name))
@@ -202,7 +213,7 @@ def export_rosbag2(recording: Path, out_dir: Path) -> dict[str, int]:
             for stamp, msg in items:
                 if conn is None:
                     conn = w.add_connection(ros_topic, ros_type, typestore=T.store)
-                w.write(conn, stamp, T.store.serialize_cdr(msg, ros_type))
+                w.write(conn, stamp, msg if isinstance(msg, bytes) else T.store.serialize_cdr(msg, ros_type))
                 counts[ros_topic] = counts.get(ros_topic, 0) + 1
 
         for name, (ros_topic, ros_type, convert) in TOPICS.items():
@@ -211,8 +222,10 @@ def export_rosbag2(recording: Path, out_dir: Path) -> dict[str, int]:
         if rec.count("pose"):
             put("/tf", "tf2_msgs/msg/TFMessage",
                 ((p.stamp_ns, _tf(T, p, rec.car)) for p in rec.messages("pose")))
-        for name in rec.world_topics:
-            put(*_world(T, rec, name))
+        world = set(rec.world_topics)
+        for name in rec.topics:
+            if name in world or rec.schemas[name] in SCHEMAS:  # with those beside them (camera_info...)
+                put(*_world(T, rec, name))
         rows = rec.drive_log()
         if len(rows):
             labels = ",".join(COLUMNS)

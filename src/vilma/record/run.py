@@ -71,7 +71,7 @@ class RunRecorder(RunObserver):
     def started(self, sim: Simulator, log: DriveLog) -> None:
         self.log, s = log, self.scenario
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.recorder = RecorderProcess(self.path, source="vilma run")
+        self.recorder = RecorderProcess(self.path, source="vilma run", world_sensors=s.sim.world_sensors)
         self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(s).encode())
         self.recorder.call(Recorder.add_metadata, "scenario", {"name": s.name, "description": s.description})
         self._row_bytes = log.rows.strides[0]

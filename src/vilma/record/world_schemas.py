@@ -224,7 +224,8 @@ _CLOUD_SCHEMA = object_schema(POINT_CLOUD, "A laser scan's hits in the laser's f
     ["timestamp", "frame_id", "pose", "point_stride", "fields", "data"])
 
 
-def _checked_image(msg: Message, encoding: str) -> Image:
+def checked_image(msg: Message, encoding: str) -> Image:
+    """``msg`` checked to be an image of ``encoding``; :class:`WorldMessageError` otherwise."""
     problem = image_problem(msg)
     if problem is None and msg.encoding != encoding:
         problem = f"encoding {msg.encoding}, but this topic carries {encoding}"
@@ -235,7 +236,7 @@ def _checked_image(msg: Message, encoding: str) -> Image:
 
 def _encode_raw(encoding: str) -> Callable[[Message], bytes]:
     def encode(msg: Message) -> bytes:
-        m = _checked_image(msg, encoding)
+        m = checked_image(msg, encoding)
         return _enc.encode(_RawImage(_time(m.stamp_ns), m.frame_id, m.width, m.height, m.encoding, m.step, m.data,
                                      m.stamp_ns))
     return encode
@@ -243,7 +244,7 @@ def _encode_raw(encoding: str) -> Callable[[Message], bytes]:
 
 def _encode_jpeg(quality: int) -> Callable[[Message], bytes]:
     def encode(msg: Message) -> bytes:
-        m = _checked_image(msg, RGB)
+        m = checked_image(msg, RGB)
         buf = io.BytesIO()
         PILImage.frombuffer("RGB", (m.width, m.height), m.data, "raw", "RGB", m.step, 1).save(
             buf, format="JPEG", quality=quality)

@@ -84,6 +84,11 @@ class SimConfig:
             raise ValueError(f"watchdog_timeout must be >= 0 s, got {self.watchdog_timeout!r}")
 
     @property
+    def world_sensors(self) -> tuple[CameraParams | LaserParams, ...]:
+        """The parameters of the cameras and the laser."""
+        return (*self.cameras, *([self.laser] if self.laser is not None else []))
+
+    @property
     def world_topics(self) -> tuple[str, ...]:
         """Topic names of the world sensors (``camera/<name>``, ``camera/<name>/depth``, ``laser``)."""
         out = []

@@ -1,0 +1,214 @@
+"""How a recording writes the 3D plant's world sensors: camera images and laser scans as ROS 2 messages (CDR),
+with the topics a ROS camera and laser driver publish beside them. The header stamp is sim time, the frame the
+sensor's name:
+
+============================= =============================== ===================================================
+topic                         type                            content
+============================= =============================== ===================================================
+``camera/<name>``             sensor_msgs/msg/CompressedImage ``jpeg`` at the recorder's ``jpeg_quality``
+                              sensor_msgs/msg/Image           ``rgb8``, exact (``jpeg_quality`` None)
+``camera/<name>/camera_info`` sensor_msgs/msg/CameraInfo      beside each colour image when the recorder knows
+                                                              the camera: pinhole K, P from its focal length
+                                                              and size, principal point at the image centre,
+                                                              ``plumb_bob`` D all zero (MuJoCo has no distortion)
+``camera/<name>/depth``       sensor_msgs/msg/Image           ``32FC1`` [m], exact
+``laser``                     sensor_msgs/msg/LaserScan       ranges float32 a ray (inf: no hit), intensities
+                                                              none; the angles and limits of the recorder's
+                                                              laser (a multi-layer laser's layers one after
+                                                              another)
+``laser/points``              sensor_msgs/msg/PointCloud2     the hits: one row of ``x, y, z`` float32 [m]
+============================= =============================== ===================================================
+
+Why JPEG for colour by default: a 640x480 frame is 920 kB raw (some 500 kB after the chunks' zstd) against
+30 kB as JPEG 90, so a stereo pair at 10 Hz is about 600 MB a minute raw, 36 MB as JPEG; the pixels read back
+are the JPEG-decoded ones (within a few grey levels on flat colours). Depth maps are never smeared. Why two laser
+topics: a LaserScan holds the ranges but not vilma's hit points (float32 from the float64 ray directions, not
+recomputable bit for bit), which only a point cloud carries. Recordings made before these types wrote
+Foxglove's JSON schemas (:mod:`vilma.record.world_schemas`); :func:`decode_world` reads both.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from PIL import Image as PILImage
+
+from vilma.core.messages import Image, Message, PointCloud
+from vilma.plant3d.camera import CameraParams
+from vilma.plant3d.laser import LaserParams
+from vilma.record import world_schemas as js
+from vilma.record.cdr import CdrBody, CdrReader
+from vilma.record.schemas import _HEADER, _STAMPED, _TIME, ros2msg
+
+IMAGE, COMPRESSED_IMAGE, CAMERA_INFO = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage",
+                                        "sensor_msgs/msg/CameraInfo")
+LASER_SCAN, POINT_CLOUD2 = "sensor_msgs/msg/LaserScan", "sensor_msgs/msg/PointCloud2"
+WORLD_SCHEMAS = (IMAGE, COMPRESSED_IMAGE, LASER_SCAN, *js.WORLD_SCHEMAS)
+"""The types of world sensors' own topics (not those beside them), these and those of older recordings."""
+POINTS = "laser/points"
+"""The topic of a LaserScan's hit points."""
+FLOAT32 = 7
+"""``sensor_msgs/PointField`` datatype of a float32."""
+
+_IMAGE_SCHEMA = ros2msg(_STAMPED + "uint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\n"
+                        "uint8[] data", _HEADER, _TIME)
+_COMPRESSED_SCHEMA = ros2msg(_STAMPED + "string format\nuint8[] data", _HEADER, _TIME)
+_CAMERA_INFO_SCHEMA = ros2msg(
+    _STAMPED + "uint32 height\nuint32 width\nstring distortion_model\nfloat64[] d\nfloat64[9] k\nfloat64[9] r\n"
+    "float64[12] p\nuint32 binning_x\nuint32 binning_y\nsensor_msgs/RegionOfInterest roi", _HEADER, _TIME,
+    "MSG: sensor_msgs/RegionOfInterest\nuint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\n"
+    "bool do_rectify")
+_LASER_SCAN_SCHEMA = ros2msg(_STAMPED + "float32 angle_min\nfloat32 angle_max\nfloat32 angle_increment\n"
+                             "float32 time_increment\nfloat32 scan_time\nfloat32 range_min\nfloat32 range_max\n"
+                             "float32[] ranges\nfloat32[] intensities", _HEADER, _TIME)
+_POINT_CLOUD2_SCHEMA = ros2msg(
+    _STAMPED + "uint32 height\nuint32 width\nsensor_msgs/PointField[] fields\nbool is_bigendian\n"
+    "uint32 point_step\nuint32 row_step\nuint8[] data\nbool is_dense", _HEADER, _TIME,
+    "MSG: sensor_msgs/PointField\nuint8 INT8 = 1\nuint8 UINT8 = 2\nuint8 INT16 = 3\nuint8 UINT16 = 4\n"
+    "uint8 INT32 = 5\nuint8 UINT32 = 6\nuint8 FLOAT32 = 7\nuint8 FLOAT64 = 8\nstring name\nuint32 offset\n"
+    "uint8 datatype\nuint32 count")
+SCHEMAS = {IMAGE: _IMAGE_SCHEMA, COMPRESSED_IMAGE: _COMPRESSED_SCHEMA, CAMERA_INFO: _CAMERA_INFO_SCHEMA,
+           LASER_SCAN: _LASER_SCAN_SCHEMA, POINT_CLOUD2: _POINT_CLOUD2_SCHEMA}
+"""ROS 2 type -> its ``ros2msg`` schema (ROS 2 Humble's definition)."""
+
+WorldSensorParams = CameraParams | LaserParams
+
+
+@dataclass(frozen=True, slots=True)
+class WorldChannels:
+    """How one world topic is written: the topics (itself, then those beside it) with their ROS 2 types."""
+
+    topics: tuple[tuple[str, str], ...]
+    """(topic, ROS 2 type) each."""
+    encode: Callable[[Message], tuple[bytes, ...]]
+    """The CDR payloads of one message, one a topic; raises :class:`~vilma.record.world_schemas.WorldMessageError`
+    for a malformed one."""
+
+
+def sensor_topics(sensors: tuple[WorldSensorParams, ...]) -> dict[str, WorldSensorParams]:
+    """World topic -> the parameters of the sensor publishing it."""
+    out: dict[str, WorldSensorParams] = {}
+    for s in sensors:
+        if isinstance(s, LaserParams):
+            out["laser"] = s
+        else:
+            out[f"camera/{s.name}"] = out[f"camera/{s.name}/depth"] = s
+    return out
+
+
+def _image(m: Image) -> bytes:
+    return (CdrBody().header(m.frame_id, m.stamp_ns).number("I", m.height, m.width).string(m.encoding)
+            .number("B", 0).number("I", m.step).sequence(m.data)).payload()[0]
+
+
+def _jpeg(quality: int) -> Callable[[Image], bytes]:
+    def encode(m: Image) -> bytes:
+        buf = io.BytesIO()
+        PILImage.frombuffer("RGB", (m.width, m.height), m.data, "raw", "RGB", m.step, 1).save(
+            buf, format="JPEG", quality=quality)
+        return CdrBody().header(m.frame_id, m.stamp_ns).string("jpeg").sequence(buf.getvalue()).payload()[0]
+    return encode
+
+
+def camera_info(p: CameraParams, stamp_ns: int) -> bytes:
+    """The ``sensor_msgs/msg/CameraInfo`` of camera ``p`` at ``stamp_ns`` [ns]: pinhole, square pixels, the
+    principal point at the image centre (pixel centres at whole coordinates, as ROS and OpenCV count them)."""
+    f, cx, cy = p.focal_px, (p.width - 1) / 2, (p.height - 1) / 2
+    return (CdrBody().header(p.name, stamp_ns).number("I", p.height, p.width).string("plumb_bob")
+            .sequence(bytes(5 * 8), 8).number("d", f, 0, cx, 0, f, cy, 0, 0, 1).number("d", 1, 0, 0, 0, 1, 0, 0, 0, 1)
+            .number("d", f, 0, cx, 0, 0, f, cy, 0, 0, 0, 1, 0).number("I", 0, 0, 0, 0, 0, 0).number("?", False)
+            ).payload()[0]
+
+
+def _camera(name: str, camera: CameraParams | None, jpeg_quality: int | None) -> WorldChannels:
+    encoding = js.image_encoding(name)
+    jpeg = encoding == js.RGB and js.check_jpeg_quality(jpeg_quality) is not None
+    image = _jpeg(jpeg_quality) if jpeg else _image
+    topics = ((name, COMPRESSED_IMAGE if jpeg else IMAGE),)
+    with_info = camera is not None and encoding == js.RGB
+    if with_info:
+        topics += ((f"{name}/camera_info", CAMERA_INFO),)
+
+    def encode(msg: Message) -> tuple[bytes, ...]:
+        m = js.checked_image(msg, encoding)
+        if camera is not None and (m.width, m.height) != (camera.width, camera.height):
+            raise js.WorldMessageError(f"{m.width}x{m.height} px, but camera {camera.name!r} makes "
+                                       f"{camera.width}x{camera.height}")
+        return (image(m), camera_info(camera, m.stamp_ns)) if with_info else (image(m),)
+    return WorldChannels(topics, encode)
+
+
+def _laser(laser: LaserParams | None) -> WorldChannels:
+    def encode(msg: Message) -> tuple[bytes, ...]:
+        problem = js.cloud_problem(msg)
+        if problem is None and laser is None:
+            problem = "the recorder was not given the laser's parameters, which a LaserScan needs"
+        rays = len(laser.bearings) * len(laser.layers) if laser is not None else 0
+        if problem is None and len(msg.ranges) != 4 * rays:
+            problem = f"{len(msg.ranges) // 4} ranges, but laser {laser.name!r} casts {rays} rays"
+        if problem is not None:
+            raise js.WorldMessageError(problem)
+        b = laser.bearings
+        scan = (CdrBody().header(msg.frame_id, msg.stamp_ns)
+                .number("f", b[0], b[-1], math.radians(laser.resolution), 0, 1 / laser.rate_hz,  # one instant
+                        laser.min_range, laser.max_range).sequence(msg.ranges, 4).sequence(b"", 4)).payload()[0]
+        n = len(msg.points) // 12
+        points = CdrBody().header(msg.frame_id, msg.stamp_ns).number("I", 1, n).number("I", 3)
+        for offset, axis in enumerate("xyz"):
+            points.string(axis).number("I", 4 * offset).number("B", FLOAT32).number("I", 1)
+        points.number("?", False).number("I", 12, 12 * n).sequence(msg.points).number("?", True)
+        return scan, points.payload()[0]
+    return WorldChannels((("laser", LASER_SCAN), (POINTS, POINT_CLOUD2)), encode)
+
+
+def world_channels(name: str, sensor: WorldSensorParams | None = None,
+                   jpeg_quality: int | None = js.JPEG_QUALITY) -> WorldChannels:
+    """How world topic ``name`` is written (see the module docstring), given its sensor's parameters if known
+    (without them: no camera info, and a laser scan is dropped)."""
+    if name == "laser":
+        return _laser(sensor if isinstance(sensor, LaserParams) else None)
+    return _camera(name, sensor if isinstance(sensor, CameraParams) else None, jpeg_quality)
+
+
+def decode_world(schema_name: str, payload: bytes, *beside: bytes) -> Message:
+    """The vilma message of one recorded world-sensor payload (and, for a LaserScan, its ``laser/points``
+    payload beside); a JPEG image comes back as its decoded pixels.
+
+    Raises:
+        ValueError: not a world schema, or a payload that does not decode (one line).
+    """
+    if schema_name not in (IMAGE, COMPRESSED_IMAGE, LASER_SCAN):
+        return js.decode_world(schema_name, payload)
+    try:
+        r = CdrReader(payload)
+        stamp_ns, frame_id = r.time(), r.string()
+        if schema_name == IMAGE:
+            height, width, encoding = *r.number("I", 2), r.string()
+            r.number("B")
+            step = r.number("I")
+            return Image(stamp_ns, frame_id, width, height, encoding, step, bytes(r.sequence()))
+        if schema_name == COMPRESSED_IMAGE:
+            r.string()
+            with PILImage.open(io.BytesIO(r.sequence())) as img:
+                rgb = img.convert("RGB")
+            w, h = rgb.size
+            return Image(stamp_ns, frame_id, w, h, js.RGB, 3 * w, rgb.tobytes())
+        r.number("f", 7)
+        ranges = bytes(r.sequence(4))
+        p = CdrReader(beside[0])
+        p.time(), p.string(), p.number("I", 2)
+        for _ in range(p.number("I")):
+            p.string(), p.number("I"), p.number("B"), p.number("I")
+        p.number("?"), p.number("I", 2)
+        return PointCloud(stamp_ns, frame_id, bytes(p.sequence()), ranges)
+    except (ValueError, OSError, IndexError) as e:
+        raise ValueError(f"a {schema_name} message does not decode: {e}") from None
+
+
+def points_of(schema_name: str) -> str | None:
+    """The topic, beside a world topic of type ``schema_name``, that :func:`decode_world` needs too."""
+    return POINTS if schema_name == LASER_SCAN else None
+
