@@ -200,3 +200,15 @@ def test_the_orders_the_driver_took_are_recorded_with_its_time_and_path(tmp_path
     assert [(o.action, o.stamp_ns) for o in got] == [("set_speed", POSE_PERIOD_NS), ("go_to", 51 * POSE_PERIOD_NS),
                                                      ("tune", 51 * POSE_PERIOD_NS)]
     assert got[1].points == [[here.x, here.y], [here.x + 30.0, 10.0]]
+
+
+def test_a_programs_recording_writes_the_scenarios_laser_as_a_laser_scan(tmp_path):
+    """``vilma up`` / ``vilma sim`` ``--record`` give the recorder the scenario's sensors (the laser's angles)."""
+    from tests.record.world_messages import wall_scan
+
+    bus = LocalBus()
+    with programs._taps(bus, tmp_path / "up.mcap", None, "vilma up", print,
+                        load_scenario(BUNDLED / "course_3d_obstacles.yaml")):  # the default laser: 181 rays
+        bus.publish(topic("laser"), wall_scan())
+    back = read_recording(tmp_path / "up.mcap")
+    assert back.schemas["laser"] == "sensor_msgs/msg/LaserScan" and back.messages("laser") == [wall_scan()]

@@ -1,6 +1,7 @@
-"""How the 3D plant's world sensors are written in a recording: camera images and laser scans in Foxglove's
-well-known schemas, as JSON (bytes fields are base64 strings, ``"contentEncoding": "base64"`` in the schema, as
-Foxglove's JSON encoding requires):
+"""The 3D plant's world sensors in Foxglove's well-known schemas, as JSON: how the live Foxglove view sends camera
+images and laser scans, and how recordings held them before the ROS 2 types of :mod:`vilma.record.world_cdr`
+(bytes fields are base64 strings, ``"contentEncoding": "base64"`` in the schema, as Foxglove's JSON encoding
+requires):
 
 - ``camera/<name>`` (``rgb8``): ``foxglove.CompressedImage``, JPEG at ``jpeg_quality``, with vilma's ``width``,
   ``height`` and ``encoding`` beside. JPEG is lossy: reading back gives the JPEG-decoded pixels, not the
