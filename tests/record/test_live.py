@@ -150,7 +150,7 @@ def test_world_sensors_are_served_in_foxglove_schemas():
     assert server.dropped == {"camera/front_left": 1}
     jpeg, depth, laser = got[0], got[1], got[2]
     assert jpeg["format"] == "jpeg" and base64.b64decode(jpeg["data"])[:2] == b"\xff\xd8"
-    assert base64.b64decode(depth["data"]) == depth_image().data and depth["encoding"] == "32FC1"
+    assert base64.b64decode(depth["data"]) == depth_image(width=160, height=120).data and depth["encoding"] == "32FC1"
     assert base64.b64decode(laser["data"]) == wall_scan().points and laser["point_stride"] == 12
 
 

@@ -93,7 +93,7 @@ def test_replay_cli_plays_to_the_end_on_zenoh(recording):
 
 
 def test_replay_republishes_camera_images_and_laser_scans(tmp_path):
-    sent = write_world_recording(tmp_path / "w.mcap", jpeg_quality=None)
+    sent = write_world_recording(tmp_path / "w.mcap")
     bus = LocalBus()
     queues = {name: BoundedQueue(bus, topic(name), maxsize=100) for name in WORLD_TOPICS}
     player = Replayer(tmp_path / "w.mcap", bus, speed=50.0).start()

@@ -238,7 +238,7 @@ def test_export_refuses_an_existing_folder(finished_run, tmp_path):
 
 
 def test_world_sensors_export_as_ros2_images_scans_and_point_clouds(tmp_path):
-    sent = write_world_recording(tmp_path / "w.mcap")
+    sent = write_world_recording(tmp_path / "w.mcap", jpeg_quality=90)
     counts = export_rosbag2(tmp_path / "w.mcap", tmp_path / "bag")
     topics = {"/camera/front_left/compressed": "sensor_msgs/msg/CompressedImage",
               "/camera/front_left/camera_info": "sensor_msgs/msg/CameraInfo",
@@ -290,7 +290,7 @@ def test_a_foxglove_json_recording_exports_its_images_and_point_clouds(tmp_path)
 
 
 def test_raw_colour_images_export_as_ros2_rgb8_images(tmp_path):
-    sent = write_world_recording(tmp_path / "w.mcap", n=2, jpeg_quality=None)
+    sent = write_world_recording(tmp_path / "w.mcap", n=2)
     export_rosbag2(tmp_path / "w.mcap", tmp_path / "bag")
     images = _bag(tmp_path / "bag")["/camera/front_left"]
     want = [msg for n, msg in sent if n == "camera/front_left"]

@@ -50,7 +50,7 @@ def _is_humble(payload: bytes, kind: str) -> bool:
 
 def test_a_raw_image_is_a_sensor_msgs_image_with_camera_info_beside():
     img = red_square(stamp_ns=3_000_000_017, pad=5)
-    out = _written("camera/front_left", img, CAMERA, jpeg_quality=None)
+    out = _written("camera/front_left", img, CAMERA)
     assert list(out) == ["camera/front_left", "camera/front_left/camera_info"]
     (payload, g), (info_payload, info) = out.values()
     assert _is_humble(payload, IMAGE) and _is_humble(info_payload, CAMERA_INFO)
@@ -66,7 +66,7 @@ def test_a_raw_image_is_a_sensor_msgs_image_with_camera_info_beside():
 
 
 def test_a_colour_image_is_a_jpeg_compressed_image_read_back_within_tolerance():
-    (payload, g), _ = _written("camera/front_left", red_square(), CAMERA).values()
+    (payload, g), _ = _written("camera/front_left", red_square(), CAMERA, jpeg_quality=90).values()
     assert _is_humble(payload, COMPRESSED_IMAGE) and g.format == "jpeg" and bytes(g.data[:2]) == b"\xff\xd8"
     back = decode_world(COMPRESSED_IMAGE, payload)
     px = np.frombuffer(back.data, np.uint8).reshape(120, 160, 3).astype(int)
@@ -120,7 +120,7 @@ def test_a_message_its_sensor_does_not_make_is_refused_in_one_line(name, msg, se
 
 
 def test_an_image_of_a_camera_the_recorder_does_not_know_has_no_camera_info():
-    assert world_channels("camera/rear").topics == (("camera/rear", COMPRESSED_IMAGE),)
+    assert world_channels("camera/rear").topics == (("camera/rear", IMAGE),)
 
 
 @settings(max_examples=40, deadline=None)
@@ -130,7 +130,7 @@ def test_raw_images_read_back_exactly_and_a_cut_payload_is_one_clear_error(width
     step = 3 * width + pad
     img = Image(stamp % (2**31 * 10**9), "cam", width, height, "rgb8", step,
                 data.draw(st.binary(min_size=height * step, max_size=height * step)))
-    (payload,) = world_channels("camera/cam", jpeg_quality=None).encode(img)
+    (payload,) = world_channels("camera/cam").encode(img)
     assert decode_world(IMAGE, payload) == img
     cut = data.draw(st.integers(0, len(payload) - 1))
     with pytest.raises(ValueError, match=r"^a sensor_msgs/msg/Image message does not decode: [^\n]+$"):

@@ -29,7 +29,6 @@ from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
 from vilma.record.schemas import DRIVE_LOG, channels, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_cdr import SCHEMAS, WorldChannels, WorldSensorParams, sensor_topics, world_channels
 from vilma.record.world_schemas import (
-    JPEG_QUALITY,
     WorldMessageError,
     check_jpeg_quality,
     check_world_topics,
@@ -51,13 +50,14 @@ def _stderr(line: str) -> None:
 class Recorder(Closeable):
     """One MCAP recording of car ``car`` (see the module docstring); ``source`` says which program made it.
 
-    ``jpeg_quality`` (1..95) is that of colour camera images; None records them raw (exact, but some 30 times
-    larger: :mod:`vilma.record.world_cdr`). ``world_sensors``: the parameters of the cameras and laser whose
-    messages will come (a camera's give its ``camera_info``, a laser's its scans' angles and limits).
+    ``jpeg_quality`` (1..95) records colour camera images as JPEG; None (the default) records them raw, exact
+    (about as small once the chunks are compressed, for vilma's flat-shaded renders: :mod:`vilma.record.world_cdr`).
+    ``world_sensors``: the parameters of the cameras and laser whose messages will come (a camera's give its
+    ``camera_info``, a laser's its scans' angles and limits).
     """
 
     def __init__(self, path: Path, car: str = "vilma", source: str = "vilma", policy: ChunkPolicy = ChunkPolicy(),
-                 on_error: Callable[[str], None] = _stderr, jpeg_quality: int | None = JPEG_QUALITY,
+                 on_error: Callable[[str], None] = _stderr, jpeg_quality: int | None = None,
                  world_sensors: tuple[WorldSensorParams, ...] = ()) -> None:
         self.path, self.car, self.on_error, self.policy = Path(path), car, on_error, policy
         self.jpeg_quality = check_jpeg_quality(jpeg_quality)

@@ -5,8 +5,8 @@ sensor's name:
 ============================= =============================== ===================================================
 topic                         type                            content
 ============================= =============================== ===================================================
-``camera/<name>``             sensor_msgs/msg/CompressedImage ``jpeg`` at the recorder's ``jpeg_quality``
-                              sensor_msgs/msg/Image           ``rgb8``, exact (``jpeg_quality`` None)
+``camera/<name>``             sensor_msgs/msg/Image           ``rgb8``, exact (the default)
+                              sensor_msgs/msg/CompressedImage ``jpeg`` at the recorder's ``jpeg_quality``
 ``camera/<name>/camera_info`` sensor_msgs/msg/CameraInfo      beside each colour image when the recorder knows
                                                               the camera: pinhole K, P from its focal length
                                                               and size, principal point at the image centre,
@@ -19,9 +19,13 @@ topic                         type                            content
 ``laser/points``              sensor_msgs/msg/PointCloud2     the hits: one row of ``x, y, z`` float32 [m]
 ============================= =============================== ===================================================
 
-Why JPEG for colour by default: a 640x480 frame is 920 kB raw (some 500 kB after the chunks' zstd) against
-30 kB as JPEG 90, so a stereo pair at 10 Hz is about 600 MB a minute raw, 36 MB as JPEG; the pixels read back
-are the JPEG-decoded ones (within a few grey levels on flat colours). Depth maps are never smeared. Why two laser
+Why raw colour by default: the bytes read back exactly, and MuJoCo's flat-shaded renders are large areas of one
+colour, which the chunks' zstd (level 1) packs about as small as JPEG does: the 3D course's first 640x480 frame is
+922 kB raw, 1.7 kB after zstd, against 10 kB as JPEG 90, 2.4 kB after zstd (and JPEG takes milliseconds a frame
+and shifts colours by a few levels);
+the 60 s ``course_3d_obstacles`` run (320x240 stereo with depth at 10 Hz, the laser) is 79.6 MB with raw colour,
+79.2 MB with JPEG (the depth maps are most of it). A textured or noisy world compresses less: give
+``jpeg_quality`` then. Depth maps are always raw (a depth map must not be smeared). Why two laser
 topics: a LaserScan holds the ranges but not vilma's hit points (float32 from the float64 ray directions, not
 recomputable bit for bit), which only a point cloud carries. Recordings made before these types wrote
 Foxglove's JSON schemas (:mod:`vilma.record.world_schemas`); :func:`decode_world` reads both.
@@ -164,10 +168,10 @@ def _laser(laser: LaserParams | None) -> WorldChannels:
     return WorldChannels((("laser", LASER_SCAN), (POINTS, POINT_CLOUD2)), encode)
 
 
-def world_channels(name: str, sensor: WorldSensorParams | None = None,
-                   jpeg_quality: int | None = js.JPEG_QUALITY) -> WorldChannels:
+def world_channels(name: str, sensor: WorldSensorParams | None = None, jpeg_quality: int | None = None
+                   ) -> WorldChannels:
     """How world topic ``name`` is written (see the module docstring), given its sensor's parameters if known
-    (without them: no camera info, and a laser scan is dropped)."""
+    (without them: no camera info, and a laser scan is dropped); ``jpeg_quality`` 1..95: colour as JPEG."""
     if name == "laser":
         return _laser(sensor if isinstance(sensor, LaserParams) else None)
     return _camera(name, sensor if isinstance(sensor, CameraParams) else None, jpeg_quality)
