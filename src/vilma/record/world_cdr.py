@@ -23,7 +23,7 @@ Why raw colour by default: the bytes read back exactly, and MuJoCo's flat-shaded
 colour, which the chunks' zstd (level 1) packs about as small as JPEG does: the 3D course's first 640x480 frame is
 922 kB raw, 1.7 kB after zstd, against 10 kB as JPEG 90, 2.4 kB after zstd (and JPEG takes milliseconds a frame
 and shifts colours by a few levels);
-the 60 s ``course_3d_obstacles`` run (320x240 stereo with depth at 10 Hz, the laser) is 79.6 MB with raw colour,
+the 60 s ``course_3d_obstacles`` run (320x240 stereo with depth at 10 Hz, the laser) is 80.0 MB with raw colour,
 79.2 MB with JPEG (the depth maps are most of it). A textured or noisy world compresses less: give
 ``jpeg_quality`` then. Depth maps are always raw (a depth map must not be smeared). Why two laser
 topics: a LaserScan holds the ranges but not vilma's hit points (float32 from the float64 ray directions, not
