@@ -17,7 +17,7 @@ from vilma.app.batch import BUNDLED
 from vilma.bus import Latest, LocalBus, topic
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
-from vilma.control.driver import TICKS, Driver
+from vilma.control.driver import Driver
 from vilma.core.messages import (
     MAX_ORDER_POINTS,
     ActuatorCommand,
@@ -87,13 +87,13 @@ def test_a_foreign_status_far_ahead_costs_the_driver_one_period(caplog):
     bus, sim, sim_node, driver, drv, _path = _nodes(scenario)
     sim_node.frame(sim.advance(2))
     ahead = sim.time_ns + 10**8 * drv.period_ns
-    ticks = driver.state[TICKS]
+    ticks = driver.state.ticks
     with caplog.at_level(logging.WARNING, logger="vilma.bus.nodes"):
         bus.publish(topic("sim/status"), SimStatus(stamp_ns=ahead))
-    assert driver.state[TICKS] == ticks + driver.period_ticks  # one period, not 10^8
+    assert driver.state.ticks == ticks + driver.period_ticks  # one period, not 10^8
     assert "a simulator frame 2e+06 s ahead of the last; the driver takes up from it" in caplog.text
     bus.publish(topic("sim/status"), SimStatus(stamp_ns=ahead + drv.period_ns))  # and goes on from there
-    assert driver.state[TICKS] == ticks + 2 * driver.period_ticks
+    assert driver.state.ticks == ticks + 2 * driver.period_ticks
 
 
 def test_a_peer_flooding_bad_commands_gets_one_line_a_second(caplog):
@@ -118,7 +118,8 @@ def test_tune_swaps_controllers_and_gains_and_refuses_what_does_not_fit():
                                            gains={"vilma_pid": {"kp": 150.0}, "stanley": {"gain": 2.0}}))
     assert reply.ok, reply.error
     params = drv.driver.params
-    assert (params.speed_controller, params.vilma_pid.kp, params.stanley.gain) == ("vilma_pid", 150.0, 2.0)
+    assert params.speed_controller == "vilma_pid"
+    assert (params.gains_of("vilma_pid").kp, params.gains_of("stanley").gain) == (150.0, 2.0)
     assert drv.driver.task.speed == 4.0  # the task goes on with the new controllers
     for gains, error in (({"nope": {}}, "tune: gains of 'nope': no such controller"),
                          ({"stanley": {"gian": 1.0}}, "tune: gains of stanley: no field 'gian'; fields are period,"),

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from tests.control.conftest import drive_path
-from vilma.control.driver import MEASURED, Driver, DriverMode, DriverParams
-from vilma.control.speed import VilmaPidParams
+from vilma.control.driver import Driver, DriverMode, DriverParams
+from vilma.control.speed.vilma_pid import VilmaPidParams
 from vilma.core.clock import RateError
 from vilma.sim import SimConfig, Simulator
 from vilma.trajectory.course import spline_course
@@ -35,8 +35,8 @@ def test_set_speed_and_hold_current_speed():
 
 
 def test_original_hold_current_speed_truncates():
-    d = Driver(vilma(), DriverParams(speed_controller="vilma_pid", vilma_pid=VilmaPidParams.original()))
-    d.state[MEASURED] = 7.9  # the speed measured last
+    d = Driver(vilma(), DriverParams(speed_controller="vilma_pid", gains={"vilma_pid": VilmaPidParams.original()}))
+    d.state.measured = 7.9  # the speed measured last
     d.hold_current_speed()
     assert d.task.speed == 7.0
 
@@ -66,4 +66,4 @@ def test_bad_orders_and_periods():
     with pytest.raises(ValueError, match="path_controller"):
         DriverParams(path_controller="magic")
     with pytest.raises(RateError, match="vilma_pid period"):
-        Driver(vilma(), DriverParams(speed_controller="vilma_pid", vilma_pid=VilmaPidParams(period=0.255)))
+        Driver(vilma(), DriverParams(speed_controller="vilma_pid", gains={"vilma_pid": VilmaPidParams(period=0.255)}))

@@ -159,7 +159,7 @@ def test_controllers_and_gains_change_live_and_bad_gains_are_refused(window, qtb
     dock.path_gains.editors["lookahead_min"].setText("4")
     _click(qtbot, dock.apply_button)
     qtbot.waitUntil(lambda: embedded.driver_node.driver.params.path_controller == "pure_pursuit", timeout=WAIT_MS)
-    assert embedded.driver_node.driver.params.pure_pursuit.lookahead_min == 4.0
+    assert embedded.driver_node.driver.params.gains_of("pure_pursuit").lookahead_min == 4.0
     dock.speed_gains.editors["kp"].setText("strong")
     _click(qtbot, dock.apply_button)
     assert "kp" in window.last_message and "not a number" in window.last_message
@@ -167,4 +167,5 @@ def test_controllers_and_gains_change_live_and_bad_gains_are_refused(window, qtb
     dock.speed_gains.editors["period"].setText("0.013")  # not a whole number of 10 ms physics steps
     _click(qtbot, dock.apply_button)
     qtbot.waitUntil(lambda: "refused" in window.last_message, timeout=WAIT_MS)
-    assert embedded.driver_node.driver.params.pure_pursuit.lookahead_min == 4.0  # the running driver is kept
+    # the running driver is kept
+    assert embedded.driver_node.driver.params.gains_of("pure_pursuit").lookahead_min == 4.0

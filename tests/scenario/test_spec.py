@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 from vilma.app.batch import BUNDLED
 from vilma.app.options import zenoh_bus
-from vilma.control.speed import PiFfParams
+from vilma.control.path.vilma_heading import VilmaHeadingParams
+from vilma.control.speed.pi_ff import PiFfParams
 from vilma.scenario import SpecError, load_scenario, parse_scenario, to_yaml
 from vilma.scenario.drive_log import MAX_ROWS
 from vilma.scenario.fields import MAX_YAML_VALUES, load_yaml
@@ -73,8 +74,8 @@ expect: {completed: true, lateral_error_rms_m: {max: 0.2}}
     assert s.sim.model == "kinematic" and s.sim.step == 0.005 and s.sim.seed == 7
     assert s.sim.sensors.odometry is None and s.sim.sensors.gps.rate_hz == 5
     assert s.sim.sensors.gps.origin.latitude == 48.1
-    assert s.driver.pose_source == "ekf" and s.driver.pi_ff == PiFfParams(kp=1.5)
-    assert s.driver.path_controller == "pure_pursuit" and s.driver.pure_pursuit.lookahead_min == 4
+    assert s.driver.pose_source == "ekf" and s.driver.gains_of("pi_ff") == PiFfParams(kp=1.5)
+    assert s.driver.path_controller == "pure_pursuit" and s.driver.gains_of("pure_pursuit").lookahead_min == 4
     assert s.driver.max_lateral_accel == 3.0 and s.initial.yaw == 0.1 and s.duration == 30
     assert s.expect == {"completed": True, "lateral_error_rms_m": Bound(max=0.2)}
     path = s.reference_path()
@@ -103,7 +104,7 @@ def test_bundled_scenarios_load_and_round_trip(path, tmp_path):
 def test_overrides_set_nested_values_and_controller_gains(tmp_path):
     p = _write(tmp_path, FIVE_LINES)
     s = load_scenario(p, {"task.speed": "5", "speed_controller.kp": "2.5", "sensors.gps": "false", "pose": "truth"})
-    assert s.task.speed == 5.0 and s.driver.pi_ff.kp == 2.5 and s.sim.sensors.gps is None
+    assert s.task.speed == 5.0 and s.driver.gains_of("pi_ff").kp == 2.5 and s.sim.sensors.gps is None
     with pytest.raises(SpecError, match=r"^--set task\.speed=fast: task\.speed: expected a number, got 'fast'$"):
         load_scenario(p, {"task.speed": "fast"})
     with pytest.raises(SpecError, match=r"^--set task\.speed\.x=1: task\.speed is not a mapping"):
@@ -121,6 +122,11 @@ def test_overrides_set_nested_values_and_controller_gains(tmp_path):
     ("task: {speed: 5}\npose: gps\n", "s.yaml:2: pose: unknown pose source 'gps'"),
     ("task: {speed: 5}\nspeed_controller: {kp: 1}\n", "s.yaml:2: speed_controller: missing type"),
     ("task: {speed: 5}\npath_controller: lqr\n", "s.yaml:2: path_controller: unknown path_controller 'lqr'"),
+    ("task: {speed: 5}\ndriver: {stanly: {gain: 1}}\n",
+     "s.yaml:2: driver.stanly: unknown key; did you mean 'stanley'?"),
+    ("task: {speed: 5}\ndriver: {stanley: {gian: 1}}\n",
+     "s.yaml:2: driver.stanley.gian: unknown key; did you mean 'gain'?"),
+    ("task: {speed: 5}\ndriver: {gains: []}\n", "s.yaml:2: driver.gains: unknown key"),
     ("task: {speed: 5, go_to: [1, 2], course: [[0, 0], [1, 1]]}\n",
      "s.yaml:1: task: give one of go_to, follow, course, not go_to and course"),
     ("task: {course: [[0, 0], [1, 1]]}\n", "s.yaml:1: task: speed is missing"),
@@ -145,6 +151,15 @@ def test_bad_files_give_one_located_line(tmp_path, text, message):
 def test_of_two_errors_the_first_section_in_reading_order_is_named(tmp_path, text, message):
     """The sections are read once, top-down in the order of TOP_KEYS, each checked as it is read."""
     _refused_on_one_line(tmp_path, text, message)
+
+
+def test_the_driver_section_takes_controllers_and_their_gains_by_name(tmp_path):
+    s = load_scenario(_write(tmp_path, "task: {speed: 5}\n"
+                                       "driver: {path_controller: pure_pursuit, pure_pursuit: {lookahead_min: 4},\n"
+                                       "         stanley: {gain: 3}}\n"))
+    assert s.driver.path_controller == "pure_pursuit" and s.driver.gains_of("pure_pursuit").lookahead_min == 4
+    assert s.driver.gains_of("stanley").gain == 3  # kept for a later swap
+    assert s.driver.gains_of("vilma_heading") == VilmaHeadingParams()  # never named: the defaults
 
 
 def _refused_on_one_line(tmp_path, text: str, message: str) -> None:

@@ -29,7 +29,8 @@ import numpy as np
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, topic
-from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, Driver, DriverMode, DriverParams
+from vilma.control import registry
+from vilma.control.driver import Driver, DriverMode, DriverParams
 from vilma.core.closing import Closeable
 from vilma.core.messages import MAX_ORDER_POINTS, ActuatorCommand, DriverOrder, Message, Reply, SimControl, SimStatus
 from vilma.core.ratelimit import WarningThrottle
@@ -307,14 +308,15 @@ def _tuned(base: DriverParams, order: DriverOrder) -> DriverParams:
     """``base`` with the controllers and gains of a ``tune`` order."""
     speed = order.speed_controller or base.speed_controller
     path = order.path_controller or base.path_controller
-    if speed not in SPEED_CONTROLLERS or path not in PATH_CONTROLLERS:
-        raise ValueError(f"controllers {speed!r} + {path!r}: use a speed controller of {', '.join(SPEED_CONTROLLERS)}"
-                         f" and a path controller of {', '.join(PATH_CONTROLLERS)}")
+    speeds, paths = registry.names(registry.SPEED), registry.names(registry.PATH)
+    if speed not in speeds or path not in paths:
+        raise ValueError(f"controllers {speed!r} + {path!r}: use a speed controller of {', '.join(speeds)}"
+                         f" and a path controller of {', '.join(paths)}")
     changes = {}
     for name, fields in order.gains.items():
-        if name not in (*SPEED_CONTROLLERS, *PATH_CONTROLLERS):
+        if name not in (*speeds, *paths):
             raise ValueError(f"gains of {name!r}: no such controller")
-        now = getattr(base, name)
+        now = base.gains_of(name)
         known = [f.name for f in dataclasses.fields(now)]
         values = {}
         for field, value in fields.items():
@@ -322,7 +324,7 @@ def _tuned(base: DriverParams, order: DriverOrder) -> DriverParams:
                 raise ValueError(f"gains of {name}: no field {field!r}; fields are {', '.join(known)}")
             values[field] = _like(getattr(now, field), value, f"gains of {name}: {field}")
         changes[name] = dataclasses.replace(now, **values)
-    return dataclasses.replace(base, speed_controller=speed, path_controller=path, **changes)
+    return dataclasses.replace(base, speed_controller=speed, path_controller=path).with_gains(changes)
 
 
 def _like(old: object, value: object, what: str) -> object:

@@ -15,29 +15,20 @@ and then holds the brake.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
-from vilma.control.path import (
-    PathController,
-    PurePursuit,
-    PurePursuitParams,
-    Stanley,
-    StanleyParams,
-    VilmaHeading,
-    VilmaHeadingParams,
-)
-from vilma.control.path.pure_pursuit import pure_pursuit_step
-from vilma.control.path.stanley import stanley_step
-from vilma.control.path.vilma_heading import vilma_heading_step
-from vilma.control.speed import PiFf, PiFfParams, SpeedController, VilmaPid, VilmaPidParams
-from vilma.control.speed.pi_ff import pi_ff_step
-from vilma.control.speed.vilma_pid import vilma_pid_step
+from vilma.control import registry
+from vilma.control.path.vilma_heading import VilmaHeadingParams
+from vilma.control.registry import Controller, path_step, speed_step
+from vilma.control.speed.vilma_pid import VilmaPidParams
 from vilma.core.clock import Clock, seconds_to_ns
 from vilma.core.messages import ActuatorCommand, DriverStatus, PoseEstimate
 from vilma.localization import make_estimator
@@ -46,9 +37,6 @@ from vilma.trajectory import Trajectory, speed_profile
 from vilma.trajectory.trajectory import path_project, path_speed_at
 from vilma.vehicle.actuators import FORCE, MODE_IDS, POWER
 from vilma.vehicle.params import VehicleParams
-
-SPEED_CONTROLLERS = ("vilma_pid", "pi_ff")
-PATH_CONTROLLERS = ("vilma_heading", "pure_pursuit", "stanley")
 
 
 class DriverMode(StrEnum):
@@ -66,16 +54,14 @@ class DriverParams:
     """Which controllers the driver uses, their parameters, and how it measures and stops."""
 
     speed_controller: str = "pi_ff"
-    """One of :data:`SPEED_CONTROLLERS`."""
+    """A registered speed controller (:func:`vilma.control.registry.names`)."""
     path_controller: str = "stanley"
-    """One of :data:`PATH_CONTROLLERS`."""
+    """A registered path controller."""
     pose_source: str = "truth"
     """``truth`` (the simulator's exact pose) or ``ekf`` (fused GPS, IMU and wheel speeds)."""
-    vilma_pid: VilmaPidParams = VilmaPidParams()
-    pi_ff: PiFfParams = PiFfParams()
-    vilma_heading: VilmaHeadingParams = VilmaHeadingParams()
-    pure_pursuit: PurePursuitParams = PurePursuitParams()
-    stanley: StanleyParams = StanleyParams()
+    gains: tuple[tuple[str, Any], ...] = ()
+    """Parameters of controllers by name, sorted by name (a mapping is taken too); a controller not named here
+    has its defaults (:meth:`gains_of`)."""
     original_speed: bool = False
     """Measure speed as the original: sqrt(vx^2 + vy^2 + wz^2), world-frame velocity plus the yaw rate (a bug)."""
     actuation_delay: bool = False
@@ -88,34 +74,44 @@ class DriverParams:
     """Below this speed [m/s] the car is at rest."""
 
     def __post_init__(self) -> None:
-        for name, value, known in (("speed_controller", self.speed_controller, SPEED_CONTROLLERS),
-                                   ("path_controller", self.path_controller, PATH_CONTROLLERS),
-                                   ("pose_source", self.pose_source, ("truth", "ekf"))):
-            if value not in known:
-                raise ValueError(f"driver {name} {value!r} is unknown; use one of {', '.join(known)}")
+        for name, kind in (("speed_controller", registry.SPEED), ("path_controller", registry.PATH)):
+            try:
+                registry.controller_type(getattr(self, name), kind)
+            except ValueError as e:
+                raise ValueError(f"driver {name}: {e}") from None
+        if self.pose_source not in ("truth", "ekf"):
+            raise ValueError(f"driver pose_source {self.pose_source!r} is unknown; use one of truth, ekf")
+        gains = dict(self.gains)
+        for name, params in gains.items():
+            expected = registry.controller_type(name).params
+            if not isinstance(params, expected):
+                raise ValueError(f"driver gains of {name}: expected {expected.__name__}, got {type(params).__name__}")
+        object.__setattr__(self, "gains", tuple(sorted(gains.items())))  # one spelling: equal params compare equal
         if not self.stop_deceleration > 0:
             raise ValueError(f"driver stop_deceleration must be > 0 m/s^2, got {self.stop_deceleration!r}")
+
+    def gains_of(self, name: str) -> Any:
+        """The parameters of the controller ``name``: as set, or its defaults."""
+        params = dict(self.gains).get(name)
+        return registry.controller_type(name).params() if params is None else params
+
+    def with_gains(self, gains: Mapping[str, Any]) -> DriverParams:
+        """These parameters with the controllers' parameters in ``gains`` (by name) replaced."""
+        return dataclasses.replace(self, gains={**dict(self.gains), **gains})
 
     @classmethod
     def original(cls) -> DriverParams:
         """The shipped program: its PID with its quirks, Turn-Wheels with its quirks, its speed formula and delay."""
         return cls(speed_controller="vilma_pid", path_controller="vilma_heading",
-                   vilma_pid=VilmaPidParams.original(), vilma_heading=VilmaHeadingParams(original_quirks=True),
+                   gains={"vilma_pid": VilmaPidParams.original(),
+                          "vilma_heading": VilmaHeadingParams(original_quirks=True)},
                    original_speed=True, actuation_delay=True)
 
 
-def make_speed_controller(params: DriverParams, vehicle: VehicleParams) -> SpeedController:
-    """The configured speed controller."""
-    return VilmaPid(params.vilma_pid) if params.speed_controller == "vilma_pid" else PiFf(vehicle, params.pi_ff)
-
-
-def make_path_controller(params: DriverParams, vehicle: VehicleParams) -> PathController:
-    """The configured path controller."""
-    if params.path_controller == "vilma_heading":
-        return VilmaHeading(params.vilma_heading)
-    if params.path_controller == "pure_pursuit":
-        return PurePursuit(vehicle, params.pure_pursuit)
-    return Stanley(vehicle, params.stanley)
+def make_controller(params: DriverParams, kind: str, vehicle: VehicleParams) -> Controller:
+    """The configured controller of ``kind`` (speed or path) for ``vehicle``."""
+    name = params.speed_controller if kind == registry.SPEED else params.path_controller
+    return registry.controller_type(name).make(vehicle, params.gains_of(name))
 
 
 MODES = tuple(DriverMode)
@@ -124,14 +120,27 @@ MANUAL, FOLLOW = MODES.index(DriverMode.MANUAL), MODES.index(DriverMode.FOLLOW)
 LONGITUDINAL = {v: k for k, v in MODE_IDS.items()}
 """Compiled longitudinal mode id -> :class:`Longitudinal`."""
 
-(TICKS, MODE, SPEED, STOPPING, ARRIVED, HAS_POSE, X, Y, YAW, POSE_SPEED, YAW_RATE, MEASURED, STEER,
- L_MODE, L_DRIVE, L_BRAKE, L_LIMIT, HAS_PENDING, P_MODE, P_DRIVE, P_BRAKE, P_LIMIT,
- HAS_PROGRESS, INDEX, PROGRESS, REMAINING, CROSS) = range(27)
-"""Slots of the driver's state array: ticks since the order, mode id, ordered speed [m/s] (NaN: the path's),
-final stop under way, arrived, pose known and the pose (x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]),
-measured speed [m/s], steering [rad], the longitudinal command (mode id, drive, brake, velocity limit),
-the one held back by the actuation delay, and the progress on the path (segment, s, left [m], cross-track [m])."""
-N_STATE = 27
+DRIVER_STATE = np.dtype([
+    ("ticks", np.int64), ("mode", np.int64), ("speed", np.float64), ("stopping", np.bool_), ("arrived", np.bool_),
+    ("has_pose", np.bool_), ("x", np.float64), ("y", np.float64), ("yaw", np.float64), ("pose_speed", np.float64),
+    ("yaw_rate", np.float64), ("measured", np.float64), ("steer", np.float64),
+    ("command_mode", np.int64), ("drive", np.float64), ("brake", np.float64), ("velocity_limit", np.float64),
+    ("has_pending", np.bool_), ("pending_mode", np.int64), ("pending_drive", np.float64),
+    ("pending_brake", np.float64), ("pending_limit", np.float64),
+    ("has_progress", np.bool_), ("index", np.int64), ("progress", np.float64), ("remaining", np.float64),
+    ("cross", np.float64)])
+"""The driver's state record: ticks since the order, mode id, ordered speed [m/s] (NaN: the path's), final stop
+under way, arrived, pose known and the pose (x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]), measured speed
+[m/s], steering [rad], the longitudinal command (mode id, drive, brake, velocity limit), the one held back by the
+actuation delay, and the progress on the path (segment, s, left [m], cross-track [m])."""
+
+
+def driver_state() -> np.record:
+    """A fresh driver state (a record compiled code reads and writes by field name)."""
+    ds = np.zeros(1, DRIVER_STATE).view(np.recarray)[0]
+    ds.velocity_limit = math.inf
+    return ds
+
 
 PROGRESS_WINDOW = 40
 """Segments searched on each side of the last projection when tracking progress."""
@@ -140,10 +149,6 @@ PROGRESS_WINDOW = 40
 class DriverConsts(NamedTuple):
     """The driver's parameters as compiled code reads them."""
 
-    speed_id: int
-    """Index in :data:`SPEED_CONTROLLERS`."""
-    path_id: int
-    """Index in :data:`PATH_CONTROLLERS`."""
     speed_ticks: int
     path_ticks: int
     period_ticks: int
@@ -152,86 +157,76 @@ class DriverConsts(NamedTuple):
     stop_deceleration: float
     rest_speed: float
     mass: float
-    velocity_amount: float
 
 
 @njit(cache=True)
 def target_speed(ds, pa):
     """The speed the driver aims at now [m/s]: ordered, or the path's at the progress made."""
-    if ds[MODE] == FOLLOW and math.isnan(ds[SPEED]):
-        return path_speed_at(pa, ds[PROGRESS] if ds[HAS_PROGRESS] else 0.0)
-    return ds[SPEED]
+    if ds.mode == FOLLOW and math.isnan(ds.speed):
+        return path_speed_at(pa, ds.progress if ds.has_progress else 0.0)
+    return ds.speed
 
 
 @njit(cache=True)
 def _track(dc, ds, pa):
     """Progress along the path and the switch to the final stop."""
-    hint = int(ds[INDEX]) if ds[HAS_PROGRESS] else -1
-    i, _, s, cross, _, _, _, left = path_project(pa, ds[X], ds[Y], hint, PROGRESS_WINDOW)
-    ds[HAS_PROGRESS], ds[INDEX], ds[PROGRESS], ds[REMAINING], ds[CROSS] = 1.0, i, s, left, cross
-    v = ds[MEASURED]
+    hint = ds.index if ds.has_progress else -1
+    i, _, s, cross, _, _, _, left = path_project(pa, ds.x, ds.y, hint, PROGRESS_WINDOW)
+    ds.has_progress, ds.index, ds.progress, ds.remaining, ds.cross = True, i, s, left, cross
+    v = ds.measured
     braking = v * v / (2.0 * dc.stop_deceleration)
-    if not ds[STOPPING] and left <= braking + v * dc.period:
-        ds[STOPPING] = 1.0
+    if not ds.stopping and left <= braking + v * dc.period:
+        ds.stopping = True
 
 
 @njit(cache=True)
 def _final_stop(dc, ds):
     """Brake to stop on the last point: deceleration v^2 / (2 d), then hold."""
-    v, d = ds[MEASURED], max(ds[REMAINING], 0.05)
-    if ds[ARRIVED] or abs(v) < dc.rest_speed:
-        ds[ARRIVED] = 1.0
+    v, d = ds.measured, max(ds.remaining, 0.05)
+    if ds.arrived or abs(v) < dc.rest_speed:
+        ds.arrived = True
         decel = dc.stop_deceleration
     else:
         decel = min(v * v / (2.0 * d), 2.0 * dc.stop_deceleration)
-    ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = FORCE, 0.0, dc.mass * decel, math.inf
+    ds.command_mode, ds.drive, ds.brake, ds.velocity_limit = FORCE, 0.0, dc.mass * decel, math.inf
 
 
 @njit(cache=True)
-def driver_step(dc, ds, pa, has_path, vp, pf, speed_state, vh, pp, st, path_state):
+def driver_step(dc, ds, pa, has_path, sc, ss, pc, ps):
     """One driver period on the pose and measured speed already in ``ds``; True if it commands.
 
-    ``vp``, ``pf``, ``vh``, ``pp``, ``st`` are the five controllers' constants; ``speed_state`` and
-    ``path_state`` the state arrays of the two in use. The command is left in ``ds`` (STEER, L_*).
+    ``sc``, ``ss`` are the speed controller's constants and state, ``pc``, ``ps`` the path controller's
+    (dispatched by :mod:`~vilma.control.registry`). The command is left in ``ds`` (steer, command_mode ...).
     """
-    ticks = int(ds[TICKS])
+    ticks = ds.ticks
     run_speed = ticks % dc.speed_ticks == 0
     run_path = ticks % dc.path_ticks == 0
-    ds[TICKS] = ticks + dc.period_ticks
-    if ds[MODE] == MANUAL or not ds[HAS_POSE]:
+    ds.ticks = ticks + dc.period_ticks
+    if ds.mode == MANUAL or not ds.has_pose:
         return False
     if has_path:
         if run_path:
-            if dc.path_id == 0:
-                steer, _, _, done = vilma_heading_step(vh, path_state, pa, ds[X], ds[Y], ds[YAW])
-                if done:  # Turn-Wheels passed the last point
-                    ds[STOPPING] = 1.0
-            elif dc.path_id == 1:
-                steer, _, _ = pure_pursuit_step(pp, path_state, pa, ds[X], ds[Y], ds[YAW], ds[POSE_SPEED])
-            else:
-                steer, _, _ = stanley_step(st, path_state, pa, ds[X], ds[Y], ds[YAW], ds[POSE_SPEED], ds[YAW_RATE])
-            ds[STEER] = steer
+            steer, passed_end = path_step(pc, ps, pa, ds.x, ds.y, ds.yaw, ds.pose_speed, ds.yaw_rate)
+            ds.steer = steer
+            if passed_end:  # the controller has no more path (Turn-Wheels passed the last point)
+                ds.stopping = True
         _track(dc, ds, pa)
     else:
-        ds[STEER] = 0.0
-    if ds[STOPPING] or ds[ARRIVED]:
+        ds.steer = 0.0
+    if ds.stopping or ds.arrived:
         _final_stop(dc, ds)
     elif run_speed:
-        target = target_speed(ds, pa)
-        if dc.speed_id == 0:
-            mode, drive, brake, limit = POWER, vilma_pid_step(vp, speed_state, target, ds[MEASURED], ds[STEER]), 0.0, \
-                dc.velocity_amount
-        else:
-            drive, brake = pi_ff_step(pf, speed_state, target, ds[MEASURED])
-            mode, limit = FORCE, math.inf
+        mode, drive, brake, limit = speed_step(sc, ss, target_speed(ds, pa), ds.measured, ds.steer)
         if dc.actuation_delay:  # send what was computed one speed period ago
-            if ds[HAS_PENDING]:
-                ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = ds[P_MODE], ds[P_DRIVE], ds[P_BRAKE], ds[P_LIMIT]
+            if ds.has_pending:
+                ds.command_mode, ds.drive, ds.brake, ds.velocity_limit = (ds.pending_mode, ds.pending_drive,
+                                                                          ds.pending_brake, ds.pending_limit)
             else:
-                ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = POWER, 0.0, 0.0, math.inf
-            ds[HAS_PENDING], ds[P_MODE], ds[P_DRIVE], ds[P_BRAKE], ds[P_LIMIT] = 1.0, mode, drive, brake, limit
+                ds.command_mode, ds.drive, ds.brake, ds.velocity_limit = POWER, 0.0, 0.0, math.inf
+            ds.has_pending = True
+            ds.pending_mode, ds.pending_drive, ds.pending_brake, ds.pending_limit = mode, drive, brake, limit
         else:
-            ds[L_MODE], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT] = mode, drive, brake, limit
+            ds.command_mode, ds.drive, ds.brake, ds.velocity_limit = mode, drive, brake, limit
     return True
 
 
@@ -250,7 +245,7 @@ _NO_PATH = Trajectory.from_points([(0.0, 0.0)])
 class Driver:
     """The self-driver of one car.
 
-    Its logic runs compiled (:func:`driver_step`) on a state array, so a scenario can run it inside a
+    Its logic runs compiled (:func:`driver_step`) on a state record, so a scenario can run it inside a
     compiled loop; this class gives it orders, feeds it readings and reads its command and status.
 
     Args:
@@ -262,24 +257,18 @@ class Driver:
     def __init__(self, vehicle: VehicleParams, params: DriverParams | None = None, step: float = 0.01) -> None:
         self.vehicle, self.step = vehicle, step
         self.params = p = params or DriverParams()
-        self.speed_ctrl = make_speed_controller(p, vehicle)
-        self.path_ctrl = make_path_controller(p, vehicle)
+        self.speed_ctrl = make_controller(p, registry.SPEED, vehicle)
+        self.path_ctrl = make_controller(p, registry.PATH, vehicle)
         clock = Clock(seconds_to_ns(step))
         self.speed_ticks = clock.period_ticks(1.0 / self.speed_ctrl.period, f"{p.speed_controller} period")
         self.path_ticks = clock.period_ticks(1.0 / self.path_ctrl.period, f"{p.path_controller} period")
         self.period_ticks = math.gcd(self.speed_ticks, self.path_ticks)
         self.period = self.period_ticks * clock.step_s
-        self.consts = DriverConsts(SPEED_CONTROLLERS.index(p.speed_controller),
-                                   PATH_CONTROLLERS.index(p.path_controller), self.speed_ticks, self.path_ticks,
-                                   self.period_ticks, self.period, p.actuation_delay, p.stop_deceleration,
-                                   p.rest_speed, vehicle.mass, p.vilma_pid.velocity_amount)
-        self.controller_consts = (VilmaPid(p.vilma_pid).consts, PiFf(vehicle, p.pi_ff).consts,
-                                  VilmaHeading(p.vilma_heading).consts, PurePursuit(vehicle, p.pure_pursuit).consts,
-                                  Stanley(vehicle, p.stanley).consts)
+        self.consts = DriverConsts(self.speed_ticks, self.path_ticks, self.period_ticks, self.period,
+                                   p.actuation_delay, p.stop_deceleration, p.rest_speed, vehicle.mass)
         self.estimator = make_estimator(p.pose_source, vehicle)
-        self.state = np.zeros(N_STATE)
-        """The compiled driver's state (slots :data:`TICKS` ... :data:`CROSS`)."""
-        self.state[L_LIMIT] = math.inf
+        self.state = driver_state()
+        """The compiled driver's state (:data:`DRIVER_STATE`)."""
         self.task = _Task()
         self.stamp_ns = 0
         """Stamp of the latest pose [ns]."""
@@ -296,15 +285,15 @@ class Driver:
 
     def hold_current_speed(self) -> None:
         """Hold the speed measured now (truncated to an integer with the original's quirks)."""
-        v = float(self.state[MEASURED])
-        if self.params.speed_controller == "vilma_pid" and self.params.vilma_pid.integer_target:
+        v = float(self.state.measured)
+        if getattr(self.speed_ctrl.params, "integer_target", False):  # a controller that truncates its target
             v = float(math.trunc(v))
         self._start(_Task(DriverMode.HOLD_SPEED, speed=v))
 
     def go_to(self, x: float, y: float, speed: float) -> None:
         """Drive to the point ``(x, y)`` [m] at ``speed`` [m/s] and stop on it."""
         x, y, speed = _finite(x, "x"), _finite(y, "y"), _finite(speed, "speed")
-        start = (float(self.state[X]), float(self.state[Y])) if self.state[HAS_POSE] else (0.0, 0.0)
+        start = (float(self.state.x), float(self.state.y)) if self.state.has_pose else (0.0, 0.0)
         if math.hypot(x - start[0], y - start[1]) < 1e-6:
             raise ValueError("go to point: the car is already at that point")
         self._start(_Task(DriverMode.GO_TO_POINT, speed=speed, path=Trajectory.from_points([start, (x, y)])))
@@ -328,16 +317,16 @@ class Driver:
         self.speed_ctrl.reset()
         self.path_ctrl.reset()
         ds = self.state
-        ds[TICKS], ds[MODE], ds[SPEED] = 0.0, MODES.index(task.mode), task.speed
-        ds[STOPPING] = ds[ARRIVED] = ds[HAS_PENDING] = ds[HAS_PROGRESS] = 0.0
+        ds.ticks, ds.mode, ds.speed = 0, MODES.index(task.mode), task.speed
+        ds.stopping = ds.arrived = ds.has_pending = ds.has_progress = False
 
     # -- the loop ----------------------------------------------------------------------------------------
 
     def step_args(self) -> tuple:
         """The arguments of :func:`driver_step` for the present task."""
         path = self.task.path
-        return (self.consts, self.state, (path or _NO_PATH).arrays, path is not None, self.controller_consts[0],
-                self.controller_consts[1], self.speed_ctrl.state, *self.controller_consts[2:], self.path_ctrl.state)
+        return (self.consts, self.state, (path or _NO_PATH).arrays, path is not None, self.speed_ctrl.consts,
+                self.speed_ctrl.state, self.path_ctrl.consts, self.path_ctrl.state)
 
     def update(self, readings: dict[str, Readings]) -> ActuatorCommand | None:
         """Take one period's readings; returns the command to send now, or None in manual mode."""
@@ -345,18 +334,19 @@ class Driver:
         ds = self.state
         if pose is not None:
             self.stamp_ns = pose.stamp_ns
-            ds[HAS_POSE], ds[X], ds[Y], ds[YAW], ds[POSE_SPEED], ds[YAW_RATE] = (1.0, pose.x, pose.y, pose.yaw,
-                                                                                  pose.speed, pose.yaw_rate)
-            ds[MEASURED] = self._measured_speed(readings, pose)
+            ds.has_pose, ds.x, ds.y, ds.yaw, ds.pose_speed, ds.yaw_rate = (True, pose.x, pose.y, pose.yaw,
+                                                                            pose.speed, pose.yaw_rate)
+            ds.measured = self._measured_speed(readings, pose)
         if not driver_step(*self.step_args()):
             return None
         return self.command()
 
     def command(self) -> ActuatorCommand:
         """The command the driver's state holds."""
-        ds = self.state.tolist()
-        return ActuatorCommand(stamp_ns=self.stamp_ns, steer=ds[STEER], longitudinal=LONGITUDINAL[int(ds[L_MODE])],
-                               drive=ds[L_DRIVE], brake=ds[L_BRAKE], velocity_limit=ds[L_LIMIT], autonomous=True)
+        ds = self.state
+        return ActuatorCommand(stamp_ns=self.stamp_ns, steer=float(ds.steer),
+                               longitudinal=LONGITUDINAL[int(ds.command_mode)], drive=float(ds.drive),
+                               brake=float(ds.brake), velocity_limit=float(ds.velocity_limit), autonomous=True)
 
     def _measured_speed(self, readings: dict[str, Readings], pose: PoseEstimate) -> float:
         vel = readings.get("velocity")
@@ -369,13 +359,13 @@ class Driver:
     def status(self) -> DriverStatus:
         """What the driver is doing, for the ``driver/status`` topic."""
         t, ds = self.task, self.state
-        if ds[HAS_PROGRESS]:
-            index, progress, remaining, cross = int(ds[INDEX]), ds[PROGRESS], ds[REMAINING], ds[CROSS]
+        if ds.has_progress:
+            index, progress, remaining, cross = int(ds.index), ds.progress, ds.remaining, ds.cross
         else:
             index, progress, remaining, cross = 0, 0.0, 0.0, math.nan
         target = target_speed(ds, (t.path or _NO_PATH).arrays) if t.mode != DriverMode.MANUAL else 0.0
-        return DriverStatus(self.stamp_ns, t.mode.value, float(target), float(ds[MEASURED]), index,
-                            float(progress), float(remaining), float(cross), bool(ds[ARRIVED]), t.error)
+        return DriverStatus(self.stamp_ns, t.mode.value, float(target), float(ds.measured), index,
+                            float(progress), float(remaining), float(cross), bool(ds.arrived), t.error)
 
 
 def _finite(v: float, name: str) -> float:

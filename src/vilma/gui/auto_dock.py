@@ -28,7 +28,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS
+from vilma.control import registry
 from vilma.core.messages import ActuatorCommand, DriverOrder, DriverStatus
 from vilma.gui.bridge import BusBridge
 from vilma.gui.fields import FieldError, parse_number
@@ -137,8 +137,8 @@ class AutoDock(QDockWidget):
         ctrl = QGroupBox("Controllers", body)
         cl = QFormLayout(ctrl)
         self.speed_ctrl, self.path_ctrl = QComboBox(ctrl), QComboBox(ctrl)
-        self.speed_ctrl.addItems(SPEED_CONTROLLERS)
-        self.path_ctrl.addItems(PATH_CONTROLLERS)
+        self.speed_ctrl.addItems(registry.names(registry.SPEED))
+        self.path_ctrl.addItems(registry.names(registry.PATH))
         self.speed_gains, self.path_gains = ParamsEditor(ctrl), ParamsEditor(ctrl)
         cl.addRow("speed", self.speed_ctrl)
         cl.addRow(self.speed_gains)
@@ -149,9 +149,9 @@ class AutoDock(QDockWidget):
         cl.addRow(self.apply_button)
         self.show_params(backend.driver_params)
         self.speed_ctrl.currentTextChanged.connect(
-            lambda name: self.speed_gains.set_params(getattr(self.backend.driver_params, name)))
+            lambda name: self.speed_gains.set_params(self.backend.driver_params.gains_of(name)))
         self.path_ctrl.currentTextChanged.connect(
-            lambda name: self.path_gains.set_params(getattr(self.backend.driver_params, name)))
+            lambda name: self.path_gains.set_params(self.backend.driver_params.gains_of(name)))
         lay.addWidget(ctrl)
         lay.addStretch(1)
         scroll = QScrollArea(self)
@@ -349,8 +349,8 @@ class AutoDock(QDockWidget):
             combo.blockSignals(True)
             combo.setCurrentText(name)
             combo.blockSignals(False)
-        self.speed_gains.set_params(getattr(params, params.speed_controller))
-        self.path_gains.set_params(getattr(params, params.path_controller))
+        self.speed_gains.set_params(params.gains_of(params.speed_controller))
+        self.path_gains.set_params(params.gains_of(params.path_controller))
 
     def controller_params(self):
         """The driver parameters the controller fields describe.
@@ -361,8 +361,8 @@ class AutoDock(QDockWidget):
         base = self.backend.driver_params
         s, p = self.speed_ctrl.currentText(), self.path_ctrl.currentText()
         try:
-            return dataclasses.replace(base, speed_controller=s, path_controller=p,
-                                       **{s: self.speed_gains.values(), p: self.path_gains.values()})
+            return dataclasses.replace(base, speed_controller=s, path_controller=p).with_gains(
+                {s: self.speed_gains.values(), p: self.path_gains.values()})
         except ValueError as e:
             raise FieldError(str(e)) from None
 

@@ -23,26 +23,7 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
-from vilma.control.driver import (
-    ARRIVED,
-    HAS_POSE,
-    L_BRAKE,
-    L_DRIVE,
-    L_LIMIT,
-    L_MODE,
-    MANUAL,
-    MEASURED,
-    MODE,
-    POSE_SPEED,
-    STEER,
-    YAW_RATE,
-    Driver,
-    driver_step,
-    target_speed,
-)
-from vilma.control.driver import YAW as DYAW
-from vilma.control.driver import X as DX
-from vilma.control.driver import Y as DY
+from vilma.control.driver import MANUAL, Driver, driver_step, target_speed
 from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
 from vilma.localization import TruthEstimator
@@ -51,8 +32,7 @@ from vilma.sensors import Readings
 from vilma.sim import Simulator
 from vilma.vehicle.actuators import clamp_command, command_limits
 from vilma.vehicle.integrate import advance, empty_records
-from vilma.vehicle.state import VX, VY, YAW, X, Y
-from vilma.vehicle.state import YAW_RATE as Z_YAW_RATE
+from vilma.vehicle.state import VX, VY, YAW, YAW_RATE, X, Y
 
 BLOCK = 256
 """Driver periods per compiled call (the sensors measure and the log grows once a block)."""
@@ -83,8 +63,8 @@ def compiled_ok(sim: Simulator, driver: Driver) -> bool:
 
 @njit(cache=True)
 def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, out_tick, n, cmd_mode, cmd, limits,
-          dc, ds, pa, has_path, vp, pf, speed_state, vh, pp, st, path_state, original_speed, stop_at_rest, rows,
-          truth, pose_period, vel_period):
+          dc, ds, pa, has_path, speed_c, speed_s, path_c, path_s, original_speed, stop_at_rest, rows, truth,
+          pose_period, vel_period):
     """Up to ``n`` driver periods; returns (periods run, sensor records written, arrived at rest).
 
     ``truth`` = ``[speed, yaw rate]`` of the latest velocity reading, as :class:`TruthEstimator` keeps it.
@@ -97,42 +77,42 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
         # what TruthEstimator makes of the pose and velocity sensors (they sample at period ends only)
         velocity_read = tick % vel_period == 0
         if velocity_read:
-            truth[0], truth[1] = z[VX], z[Z_YAW_RATE]
+            truth[0], truth[1] = z[VX], z[YAW_RATE]
         if tick % pose_period == 0:
-            ds[HAS_POSE], ds[DX], ds[DY], ds[DYAW] = 1.0, z[X], z[Y], wrap(z[YAW])
-            ds[POSE_SPEED], ds[YAW_RATE] = truth[0], truth[1]
-        if ds[HAS_POSE]:
+            ds.has_pose, ds.x, ds.y, ds.yaw = True, z[X], z[Y], wrap(z[YAW])
+            ds.pose_speed, ds.yaw_rate = truth[0], truth[1]
+        if ds.has_pose:
             if original_speed and velocity_read:  # sqrt(vx^2 + vy^2 + wz^2), world frame, as the original
                 c, s = math.cos(z[YAW]), math.sin(z[YAW])
                 wx, wy = z[VX] * c - z[VY] * s, z[VX] * s + z[VY] * c
-                ds[MEASURED] = math.sqrt(wx * wx + wy * wy + z[Z_YAW_RATE] ** 2)
+                ds.measured = math.sqrt(wx * wx + wy * wy + z[YAW_RATE] ** 2)
             else:
-                ds[MEASURED] = ds[POSE_SPEED]
-        sent = driver_step(dc, ds, pa, has_path, vp, pf, speed_state, vh, pp, st, path_state)
+                ds.measured = ds.pose_speed
+        sent = driver_step(dc, ds, pa, has_path, speed_c, speed_s, path_c, path_s)
         r = rows[k]
         r[0] = (tick * step_ns) * 1e-9
         r[1:10] = z
-        r[10] = target_speed(ds, pa) if ds[MODE] != MANUAL else 0.0
-        r[11], r[12], r[13], r[14] = ds[MEASURED], ds[DX], ds[DY], ds[DYAW]
+        r[10] = target_speed(ds, pa) if ds.mode != MANUAL else 0.0
+        r[11], r[12], r[13], r[14] = ds.measured, ds.x, ds.y, ds.yaw
         if sent:
-            mode = int(ds[L_MODE])
-            cmd[0], cmd[1], cmd[2], cmd[3] = ds[STEER], ds[L_DRIVE], ds[L_BRAKE], ds[L_LIMIT]
+            mode = ds.command_mode
+            cmd[0], cmd[1], cmd[2], cmd[3] = ds.steer, ds.drive, ds.brake, ds.velocity_limit
             r[15], r[16], r[17] = cmd[0], cmd[1], cmd[2]  # as the driver sent it, before the car clamps it
             clamp_command(limits, mode, cmd)
             cmd_mode[0] = mode
         else:
             r[15] = r[16] = r[17] = math.nan
-        if stop_at_rest and ds[ARRIVED] and abs(z[VX]) < dc.rest_speed:
+        if stop_at_rest and ds.arrived and abs(z[VX]) < dc.rest_speed:
             return k + 1, j, True
     return n, j, False
 
 
-def _catch_up(est: TruthEstimator, ds: np.ndarray, truth: np.ndarray, stamp_ns: int) -> None:
+def _catch_up(est: TruthEstimator, ds: np.record, truth: np.ndarray, stamp_ns: int) -> None:
     """Leave the estimator as the Python loop would have: latest velocity reading and pose."""
     est.speed, est.yaw_rate = float(truth[0]), float(truth[1])
-    if ds[HAS_POSE]:
-        est.estimate = PoseEstimate(stamp_ns, float(ds[DX]), float(ds[DY]), float(ds[DYAW]), float(ds[POSE_SPEED]),
-                                    float(ds[YAW_RATE]), 0.0, 0.0, 0.0)
+    if ds.has_pose:
+        est.estimate = PoseEstimate(stamp_ns, float(ds.x), float(ds.y), float(ds.yaw), float(ds.pose_speed),
+                                    float(ds.yaw_rate), 0.0, 0.0, 0.0)
 
 
 def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, stop_at_rest: bool,

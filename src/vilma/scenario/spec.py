@@ -44,7 +44,8 @@ from typing import Any
 
 import yaml
 
-from vilma.control.driver import PATH_CONTROLLERS, SPEED_CONTROLLERS, DriverParams
+from vilma.control import registry
+from vilma.control.driver import DriverParams
 from vilma.core.clock import Clock, RateError, seconds_to_ns
 from vilma.core.geodesy import GeodeticOrigin
 from vilma.localization import SOURCES
@@ -53,7 +54,7 @@ from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
 from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
-from vilma.scenario.fields import Key, Source, SpecError, build, convert, get, load_yaml, read_yaml
+from vilma.scenario.fields import Key, Source, SpecError, _suggest, build, convert, get, load_yaml, read_yaml
 from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS, Bound, MetricsSpec
 from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
@@ -283,8 +284,18 @@ def _driver(data: dict, src: Source) -> DriverParams:
         raise src.error(("driver",), "expected a mapping of driver parameters")
     raw = dict(raw)
     original = convert(bool, raw.pop("original", False), src, ("driver", "original"))
+    keys = {**{f.name: f for f in dataclasses.fields(DriverParams) if f.name != "gains"},
+            **dict.fromkeys(registry.names())}  # the driver's fields, and controller gains by name
+    for name in raw:
+        if isinstance(name, str) and name not in keys:
+            raise src.error(("driver", name), f"unknown key{_suggest(name, keys)}")
+    named = {name: raw.pop(name) for name in registry.names() if name in raw}
     params = build(DriverParams, raw, src, ("driver",), DriverParams.original() if original else DriverParams())
-    for key, known in (("speed_controller", SPEED_CONTROLLERS), ("path_controller", PATH_CONTROLLERS)):
+    for name, value in named.items():
+        params = params.with_gains({name: build(registry.controller_type(name).params, value, src, ("driver", name),
+                                                params.gains_of(name))})
+    for key, known in (("speed_controller", registry.names(registry.SPEED)),
+                       ("path_controller", registry.names(registry.PATH))):
         if key not in data:
             continue
         value = data[key]
@@ -297,9 +308,9 @@ def _driver(data: dict, src: Source) -> DriverParams:
         if value not in known:
             raise src.error((key,), f"unknown {key} {value!r}; use one of {', '.join(known)}")
         gains_key = (key,)  # gains sit beside 'type' in the file
-        current = getattr(params, value)
-        params = dataclasses.replace(params, **{key: value,
-                                                value: build(type(current), gains, src, gains_key, current)})
+        current = params.gains_of(value)
+        params = dataclasses.replace(params, **{key: value}).with_gains(
+            {value: build(type(current), gains, src, gains_key, current)})
     if "pose" in data:
         pose = convert(str, data["pose"], src, ("pose",))
         if pose not in SOURCES:
@@ -315,7 +326,7 @@ def _driver_period(driver: DriverParams, sim: SimConfig, src: Source) -> float:
     for key in ("speed_controller", "path_controller"):
         name = getattr(driver, key)
         try:
-            ticks.append(clock.period_ticks(1.0 / getattr(driver, name).period, f"{name} period"))
+            ticks.append(clock.period_ticks(1.0 / driver.gains_of(name).period, f"{name} period"))
         except RateError as e:
             raise src.error((key, "period"), str(e)) from None
     return math.gcd(*ticks) * clock.step_s
@@ -444,11 +455,10 @@ def to_yaml(scenario: Scenario) -> str:
         "sensors": {k: (plain(v) if v is not None else False) for k, v in
                     ((f.name, getattr(s.sim.sensors, f.name)) for f in dataclasses.fields(SensorSuite))},
         "pose": d.pose_source,
-        "speed_controller": {"type": d.speed_controller, **plain(getattr(d, d.speed_controller))},
-        "path_controller": {"type": d.path_controller, **plain(getattr(d, d.path_controller))},
+        "speed_controller": {"type": d.speed_controller, **plain(d.gains_of(d.speed_controller))},
+        "path_controller": {"type": d.path_controller, **plain(d.gains_of(d.path_controller))},
         "driver": {f.name: plain(getattr(d, f.name)) for f in dataclasses.fields(d)
-                   if f.name not in ("speed_controller", "path_controller", "pose_source", *SPEED_CONTROLLERS,
-                                     *PATH_CONTROLLERS)},
+                   if f.name not in ("speed_controller", "path_controller", "pose_source", "gains")},
         "task": {k: v for k, v in task.items() if v is not None},
         "initial": {k: v for k, v in plain(s.initial).items() if v is not None},
         "duration": s.duration, "metrics": plain(s.metrics),

@@ -7,38 +7,45 @@ import pytest
 
 from tests.control.conftest import curved_log, drive_path
 from vilma.control.driver import DriverParams
-from vilma.control.path import VilmaHeading
 from vilma.control.path.vilma_heading import original_heading_error
-from vilma.core.messages import PoseEstimate
+from vilma.control.registry import controller_type
 from vilma.trajectory import Trajectory
 from vilma.trajectory.course import spline_course
+from vilma.vehicle.params import vilma
 
 COURSE = [(0, 0), (100, 0), (100, -30), (50, -20), (60, 0)]
 
 
-def _pose(x, y, yaw):
-    return PoseEstimate(0, x, y, yaw, 0.0, 0.0, 0.0, 0.0, 0.0)
+def _turn_wheels():
+    """The registered ``vilma_heading``; its state is [active waypoint, last steer]."""
+    return controller_type("vilma_heading").make(vilma())
+
+
+def _steer(c, path: Trajectory, x: float, y: float, yaw: float) -> float:
+    steer, _ = c.step(path.arrays, x, y, yaw, 0.0, 0.0)
+    return steer
 
 
 def test_turn_wheels_steers_by_the_heading_error_and_skips_points_behind():
     path = Trajectory.from_points([(10.0, 1.0), (-5.0, 0.0), (20.0, 0.0)])
-    c = VilmaHeading()
-    out = c.step(_pose(0.0, 0.0, 0.0), path)
-    assert out.steer == pytest.approx(math.atan2(1.0, 10.0)) and out.index == 0
+    c = _turn_wheels()
+    assert _steer(c, path, 0.0, 0.0, 0.0) == pytest.approx(math.atan2(1.0, 10.0)) and c.state[0] == 0
     # a point 0.6 rad or more off the heading is behind: the next becomes active, steering kept
-    c.active = 1
-    out = c.step(_pose(0.0, 0.0, 0.0), path)
-    assert out.index == 2 and out.steer == pytest.approx(math.atan2(1.0, 10.0))
-    assert c.step(_pose(0.0, 0.0, 0.0), path).steer == pytest.approx(0.0)
+    c.state[0] = 1
+    assert _steer(c, path, 0.0, 0.0, 0.0) == pytest.approx(math.atan2(1.0, 10.0)) and c.state[0] == 2
+    assert _steer(c, path, 0.0, 0.0, 0.0) == pytest.approx(0.0)
+    # past the last point it asks for the final stop
+    c.state[0] = 3
+    assert c.step(path.arrays, 0.0, 0.0, 0.0, 0.0, 0.0) == (0.0, True)
 
 
 def test_turn_wheels_wraps_the_angle_the_original_did_not():
     # facing south (the original's heading -pi + 0.01, next to its seam), the point just right of ahead
     yaw = -math.pi / 2 + 0.01
     path = Trajectory.from_points([(-0.5, -10.0), (-0.5, -20.0)])
-    out = VilmaHeading().step(_pose(0.0, 0.0, yaw), path)
-    assert out.steer == pytest.approx(math.atan2(-10.0, -0.5) - yaw)
-    assert abs(out.steer) < 0.1
+    steer = _steer(_turn_wheels(), path, 0.0, 0.0, yaw)
+    assert steer == pytest.approx(math.atan2(-10.0, -0.5) - yaw)
+    assert abs(steer) < 0.1
     # the original's error is about 2 pi off across its seam: it would call the point behind
     assert original_heading_error(-0.5, -10.0, yaw) == pytest.approx(3.14 - math.atan(0.05) + math.pi - 0.01)
 

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from vilma.control.driver import LONGITUDINAL
+from vilma.control.registry import Controller
 from vilma.core.messages import ActuatorCommand
 from vilma.sim import SimConfig, Simulator
 
 
-def speed_run(ctrl, target: float, seconds: float = 40.0, delay: bool = False, original_speed: bool = False):
+def speed_run(ctrl: Controller, target: float, seconds: float = 40.0, delay: bool = False,
+              original_speed: bool = False):
     """Drive straight from rest holding ``target``; returns (t, measured speed) at each control period.
 
     ``delay`` sends each command one period late (the original's sleep-then-send);
@@ -18,9 +21,9 @@ def speed_run(ctrl, target: float, seconds: float = 40.0, delay: bool = False, o
     ctrl.reset()
     pending, speed, t, v = None, 0.0, [], []
     for _ in range(round(seconds / ctrl.period)):
-        out = ctrl.step(target, speed, 0.0)
-        cmd = ActuatorCommand(longitudinal=out.mode, drive=out.drive, brake=out.brake,
-                              velocity_limit=out.velocity_limit, autonomous=True)
+        mode, drive, brake, limit = ctrl.step(target, speed, 0.0)
+        cmd = ActuatorCommand(longitudinal=LONGITUDINAL[mode], drive=drive, brake=brake, velocity_limit=limit,
+                              autonomous=True)
         if delay:
             if pending is not None:
                 sim.command(pending)

@@ -3,14 +3,20 @@ import math
 import pytest
 
 from tests.control.speed.conftest import speed_run, time_to
-from vilma.control.speed import PiFf, PiFfParams, VilmaPid
-from vilma.core.messages import Longitudinal
-from vilma.vehicle.params import vilma
+from vilma.control.registry import controller_type
+from vilma.control.speed.pi_ff import PiFfParams
+from vilma.vehicle.actuators import FORCE
+from vilma.vehicle.params import VehicleParams, vilma
+
+
+def make_pi_ff(vehicle: VehicleParams, params: PiFfParams | None = None):
+    """The registered ``pi_ff``; its state is [reference speed, its acceleration, its jerk, integral]."""
+    return controller_type("pi_ff").make(vehicle, params)
 
 
 def test_beats_the_original_pid():
-    t0, v0 = speed_run(VilmaPid(), 10.0, seconds=40.0, delay=True)
-    t, v = speed_run(PiFf(vilma()), 10.0, seconds=40.0)
+    t0, v0 = speed_run(controller_type("vilma_pid").make(vilma()), 10.0, seconds=40.0, delay=True)
+    t, v = speed_run(make_pi_ff(vilma()), 10.0, seconds=40.0)
     assert time_to(t, v, 9.0) <= 0.6 * time_to(t0, v0, 9.0)
     assert v.max() < 10.0 * 1.01
     assert abs(v[-20:] - 10.0).max() < 0.05
@@ -18,21 +24,21 @@ def test_beats_the_original_pid():
 
 def test_feed_forward_holds_speed_without_integral():
     p = vilma()
-    ctrl = PiFf(p, PiFfParams(kp=0.0, ki=0.0))
+    ctrl = make_pi_ff(p, PiFfParams(kp=0.0, ki=0.0))
     ctrl.state[:] = (20.0, 0.0, 0.0, 0.0)  # reference at 20 m/s, steady
-    out = ctrl.step(20.0, 20.0, 0.0)
-    assert out.mode is Longitudinal.FORCE
-    assert out.drive == pytest.approx(p.resistance(20.0))
+    mode, drive, brake, _ = ctrl.step(20.0, 20.0, 0.0)
+    assert mode == FORCE and brake == 0.0
+    assert drive == pytest.approx(p.resistance(20.0))
 
 
 def test_brakes_when_slowing_and_respects_limits():
     p = vilma()
     params = PiFfParams()
-    ctrl = PiFf(p, params)
-    outs = [ctrl.step(0.0, 15.0, 0.0) for _ in range(100)]
-    assert any(o.brake > 0 for o in outs)
+    ctrl = make_pi_ff(p, params)
+    brakes = [ctrl.step(0.0, 15.0, 0.0)[2] for _ in range(100)]
+    assert any(b > 0 for b in brakes)
     # the request never exceeds the deceleration limit (plus the resistance it no longer needs)
-    assert max(o.brake for o in outs) <= p.mass * params.max_decel
+    assert max(brakes) <= p.mass * params.max_decel
     # jerk limit: the reference acceleration changes by at most max_jerk * period per step
     ctrl.reset()
     a = []

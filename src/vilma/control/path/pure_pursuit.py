@@ -13,13 +13,10 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numpy as np
 from numba import njit
 
 from vilma.control.checks import check_params
-from vilma.control.path.base import PathOutput
-from vilma.core.messages import PoseEstimate
-from vilma.trajectory import Trajectory
+from vilma.control.registry import PATH, ControllerType, register
 from vilma.trajectory.trajectory import path_point_at, path_project
 from vilma.vehicle.params import VehicleParams
 
@@ -58,9 +55,15 @@ class PurePursuitConsts(NamedTuple):
     max_steer: float
 
 
+def pure_pursuit_consts(p: PurePursuitParams, vehicle: VehicleParams) -> PurePursuitConsts:
+    """The look-ahead schedule and the car's geometry for :func:`pure_pursuit_step`."""
+    return PurePursuitConsts(p.lookahead_min, p.lookahead_gain, p.lookahead_max, p.window, vehicle.cg_to_rear,
+                             vehicle.wheelbase, vehicle.max_steer)
+
+
 @njit(cache=True)
-def pure_pursuit_step(c, st, pa, x, y, yaw, speed):
-    """One period at pose ``(x, y, yaw)`` and ``speed`` [m/s]: (steer [rad], segment, arc length [m]).
+def pure_pursuit_step(c, st, pa, x, y, yaw, speed, yaw_rate):
+    """One period at pose ``(x, y, yaw)`` and ``speed`` [m/s]: (steer [rad], False: it follows past the end).
 
     ``st`` = ``[segment of the last projection (-1: none)]``.
     """
@@ -81,24 +84,8 @@ def pure_pursuit_step(c, st, pa, x, y, yaw, speed):
     alpha = math.atan2(-si * dx + co * dy, co * dx + si * dy)
     dist = max(math.hypot(dx, dy), 1e-6)
     steer = math.atan(2.0 * c.wheelbase * math.sin(alpha) / dist)
-    return min(max(steer, -c.max_steer), c.max_steer), i, s
+    return min(max(steer, -c.max_steer), c.max_steer), False
 
 
-class PurePursuit:
-    """Pure pursuit from the rear axle with a speed-scheduled look-ahead."""
-
-    def __init__(self, vehicle: VehicleParams, params: PurePursuitParams | None = None) -> None:
-        self.vehicle = vehicle
-        self.params = p = params or PurePursuitParams()
-        self.period = p.period
-        self.consts = PurePursuitConsts(p.lookahead_min, p.lookahead_gain, p.lookahead_max, p.window,
-                                        vehicle.cg_to_rear, vehicle.wheelbase, vehicle.max_steer)
-        self.state = np.full(1, -1.0)
-        """``[segment of the last projection]`` (-1 before the first)."""
-
-    def reset(self) -> None:
-        self.state[0] = -1.0
-
-    def step(self, pose: PoseEstimate, path: Trajectory) -> PathOutput:
-        steer, i, s = pure_pursuit_step(self.consts, self.state, path.arrays, pose.x, pose.y, pose.yaw, pose.speed)
-        return PathOutput(float(steer), int(i), float(s))
+register(ControllerType("pure_pursuit", PATH, PurePursuitParams, PurePursuitConsts, pure_pursuit_consts, (-1.0,),
+                        pure_pursuit_step))

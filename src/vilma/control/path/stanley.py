@@ -17,14 +17,11 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numpy as np
 from numba import njit
 
 from vilma.control.checks import check_params
-from vilma.control.path.base import PathOutput
+from vilma.control.registry import PATH, ControllerType, register
 from vilma.core.geometry import wrap
-from vilma.core.messages import PoseEstimate
-from vilma.trajectory import Trajectory
 from vilma.trajectory.trajectory import CURVATURE_SPAN, path_curvature_at, path_heading_at, path_project
 from vilma.vehicle.params import VehicleParams
 
@@ -71,9 +68,17 @@ class StanleyConsts(NamedTuple):
     """Understeer feed-forward per (m/s)^2 of speed and 1/m of curvature: m lr / (L C_f) [rad s^2/m]."""
 
 
+def stanley_consts(p: StanleyParams, v: VehicleParams) -> StanleyConsts:
+    """The gains and the car's geometry and tyres for :func:`stanley_step`."""
+    return StanleyConsts(p.gain, p.softening, p.heading_gain, p.yaw_rate_damping, p.point == "front_axle", p.window,
+                         v.cg_to_front, v.cg_to_rear, v.wheelbase, v.max_steer,
+                         v.mass * v.cg_to_rear / (v.wheelbase * v.cornering_stiffness_front))
+
+
 @njit(cache=True)
 def stanley_step(c, st, pa, x, y, yaw, speed, yaw_rate):
-    """One period at pose ``(x, y, yaw)``, ``speed`` [m/s], ``yaw_rate`` [rad/s]: (steer [rad], segment, s [m]).
+    """One period at pose ``(x, y, yaw)``, ``speed`` [m/s], ``yaw_rate`` [rad/s]: (steer [rad], False: it
+    follows past the end).
 
     ``st`` = ``[segment of the last projection (-1: none)]``.
     """
@@ -93,27 +98,7 @@ def stanley_step(c, st, pa, x, y, yaw, speed, yaw_rate):
         heading_err = wrap(path_heading - math.atan(c.cg_to_rear * kappa) - yaw)
     damping = c.yaw_rate_damping * (speed * kappa - yaw_rate)
     steer = feed + c.heading_gain * heading_err + math.atan2(-c.gain * cross, c.softening + speed) + damping
-    return min(max(steer, -c.max_steer), c.max_steer), i, s
+    return min(max(steer, -c.max_steer), c.max_steer), False
 
 
-class Stanley:
-    """Stanley lateral control with curvature and tyre-slip feed-forward."""
-
-    def __init__(self, vehicle: VehicleParams, params: StanleyParams | None = None) -> None:
-        self.vehicle = vehicle
-        self.params = p = params or StanleyParams()
-        self.period = p.period
-        v = vehicle
-        self.consts = StanleyConsts(p.gain, p.softening, p.heading_gain, p.yaw_rate_damping, p.point == "front_axle",
-                                    p.window, v.cg_to_front, v.cg_to_rear, v.wheelbase, v.max_steer,
-                                    v.mass * v.cg_to_rear / (v.wheelbase * v.cornering_stiffness_front))
-        self.state = np.full(1, -1.0)
-        """``[segment of the last projection]`` (-1 before the first)."""
-
-    def reset(self) -> None:
-        self.state[0] = -1.0
-
-    def step(self, pose: PoseEstimate, path: Trajectory) -> PathOutput:
-        steer, i, s = stanley_step(self.consts, self.state, path.arrays, pose.x, pose.y, pose.yaw, pose.speed,
-                                   pose.yaw_rate)
-        return PathOutput(float(steer), int(i), float(s))
+register(ControllerType("stanley", PATH, StanleyParams, StanleyConsts, stanley_consts, (-1.0,), stanley_step))

@@ -18,14 +18,12 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numpy as np
 from numba import njit
 
 from vilma.control.checks import check_params
-from vilma.control.path.base import PathOutput
+from vilma.control.registry import PATH, ControllerType, register
 from vilma.core.geometry import wrap
-from vilma.core.messages import PoseEstimate
-from vilma.trajectory import Trajectory
+from vilma.vehicle.params import VehicleParams
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -80,16 +78,21 @@ class VilmaHeadingConsts(NamedTuple):
     original_quirks: bool
 
 
+def vilma_heading_consts(p: VilmaHeadingParams, vehicle: VehicleParams) -> VilmaHeadingConsts:
+    """Flatten the parameters for :func:`vilma_heading_step` (the car plays no part)."""
+    return VilmaHeadingConsts(p.gain, p.max_steer, p.behind, p.original_quirks)
+
+
 @njit(cache=True)
-def vilma_heading_step(c, st, pa, x, y, yaw):
-    """One period at pose ``(x, y, yaw)``: (steer [rad], active waypoint, its arc length [m], done).
+def vilma_heading_step(c, st, pa, x, y, yaw, speed, yaw_rate):
+    """One period at pose ``(x, y, yaw)``: (steer [rad], passed the last waypoint).
 
     ``st`` = ``[active waypoint, last steer]``; ``pa`` the path's :class:`~vilma.trajectory.PathArrays`.
     """
     n = pa.xy.shape[0]
     active = int(st[0])
     if active >= n:
-        return 0.0, n - 1, pa.s[n - 1], True
+        return 0.0, True
     dx, dy = pa.xy[active, 0] - x, pa.xy[active, 1] - y
     if c.original_quirks:
         err = original_heading_error(dx, dy, yaw)
@@ -101,33 +104,8 @@ def vilma_heading_step(c, st, pa, x, y, yaw):
         st[0] = active + 1
     else:
         st[1] = min(max(c.gain * err, -c.max_steer), c.max_steer)
-    index = min(int(st[0]), n - 1)
-    return st[1], index, pa.s[index], int(st[0]) >= n
+    return st[1], int(st[0]) >= n
 
 
-class VilmaHeading:
-    """Turn-Wheels: steer at the active waypoint, advance when it falls behind."""
-
-    def __init__(self, params: VilmaHeadingParams | None = None) -> None:
-        self.params = p = params or VilmaHeadingParams()
-        self.period = p.period
-        self.consts = VilmaHeadingConsts(p.gain, p.max_steer, p.behind, p.original_quirks)
-        self.state = np.zeros(2)
-        """``[active waypoint, last steer]``."""
-
-    def reset(self) -> None:
-        self.state[:] = 0.0
-
-    @property
-    def active(self) -> int:
-        """The waypoint steered at."""
-        return int(self.state[0])
-
-    @active.setter
-    def active(self, index: int) -> None:
-        self.state[0] = index
-
-    def step(self, pose: PoseEstimate, path: Trajectory) -> PathOutput:
-        steer, index, progress, done = vilma_heading_step(self.consts, self.state, path.arrays, pose.x, pose.y,
-                                                          pose.yaw)
-        return PathOutput(float(steer), int(index), float(progress), done=bool(done))
+register(ControllerType("vilma_heading", PATH, VilmaHeadingParams, VilmaHeadingConsts, vilma_heading_consts,
+                        (0.0, 0.0), vilma_heading_step))

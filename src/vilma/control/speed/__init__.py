@@ -1,7 +1,4 @@
-"""Speed controllers: the original's gain-scheduled PID (``vilma_pid``) and a feed-forward PI (``pi_ff``)."""
+"""Speed controllers, one file each, registered by name: the original's gain-scheduled PID (``vilma_pid``) and a
+feed-forward PI (``pi_ff``)."""
 
-from vilma.control.speed.base import LongitudinalOutput, SpeedController
-from vilma.control.speed.pi_ff import PiFf, PiFfParams
-from vilma.control.speed.vilma_pid import VilmaPid, VilmaPidParams
-
-__all__ = ["LongitudinalOutput", "PiFf", "PiFfParams", "SpeedController", "VilmaPid", "VilmaPidParams"]
+from vilma.control.speed import pi_ff, vilma_pid  # noqa: F401  (they register themselves)

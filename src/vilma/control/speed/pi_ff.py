@@ -19,18 +19,17 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numpy as np
 from numba import njit
 
 from vilma.control.checks import check_params
-from vilma.control.speed.base import LongitudinalOutput
-from vilma.core.messages import Longitudinal
+from vilma.control.registry import SPEED, ControllerType, register
+from vilma.vehicle.actuators import FORCE
 from vilma.vehicle.params import GRAVITY, VehicleParams
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class PiFfParams:
-    """Gains and limits of :class:`PiFf`."""
+    """Gains and limits of the feed-forward PI."""
 
     period: float = 0.04
     """Control period [s]."""
@@ -67,7 +66,7 @@ class PiFfConsts(NamedTuple):
     """Rolling resistance force [N]."""
 
 
-def pi_ff_consts(vehicle: VehicleParams, p: PiFfParams) -> PiFfConsts:
+def pi_ff_consts(p: PiFfParams, vehicle: VehicleParams) -> PiFfConsts:
     """Flatten the parameters for :func:`pi_ff_step`."""
     return PiFfConsts(p.period, p.kp, p.ki, p.max_accel, p.max_decel, p.max_jerk,
                       vehicle.actuators.drive_time_constant + 0.5 * p.period, vehicle.mass,
@@ -94,8 +93,8 @@ def _shape(c, st, target):
 
 
 @njit(cache=True)
-def pi_ff_step(c, st, target, speed):
-    """One period: (drive force, brake force) [N] for ``target`` and ``speed`` [m/s].
+def pi_ff_step(c, st, target, speed, steer):
+    """One period: ``force`` mode, drive and brake forces [N] for ``target`` and ``speed`` [m/s], no speed limit.
 
     ``st`` = ``[reference speed (NaN before the first step), its acceleration, its jerk, integral]``.
     """
@@ -110,33 +109,8 @@ def pi_ff_step(c, st, target, speed):
     a = min(max(a, -c.max_decel), c.max_accel)
     resist = c.drag * speed * abs(speed) + (math.copysign(c.rolling, speed) if abs(speed) > 0.05 else 0.0)
     force = c.mass * a + resist
-    return (force, 0.0) if force >= 0.0 else (0.0, -force)
+    return (FORCE, force, 0.0, math.inf) if force >= 0.0 else (FORCE, 0.0, -force, math.inf)
 
 
-class PiFf:
-    """Feed-forward PI on a jerk-limited reference; composed with the car's parameters for the feed-forward."""
-
-    def __init__(self, vehicle: VehicleParams, params: PiFfParams | None = None) -> None:
-        self.vehicle, self.params = vehicle, params or PiFfParams()
-        self.period = self.params.period
-        self.consts = pi_ff_consts(vehicle, self.params)
-        self.state = np.zeros(4)
-        """``[reference speed, its acceleration, its jerk, integral of the error]``."""
-        self.reset()
-
-    def reset(self) -> None:
-        self.state[:] = (math.nan, 0.0, 0.0, 0.0)
-
-    @property
-    def v_ref(self) -> float | None:
-        """The reference speed [m/s], None before the first step."""
-        return None if math.isnan(self.state[0]) else float(self.state[0])
-
-    @property
-    def integral(self) -> float:
-        """Integral of the speed error [m]."""
-        return float(self.state[3])
-
-    def step(self, target: float, speed: float, steer: float) -> LongitudinalOutput:
-        force, brake = pi_ff_step(self.consts, self.state, float(target), float(speed))
-        return LongitudinalOutput(Longitudinal.FORCE, float(force), brake=float(brake))
+register(ControllerType("pi_ff", SPEED, PiFfParams, PiFfConsts, pi_ff_consts, (math.nan, 0.0, 0.0, 0.0),
+                        pi_ff_step))

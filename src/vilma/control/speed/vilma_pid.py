@@ -27,12 +27,12 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numpy as np
 from numba import njit
 
 from vilma.control.checks import check_params
-from vilma.control.speed.base import LongitudinalOutput
-from vilma.core.messages import Longitudinal
+from vilma.control.registry import SPEED, ControllerType, register
+from vilma.vehicle.actuators import POWER
+from vilma.vehicle.params import VehicleParams
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -92,10 +92,11 @@ class VilmaPidConsts(NamedTuple):
     integer_abs: bool
     integer_target: bool
     mirror_negative: bool
+    velocity_amount: float
 
 
-def vilma_pid_consts(p: VilmaPidParams) -> VilmaPidConsts:
-    """Flatten the parameters for :func:`vilma_pid_step`."""
+def vilma_pid_consts(p: VilmaPidParams, vehicle: VehicleParams) -> VilmaPidConsts:
+    """Flatten the parameters for :func:`vilma_pid_step` (the car plays no part)."""
     return VilmaPidConsts(*(getattr(p, f) for f in VilmaPidConsts._fields))
 
 
@@ -106,7 +107,8 @@ def _abs(c, v):
 
 @njit(cache=True)
 def vilma_pid_step(c, st, target, speed, steer):
-    """One period: the power [original units] for ``target`` and ``speed`` [m/s] and last ``steer`` [rad].
+    """One period: ``power`` mode, the power [original units] for ``target`` and ``speed`` [m/s] and last
+    ``steer`` [rad], no brake, ``velocityAmount``.
 
     ``st`` = ``[integral of the error, last power]``, updated in place.
     """
@@ -125,36 +127,8 @@ def vilma_pid_step(c, st, target, speed, steer):
     u = min(u, c.max_power_speed * v_d + _abs(c, c.max_power_steer * steer))
     u = abs(u) if c.mirror_negative else max(u, 0.0)
     st[1] = u
-    return u
+    return POWER, u, 0.0, c.velocity_amount
 
 
-class VilmaPid:
-    """The original gain-scheduled PID; outputs ``power`` commands."""
-
-    def __init__(self, params: VilmaPidParams | None = None) -> None:
-        self.params = params or VilmaPidParams()
-        self.period = self.params.period
-        self.consts = vilma_pid_consts(self.params)
-        self.state = np.zeros(2)
-        """``[integral of the error, last power]``."""
-
-    def reset(self) -> None:
-        self.state[:] = 0.0
-
-    @property
-    def i_error(self) -> float:
-        """Integral of the speed error [m]."""
-        return float(self.state[0])
-
-    @property
-    def power(self) -> float:
-        """The last power sent."""
-        return float(self.state[1])
-
-    @power.setter
-    def power(self, value: float) -> None:
-        self.state[1] = value
-
-    def step(self, target: float, speed: float, steer: float) -> LongitudinalOutput:
-        u = vilma_pid_step(self.consts, self.state, float(target), float(speed), float(steer))
-        return LongitudinalOutput(Longitudinal.POWER, float(u), velocity_limit=self.params.velocity_amount)
+register(ControllerType("vilma_pid", SPEED, VilmaPidParams, VilmaPidConsts, vilma_pid_consts, (0.0, 0.0),
+                        vilma_pid_step))

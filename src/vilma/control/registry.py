@@ -1,0 +1,154 @@
+"""Controllers by name: one registry the driver, the compiled loop, scenario files, the GUI and the bus read.
+
+A controller file registers a :class:`ControllerType`: its parameters (a frozen dataclass with a ``period``
+[s]), its constants (a NamedTuple that compiled code reads, made from the parameters and the car), the
+initial values of its state array, and its compiled step. Compiled code calls the step through the stubs
+:func:`speed_step` and :func:`path_step`: each registration adds a numba overload of the stub matching its
+constants' NamedTuple class, so callers compile (and cache) for the chosen controller without naming it.
+
+Uniform steps (``state`` a float64 array the controller owns, ``pa`` a path's
+:class:`~vilma.trajectory.PathArrays`):
+
+- speed: ``step(c, state, target, measured, steer) -> (mode, drive, brake, velocity_limit)``, speeds [m/s],
+  ``steer`` the last front-wheel command [rad], ``mode`` a compiled longitudinal mode id
+  (:data:`~vilma.vehicle.actuators.MODE_IDS`);
+- path: ``step(c, state, pa, x, y, yaw, speed, yaw_rate) -> (steer [rad], passed_end)``, the pose of the
+  centre of mass [m, rad], its speed [m/s] and yaw rate [rad/s]; ``passed_end`` asks for the final stop.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numba import types
+from numba.extending import overload
+
+from vilma.vehicle.params import VehicleParams
+
+SPEED, PATH = "speed", "path"
+"""The kinds of controller."""
+BUNDLED = ("vilma.control.speed", "vilma.control.path")
+"""Packages whose modules register the controllers vilma ships."""
+
+
+def speed_step(c, state, target, measured, steer):
+    """Compiled code only: the step of the speed controller whose constants are ``c``."""
+    raise NotImplementedError("speed_step dispatches in compiled code only; call the controller's step")
+
+
+def path_step(c, state, pa, x, y, yaw, speed, yaw_rate):
+    """Compiled code only: the step of the path controller whose constants are ``c``."""
+    raise NotImplementedError("path_step dispatches in compiled code only; call the controller's step")
+
+
+@dataclass(frozen=True, slots=True)
+class ControllerType:
+    """A registered controller: what it takes and how it runs."""
+
+    name: str
+    """The name scenario files, the GUI and the bus use (``stanley``)."""
+    kind: str
+    """:data:`SPEED` or :data:`PATH`."""
+    params: type
+    """Its frozen parameter dataclass; made without arguments it gives the defaults; ``period`` [s]."""
+    consts: type
+    """The NamedTuple class of its compiled constants (one class per controller: dispatch matches on it)."""
+    make_consts: Callable[[Any, VehicleParams], tuple]
+    """``(params, vehicle) -> consts``."""
+    state: tuple[float, ...]
+    """Its state array after a reset."""
+    step: Callable
+    """Its compiled step, with the signature of its kind (module docstring)."""
+
+    def make(self, vehicle: VehicleParams, params: Any = None) -> Controller:
+        """This controller for ``vehicle`` with ``params`` (default: the defaults)."""
+        return Controller(self, vehicle, self.params() if params is None else params)
+
+
+class Controller:
+    """A controller made for a car: its parameters, compiled constants and state, steppable from Python."""
+
+    def __init__(self, ctype: ControllerType, vehicle: VehicleParams, params: Any) -> None:
+        self.type, self.params = ctype, params
+        self.period: float = params.period
+        """Control period [s]."""
+        self.consts = ctype.make_consts(params, vehicle)
+        self.state = np.array(ctype.state, dtype=np.float64)
+        """The state its step updates in place (the controller file says what each slot holds)."""
+
+    def reset(self) -> None:
+        """Start again: the state of a fresh controller."""
+        self.state[:] = self.type.state
+
+    def step(self, *args):
+        """One control period: the compiled step on the constants and state, with the rest of its arguments."""
+        return self.type.step(self.consts, self.state, *args)
+
+
+_TYPES: dict[str, ControllerType] = {}
+
+
+def register(kind: ControllerType) -> ControllerType:
+    """Add ``kind`` to the registry and to the compiled dispatch of its kind; returns it.
+
+    Raises:
+        ValueError: the name is taken, the kind unknown, or the constants class not a NamedTuple of its own.
+    """
+    if kind.kind not in (SPEED, PATH):
+        raise ValueError(f"controller {kind.name!r}: kind must be {SPEED!r} or {PATH!r}, got {kind.kind!r}")
+    if kind.name in _TYPES:
+        raise ValueError(f"controller {kind.name!r} is registered already; choose another name")
+    if not hasattr(kind.consts, "_fields") or any(t.consts is kind.consts for t in _TYPES.values()):
+        raise ValueError(f"controller {kind.name!r}: consts must be a NamedTuple class of its own")
+    _overload(kind)
+    _TYPES[kind.name] = kind
+    return kind
+
+
+def _overload(kind: ControllerType) -> None:
+    """Make the stub of ``kind``'s kind call its step when given its constants."""
+    cls, step = kind.consts, kind.step
+
+    def ours(c) -> bool:
+        return isinstance(c, types.BaseNamedTuple) and c.instance_class is cls
+
+    if kind.kind == SPEED:
+        @overload(speed_step)
+        def _speed(c, state, target, measured, steer):
+            if ours(c):
+                return lambda c, state, target, measured, steer: step(c, state, target, measured, steer)
+    else:
+        @overload(path_step)
+        def _path(c, state, pa, x, y, yaw, speed, yaw_rate):
+            if ours(c):
+                return lambda c, state, pa, x, y, yaw, speed, yaw_rate: step(c, state, pa, x, y, yaw, speed,
+                                                                             yaw_rate)
+
+
+def _bundled() -> dict[str, ControllerType]:
+    """The registry, with vilma's own controllers in it (imported on first use: they import this module)."""
+    for package in BUNDLED:
+        importlib.import_module(package)
+    return _TYPES
+
+
+def names(kind: str | None = None) -> tuple[str, ...]:
+    """The registered controllers' names (of one kind, or all), in registration order."""
+    return tuple(n for n, t in _bundled().items() if kind is None or t.kind == kind)
+
+
+def controller_type(name: str, kind: str | None = None) -> ControllerType:
+    """The controller registered as ``name`` (of ``kind`` if given).
+
+    Raises:
+        ValueError: no such controller, naming the ones there are.
+    """
+    t = _bundled().get(name)
+    if t is None or (kind is not None and t.kind != kind):
+        what = f"{kind} controller" if kind else "controller"
+        raise ValueError(f"{what} {name!r} is unknown; use one of {', '.join(names(kind))}")
+    return t
