@@ -5,6 +5,9 @@ import pytest
 
 from tests.control.conftest import drive_path
 from vilma.control.driver import Driver, DriverMode, DriverParams
+from vilma.control.path.stanley import StanleyParams
+from vilma.control.path.vilma_heading import VilmaHeadingParams
+from vilma.control.speed.pi_ff import PiFfParams
 from vilma.control.speed.vilma_pid import VilmaPidParams
 from vilma.core.clock import RateError
 from vilma.sim import SimConfig, Simulator
@@ -67,3 +70,19 @@ def test_bad_orders_and_periods():
         DriverParams(path_controller="magic")
     with pytest.raises(RateError, match="vilma_pid period"):
         Driver(vilma(), DriverParams(speed_controller="vilma_pid", gains={"vilma_pid": VilmaPidParams(period=0.255)}))
+
+
+def test_driver_params_hold_gains_by_name_in_one_spelling():
+    original = DriverParams.original()
+    assert original.gains_of("vilma_pid") == VilmaPidParams.original()
+    assert original.gains_of("vilma_heading") == VilmaHeadingParams(original_quirks=True)
+    assert original.gains_of("stanley") == StanleyParams()  # not named: its defaults
+    # defaults named or not, in any order: the same parameters
+    assert DriverParams(gains={"stanley": StanleyParams(), "pi_ff": PiFfParams()}) == DriverParams()
+    assert DriverParams(gains={"stanley": StanleyParams(gain=2.0), "pi_ff": PiFfParams(kp=2.0)}) == \
+        DriverParams(gains=(("pi_ff", PiFfParams(kp=2.0)), ("stanley", StanleyParams(gain=2.0))))
+    tuned = original.with_gains({"vilma_pid": VilmaPidParams(kp=150.0)})
+    assert tuned.gains_of("vilma_pid").kp == 150.0 and tuned.gains_of("vilma_heading") == \
+        original.gains_of("vilma_heading")
+    with pytest.raises(ValueError, match="driver gains: controller 'magic' is unknown; use one of"):
+        DriverParams(gains={"magic": StanleyParams()})

@@ -60,8 +60,8 @@ class DriverParams:
     pose_source: str = "truth"
     """``truth`` (the simulator's exact pose) or ``ekf`` (fused GPS, IMU and wheel speeds)."""
     gains: tuple[tuple[str, Any], ...] = ()
-    """Parameters of controllers by name, sorted by name (a mapping is taken too); a controller not named here
-    has its defaults (:meth:`gains_of`)."""
+    """Parameters of controllers by name (a mapping is taken too); a controller not named here has its defaults
+    (:meth:`gains_of`). Kept sorted by name, without the controllers at their defaults."""
     original_speed: bool = False
     """Measure speed as the original: sqrt(vx^2 + vy^2 + wz^2), world-frame velocity plus the yaw rate (a bug)."""
     actuation_delay: bool = False
@@ -83,10 +83,15 @@ class DriverParams:
             raise ValueError(f"driver pose_source {self.pose_source!r} is unknown; use one of truth, ekf")
         gains = dict(self.gains)
         for name, params in gains.items():
-            expected = registry.controller_type(name).params
+            try:
+                expected = registry.controller_type(name).params
+            except ValueError as e:
+                raise ValueError(f"driver gains: {e}") from None
             if not isinstance(params, expected):
                 raise ValueError(f"driver gains of {name}: expected {expected.__name__}, got {type(params).__name__}")
-        object.__setattr__(self, "gains", tuple(sorted(gains.items())))  # one spelling: equal params compare equal
+        # one spelling (sorted, defaults left out), so that parameters that drive alike compare equal
+        object.__setattr__(self, "gains", tuple(sorted((name, params) for name, params in gains.items()
+                                                       if params != type(params)())))
         if not self.stop_deceleration > 0:
             raise ValueError(f"driver stop_deceleration must be > 0 m/s^2, got {self.stop_deceleration!r}")
 
