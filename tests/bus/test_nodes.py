@@ -149,7 +149,7 @@ def test_any_tune_order_is_answered_and_a_refused_one_changes_nothing(gains):
     assert reply.ok or (reply.error.startswith("tune: ") and drv.driver.params == before)
     for name, fields in gains.items() if reply.ok else ():
         for field, value in fields.items():
-            assert getattr(getattr(drv.driver.params, name), field) == value
+            assert getattr(drv.driver.params.gains_of(name), field) == value
 
 
 def test_a_reset_calls_back_once_the_car_is_back_at_its_start():

@@ -78,11 +78,12 @@ def test_connected_gains_and_table_speeds_reach_a_driver_in_another_process(proc
         deadline = time.monotonic() + WAIT_MS / 1000
         while not backend.bus.request(order, DriverOrder(action="manual"), timeout=0.5).ok:
             assert time.monotonic() < deadline, "the driver never answered"
-        tuned = dataclasses.replace(backend.driver_params, path_controller="stanley",
-                                    stanley=dataclasses.replace(backend.driver_params.stanley, gain=1.7))
+        tuned = dataclasses.replace(backend.driver_params, path_controller="stanley").with_gains(
+            {"stanley": dataclasses.replace(backend.driver_params.gains_of("stanley"), gain=1.7)})
         backend.set_driver_params(tuned)
-        assert backend.driver_params.stanley.gain == 1.7
-        bad = dataclasses.replace(tuned, pi_ff=dataclasses.replace(tuned.pi_ff, period=0.013), speed_controller="pi_ff")
+        assert backend.driver_params.gains_of("stanley").gain == 1.7
+        bad = dataclasses.replace(tuned, speed_controller="pi_ff").with_gains(
+            {"pi_ff": dataclasses.replace(tuned.gains_of("pi_ff"), period=0.013)})
         with pytest.raises(ValueError, match="tune: "):
             backend.set_driver_params(bad)
         assert backend.driver_params == tuned  # what was refused is not taken

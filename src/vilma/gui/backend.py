@@ -152,7 +152,7 @@ class Remote(Closeable):
         names = (params.speed_controller, params.path_controller)
         reply = self.bus.request(topic("driver/cmd", self.car), DriverOrder(
             action="tune", speed_controller=names[0], path_controller=names[1],
-            gains={name: dataclasses.asdict(getattr(params, name)) for name in names}))
+            gains={name: dataclasses.asdict(params.gains_of(name)) for name in names}))
         if not reply.ok:
             raise ValueError(reply.error)
         self.driver_params = params
