@@ -11,6 +11,8 @@ from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sensors import SensorSuite
 from vilma.sensors.gps import GpsParams
 from vilma.sim import SimConfig, Simulator
+from vilma.sim.simulator import KernelResult, PlantKernel
+from vilma.vehicle.integrate import advance
 from vilma.vehicle.params import vilma
 from vilma.vehicle.state import VehicleState
 
@@ -158,3 +160,34 @@ def test_a_simulator_in_a_with_block_frees_its_renderers_even_when_the_block_rai
         raise RuntimeError("boom")
     assert camera._gl is None and camera._context is None
     sim.close()  # a second close does nothing
+
+
+def _integrate(p: PlantKernel) -> KernelResult:
+    """A kernel that only integrates the plant, 37 steps at the command in force."""
+    m = advance(p.model, p.integrator, p.z, int(p.mode[0]), p.cmd, p.consts, p.step, 37, p.tick, p.periods,
+                *p.records)
+    return KernelResult(37, m, None)
+
+
+def test_compiled_code_advances_the_plant_as_advance_does():
+    twins = [Simulator(SimConfig()) for _ in range(2)]
+    for sim in twins:
+        sim.command(ActuatorCommand(steer=0.1, longitudinal=Longitudinal.FORCE, drive=800.0))
+        sim.advance(5)
+    expected = twins[0].advance(37)
+    got = twins[1].advance_compiled(64, _integrate)
+    assert twins[1].clock.tick == twins[0].clock.tick == 42
+    assert np.array_equal(twins[1].plant, twins[0].plant)
+    assert got.keys() == expected.keys()
+    for name, readings in expected.items():
+        assert np.array_equal(got[name].stamp_ns, readings.stamp_ns)
+        assert np.array_equal(got[name].values, readings.values, equal_nan=True), name
+
+
+def test_compiled_code_may_not_advance_a_car_with_actuator_dead_time():
+    v = vilma()
+    sim = Simulator(SimConfig(vehicle=dataclasses.replace(v, actuators=dataclasses.replace(v.actuators,
+                                                                                          dead_time=0.05))))
+    sim.command(ActuatorCommand(drive=1.0))
+    with pytest.raises(RuntimeError, match="cannot be advanced by compiled code now"):
+        sim.advance_compiled(10, _integrate)

@@ -30,8 +30,9 @@ from vilma.localization import TruthEstimator
 from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.sensors import Readings
 from vilma.sim import Simulator
-from vilma.vehicle.actuators import clamp_command, command_limits
-from vilma.vehicle.integrate import advance, empty_records
+from vilma.sim.simulator import KernelResult, PlantKernel
+from vilma.vehicle.actuators import clamp_command
+from vilma.vehicle.integrate import advance
 from vilma.vehicle.state import VX, VY, YAW, YAW_RATE, X, Y
 
 BLOCK = 256
@@ -123,30 +124,30 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     ``controller_us`` holds the wall time per period of the whole compiled loop (plant, driver and
     log): an upper bound of the driver's cost.
     """
-    model, integrator, z, pc, dt, sensor_periods = sim.kernel_args()
-    limits = command_limits(sim.config.vehicle)
-    mode, cmd = sim.held_command()
-    cmd_mode = np.array([mode])
     args = driver.step_args()
     est = driver.estimator
     truth = np.array([est.speed, est.yaw_rate])
     pose_period, vel_period = _truth_periods(sim)
-    records = empty_records(BLOCK * driver.period_ticks)
     rows = np.empty((BLOCK, len(COLUMNS)))
-    done, stopped = 0, False
-    while done < periods and not stopped:
-        n = min(BLOCK, periods - done)
-        t0 = sim.clock.tick
+    done, k, stopped = 0, 0, False
+
+    def block(p: PlantKernel) -> KernelResult:
+        """Up to a block of periods from where the simulator is; leaves their rows in ``rows[:k]``."""
+        nonlocal k, stopped
         wall = time.perf_counter()
-        k, m, stopped = _loop(model, integrator, z, pc, dt, sim.clock.step_ns, t0, sensor_periods, *records, n,
-                              cmd_mode, cmd, limits, *args, driver.params.original_speed, stop_at_rest, rows,
-                              truth, pose_period, vel_period)
+        k, m, stopped = _loop(p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records,
+                              min(BLOCK, periods - done), p.mode, p.cmd, p.limits, *args,
+                              driver.params.original_speed, stop_at_rest, rows, truth, pose_period, vel_period)
         rows[:k, -1] = (time.perf_counter() - wall) / k * 1e6
         sent = np.flatnonzero(~np.isnan(rows[:k, 15]))
-        commanded = t0 + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None
-        driver.stamp_ns = sim.clock.step_ns * (t0 + k * driver.period_ticks)
-        _catch_up(est, driver.state, truth, sim.clock.step_ns * (sim.clock.tick // pose_period * pose_period))
-        readings = sim.take_over(t0, k * driver.period_ticks, records, m, int(cmd_mode[0]), cmd, commanded)
+        commanded = p.tick + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None
+        return KernelResult(k * driver.period_ticks, m, commanded)
+
+    while done < periods and not stopped:
+        t0 = sim.clock.tick
+        readings = sim.advance_compiled(BLOCK * driver.period_ticks, block)
+        driver.stamp_ns = sim.clock.step_ns * sim.clock.tick
+        _catch_up(est, driver.state, truth, sim.clock.step_ns * (t0 // pose_period * pose_period))
         log.extend(rows[:k])
         if on_block is not None:
             on_block(readings)

@@ -13,7 +13,9 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,7 +31,7 @@ from vilma.plant3d.world import World
 from vilma.sensors import Readings, Samples, SensorSuite, build_sensors
 from vilma.sensors.base import rows_of, sensor_rng
 from vilma.vehicle import models
-from vilma.vehicle.actuators import MODE_IDS, STOP, validate_command
+from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
 from vilma.vehicle.integrate import INTEGRATORS, advance, constrain, empty_records
 from vilma.vehicle.params import VehicleParams, plant_consts, vilma
 from vilma.vehicle.state import N3, NX, VehicleState
@@ -97,6 +99,41 @@ class SimConfig:
         return (*out, *(["laser"] if self.laser is not None else []))
 
 
+class PlantKernel(NamedTuple):
+    """What compiled code advancing a :class:`Simulator` works on (:meth:`Simulator.advance_compiled`)."""
+
+    model: int
+    integrator: int
+    z: np.ndarray
+    """The live plant vector, advanced in place."""
+    consts: tuple
+    """The plant's constants (:func:`~vilma.vehicle.params.plant_consts`)."""
+    step: float
+    """Physics step [s]."""
+    step_ns: int
+    tick: int
+    """The tick it starts from."""
+    periods: np.ndarray
+    """The sensors' sample periods [ticks]."""
+    records: tuple[np.ndarray, np.ndarray, np.ndarray]
+    """``(out_z, out_dx, out_tick)`` for the plant at the sensors' sample ticks, room for a sample a step."""
+    mode: np.ndarray
+    """``[longitudinal mode id]`` of the command in force."""
+    cmd: np.ndarray
+    """``[steer, drive, brake, velocity limit]`` in force."""
+    limits: np.ndarray
+    """The car's command limits (:func:`~vilma.vehicle.actuators.command_limits`)."""
+
+
+class KernelResult(NamedTuple):
+    """What compiled code did to a :class:`Simulator`: steps advanced, samples recorded, and the tick it last set
+    an autonomous command at (None: it set none)."""
+
+    ticks: int
+    records: int
+    commanded_tick: int | None
+
+
 class Simulator(Closeable):
     """One car on flat ground.
 
@@ -136,6 +173,7 @@ class Simulator(Closeable):
             [self.clock.period_ticks(s.rate_hz, f"sensor '{s.name}'") for s in self.sensors], dtype=np.int64)
         self._dead_ticks = self.clock.ticks_for(c.vehicle.actuators.dead_time)
         self._watchdog_ticks = self.clock.ticks_for(c.watchdog_timeout)
+        self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.reset()
 
     # -- state -------------------------------------------------------------------------------------------
@@ -295,36 +333,38 @@ class Simulator(Closeable):
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
 
-    def kernel_args(self) -> tuple:
-        """``(model, integrator, z, consts, step [s], sensor periods [ticks])`` for
-        :func:`~vilma.vehicle.integrate.advance` run by compiled code; ``z`` is the live plant vector."""
-        return self._model, self._integrator, self._z, self._consts, self.clock.step_s, self._periods
-
     @property
     def compiled_ok(self) -> bool:
         """Whether compiled code may advance this simulator: no dead time, no watchdog stop under way."""
         return (self._plant3d is None and not self._dead_ticks and not self._pending
                 and not self.watchdog_tripped)
 
-    def held_command(self) -> tuple[int, np.ndarray]:
-        """The command in force: longitudinal mode id and ``[steer, drive, brake, velocity limit]`` (a copy)."""
-        return self._mode, self._cmd.copy()
+    def advance_compiled(self, ticks: int, kernel: Callable[[PlantKernel], KernelResult]) -> dict[str, Readings]:
+        """Let compiled code advance the plant up to ``ticks`` steps; returns the readings, as :meth:`advance`.
 
-    def take_over(self, t0: int, ticks: int, records: tuple[np.ndarray, np.ndarray, np.ndarray], count: int,
-                  mode: int, cmd: np.ndarray, commanded_tick: int | None) -> dict[str, Readings]:
-        """Catch up after compiled code advanced the plant ``ticks`` steps from tick ``t0``.
+        ``kernel`` gets the live plant and a copy of the command in force (:class:`PlantKernel`), runs
+        :func:`~vilma.vehicle.integrate.advance` on them, may change the command in place (clamped with
+        ``limits``), and says what it did (:class:`KernelResult`); its command stays in force.
 
-        ``records`` are the ``(out_z, out_dx, out_tick)`` it filled (``count`` rows), ``mode`` and ``cmd``
-        the command it left in force, last set as an autonomous command at tick ``commanded_tick`` (None:
-        it set none). Returns the readings of those steps, as :meth:`advance` would have.
+        Raises:
+            RuntimeError: not :attr:`compiled_ok`.
         """
-        self.clock.tick = t0 + ticks
-        self._mode, self._cmd = mode, cmd.copy()
-        if commanded_tick is not None:
-            self._autonomous, self._last_command_tick = True, commanded_tick
-        out_z, out_dx, out_tick = records
+        if not self.compiled_ok:
+            raise RuntimeError("this simulator cannot be advanced by compiled code now (see compiled_ok)")
+        if self._kernel_records is None or len(self._kernel_records[2]) < ticks:
+            self._kernel_records = empty_records(ticks)  # kept: one allocation for the blocks of a run
+        t0 = self.clock.tick
+        k = PlantKernel(self._model, self._integrator, self._z, self._consts, self.clock.step_s, self.clock.step_ns,
+                        t0, self._periods, self._kernel_records, np.array([self._mode]), self._cmd.copy(),
+                        command_limits(self.config.vehicle))
+        done = kernel(k)
+        self.clock.tick = t0 + done.ticks
+        self._mode, self._cmd = int(k.mode[0]), k.cmd
+        if done.commanded_tick is not None:
+            self._autonomous, self._last_command_tick = True, done.commanded_tick
+        out_z, out_dx, out_tick = k.records
         parts: dict[str, list[Readings]] = {s.name: [] for s in self.sensors}
-        self._measure(t0, ticks, out_tick[:count], out_z, out_dx, parts)
+        self._measure(t0, done.ticks, out_tick[:done.records], out_z, out_dx, parts)
         return {name: Readings.concat(p) for name, p in parts.items() if p}
 
     def _measure(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
