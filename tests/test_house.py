@@ -1,7 +1,9 @@
-"""The house: imports flow down the layers of pyproject's import-linter contract, with no circles."""
+"""The house: imports flow down the layers of pyproject's import-linter contract, with no circles; small files
+and functions."""
 
 from __future__ import annotations
 
+import ast
 import os
 import shutil
 import subprocess
@@ -39,3 +41,21 @@ def test_an_upward_import_or_a_circle_breaks_the_contract(tmp_path, module, line
         f.write(f"\n{line}  # noqa\n")
     out = lint(tmp_path / "src", tmp_path)
     assert out.returncode == 1 and broken in out.stdout
+
+
+MAX_FILE_LINES, MAX_FUNCTION_LINES = 500, 80
+
+
+def test_no_file_over_500_lines_and_no_function_over_80():
+    too_long = []
+    for path in sorted((ROOT / "src" / "vilma").rglob("*.py")):
+        text = path.read_text(encoding="utf-8")
+        name = path.relative_to(ROOT)
+        if len(text.splitlines()) > MAX_FILE_LINES:
+            too_long.append(f"{name}: {len(text.splitlines())} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > MAX_FUNCTION_LINES:
+                    too_long.append(f"{name}:{node.lineno} {node.name}: {lines} lines")
+    assert not too_long, "split these: " + "; ".join(too_long)

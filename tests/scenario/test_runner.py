@@ -200,5 +200,5 @@ def test_cli_bad_input_exits_2_with_one_line(args, message):
 def test_demo_tabulates_the_paper_and_vilma(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert out.count("original program (log)") == 3 and "pi_ff + stanley (ekf pose)" in out
-    assert len(list(tmp_path.iterdir())) == 13
+    assert out.count("original program (log)") == 3 and "pi_ff + stanley (ekf pose)" in out and "pi_ff + lqr" in out
+    assert len(list(tmp_path.iterdir())) == 14

@@ -121,7 +121,7 @@ def test_overrides_set_nested_values_and_controller_gains(tmp_path):
      "s.yaml:2: sensors.imu.rate_hz: sensor imu: 30 Hz is a period of 33.3333 ms, not a whole multiple"),
     ("task: {speed: 5}\npose: gps\n", "s.yaml:2: pose: unknown pose source 'gps'"),
     ("task: {speed: 5}\nspeed_controller: {kp: 1}\n", "s.yaml:2: speed_controller: missing type"),
-    ("task: {speed: 5}\npath_controller: lqr\n", "s.yaml:2: path_controller: unknown path_controller 'lqr'"),
+    ("task: {speed: 5}\npath_controller: mpc\n", "s.yaml:2: path_controller: unknown path_controller 'mpc'"),
     ("task: {speed: 5}\ndriver: {stanly: {gain: 1}}\n",
      "s.yaml:2: driver.stanly: unknown key; did you mean 'stanley'?"),
     ("task: {speed: 5}\ndriver: {stanley: {gian: 1}}\n",
@@ -144,7 +144,7 @@ def test_bad_files_give_one_located_line(tmp_path, text, message):
 
 @pytest.mark.parametrize(("text", "message"), [
     ("task: {speed: 5}\nplant: bullet\nsensors: 3\n", "s.yaml:2: plant: unknown plant 'bullet'"),
-    ("task: {speed: 5}\nsensors: {imu: {rate_hz: 30}}\npath_controller: lqr\n",
+    ("task: {speed: 5}\nsensors: {imu: {rate_hz: 30}}\npath_controller: mpc\n",
      "s.yaml:2: sensors.imu.rate_hz: sensor imu: 30 Hz"),
     ("task: {follow: missing.txt, speed: 2}\nduration: 0\n", "s.yaml:1: task.follow: no such trajectory file"),
 ])

@@ -39,7 +39,7 @@ GROUPS = tuple(
     + [Group("Fig. 12: recorded curve at 5 m/s", None, "centimetres",
              ("paper_fig12_path", "fig12_path_stanley", "fig12_path_pure_pursuit")),
        Group("Course at 30 km/h", None, None, ("course_30kmh_vilma_heading", "course_30kmh_pure_pursuit",
-                                               "course_30kmh_stanley", "course_30kmh_ekf"))])
+                                               "course_30kmh_stanley", "course_30kmh_lqr", "course_30kmh_ekf"))])
 """The demo's tasks, in table order."""
 
 HEADINGS = ("t90 [s]", "overshoot [%]", "lat RMS [m]", "lat max [m]", "done", "pass")

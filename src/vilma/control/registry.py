@@ -19,6 +19,7 @@ Uniform steps (``state`` a float64 array the controller owns, ``pa`` a path's
 from __future__ import annotations
 
 import importlib
+import pkgutil
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -32,7 +33,7 @@ from vilma.vehicle.params import VehicleParams
 SPEED, PATH = "speed", "path"
 """The kinds of controller."""
 BUNDLED = ("vilma.control.speed", "vilma.control.path")
-"""Packages whose modules register the controllers vilma ships."""
+"""Packages whose modules register the controllers vilma ships: every module in them is one controller."""
 
 
 def speed_step(c, state, target, measured, steer):
@@ -90,6 +91,7 @@ class Controller:
 
 
 _TYPES: dict[str, ControllerType] = {}
+_LOADED: list[bool] = []  # the bundled controllers were imported
 
 
 def register(kind: ControllerType) -> ControllerType:
@@ -130,15 +132,19 @@ def _overload(kind: ControllerType) -> None:
 
 
 def _bundled() -> dict[str, ControllerType]:
-    """The registry, with vilma's own controllers in it (imported on first use: they import this module)."""
-    for package in BUNDLED:
-        importlib.import_module(package)
+    """The registry, with vilma's own controllers in it: every module of the :data:`BUNDLED` packages, imported
+    on first use (they import this module), so a new controller is a new file and nothing else."""
+    if not _LOADED:
+        for package in BUNDLED:
+            for module in pkgutil.iter_modules(importlib.import_module(package).__path__):
+                importlib.import_module(f"{package}.{module.name}")
+        _LOADED.append(True)
     return _TYPES
 
 
 def names(kind: str | None = None) -> tuple[str, ...]:
-    """The registered controllers' names (of one kind, or all), in registration order."""
-    return tuple(n for n, t in _bundled().items() if kind is None or t.kind == kind)
+    """The registered controllers' names (of one kind, or all), sorted."""
+    return tuple(sorted(n for n, t in _bundled().items() if kind is None or t.kind == kind))
 
 
 def controller_type(name: str, kind: str | None = None) -> ControllerType:

@@ -1,4 +1,2 @@
-"""Path controllers, one file each, registered by name: the original's Turn-Wheels (``vilma_heading``),
-``pure_pursuit`` and ``stanley``."""
-
-from vilma.control.path import pure_pursuit, stanley, vilma_heading  # noqa: F401  (they register themselves)
+"""Path controllers, one file each, that register themselves by name (:mod:`vilma.control.registry` imports
+every module here): the original's Turn-Wheels (``vilma_heading``), ``pure_pursuit``, ``stanley`` and ``lqr``."""
