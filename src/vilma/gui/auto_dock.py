@@ -71,7 +71,19 @@ class AutoDock(QDockWidget):
         self.bridge, self.backend, self.table = bridge, backend, table
         body = QWidget(self)
         lay = QVBoxLayout(body)
+        for group in (self._speed_group, self._path_group, self._tools_group, self._controllers_group):
+            lay.addWidget(group(body))
+        lay.addStretch(1)
+        scroll = QScrollArea(self)
+        scroll.setWidget(body)
+        scroll.setWidgetResizable(True)
+        self.setWidget(scroll)
+        bridge.updated.connect(self._on_update)
 
+    # -- the groups -------------------------------------------------------------------------------------------
+
+    def _speed_group(self, body: QWidget) -> QGroupBox:
+        """Current Speed, Set Speed and its field."""
         speed = QGroupBox("Speed", body)
         sl = QGridLayout(speed)
         self.current_speed = QPushButton("Current Speed", speed)
@@ -86,8 +98,10 @@ class AutoDock(QDockWidget):
         sl.addWidget(self.current_speed, 0, 0, 1, 2)
         sl.addWidget(self.set_speed, 1, 0)
         sl.addWidget(self.speed_edit, 1, 1)
-        lay.addWidget(speed)
+        return speed
 
+    def _path_group(self, body: QWidget) -> QGroupBox:
+        """Go to (X, Y) or along the table, at a speed; Stop."""
         path = QGroupBox("Path", body)
         pf = QFormLayout(path)
         self.x_edit, self.y_edit = QLineEdit("20", path), QLineEdit("0", path)
@@ -110,8 +124,10 @@ class AutoDock(QDockWidget):
         self.stop_button.setToolTip("take the car from the driver and brake to a stop")
         self.stop_button.clicked.connect(self.stop_car)
         pf.addRow(self.stop_button)
-        lay.addWidget(path)
+        return path
 
+    def _tools_group(self, body: QWidget) -> QGroupBox:
+        """The trajectory tools: smoothing weights, Smooth, Generate Points, files, plot."""
         self.buttons: dict[str, QPushButton] = {}
         tools = QGroupBox("Trajectory", body)
         tf = QGridLayout(tools)
@@ -132,8 +148,10 @@ class AutoDock(QDockWidget):
             b.clicked.connect(lambda _=False, s=slot: s())
             tf.addWidget(b, 1 + i // 2, i % 2)
             self.buttons[text] = b
-        lay.addWidget(tools)
+        return tools
 
+    def _controllers_group(self, body: QWidget) -> QGroupBox:
+        """The controllers (from the registry) and their gains."""
         ctrl = QGroupBox("Controllers", body)
         cl = QFormLayout(ctrl)
         self.speed_ctrl, self.path_ctrl = QComboBox(ctrl), QComboBox(ctrl)
@@ -147,18 +165,12 @@ class AutoDock(QDockWidget):
         self.apply_button = QPushButton("Apply controllers", ctrl)
         self.apply_button.clicked.connect(self.apply_controllers)
         cl.addRow(self.apply_button)
-        self.show_params(backend.driver_params)
+        self.show_params(self.backend.driver_params)
         self.speed_ctrl.currentTextChanged.connect(
             lambda name: self.speed_gains.set_params(self.backend.driver_params.gains_of(name)))
         self.path_ctrl.currentTextChanged.connect(
             lambda name: self.path_gains.set_params(self.backend.driver_params.gains_of(name)))
-        lay.addWidget(ctrl)
-        lay.addStretch(1)
-        scroll = QScrollArea(self)
-        scroll.setWidget(body)
-        scroll.setWidgetResizable(True)
-        self.setWidget(scroll)
-        bridge.updated.connect(self._on_update)
+        return ctrl
 
     # -- speed ----------------------------------------------------------------------------------------------
 
