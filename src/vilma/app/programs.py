@@ -21,6 +21,11 @@ from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.paced import run_paced
 from vilma.control.driver import Driver
 from vilma.core.messages import DriverOrder
+from vilma.morse import MorseServer
+from vilma.morse.access import parse_networks
+from vilma.morse.components import LASER_RANGE
+from vilma.record.live import FoxgloveLive
+from vilma.record.recorder import BusRecorder, Recorder
 from vilma.scenario.runner import initial_state
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sim import Simulator
@@ -39,8 +44,6 @@ class MorseOptions:
     allow_commands_from: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
-        from vilma.morse.access import parse_networks
-
         for name in ("service_port", "stream_port"):
             if not 0 <= getattr(self, name) <= 65535:
                 raise ValueError(f"MORSE {name.replace('_', ' ')} must be in 0..65535 (0: any free port), "
@@ -101,14 +104,10 @@ def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, repo
     with contextlib.ExitStack() as stack:
         tick = None
         if record is not None:
-            from vilma.record.recorder import BusRecorder, Recorder
-
             recorder = stack.enter_context(Recorder(record, source=source, world_sensors=scenario.sim.world_sensors))
             recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
             tick = stack.enter_context(BusRecorder(bus, recorder, world_topics=world_topics)).recorder.tick
         if foxglove is not None:
-            from vilma.record.live import FoxgloveLive
-
             live = stack.enter_context(FoxgloveLive(bus, port=foxglove, world_topics=world_topics))
             report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
         yield tick
@@ -152,9 +151,6 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     """``vilma sim``: the simulator serving ``bus`` and the MORSE interface (unless ``morse`` is None), paced,
     until ``duration`` [s], a signal or MORSE's ``simulation quit``. With ``record``, every topic of the car
     on ``bus`` is recorded to that MCAP file; with ``foxglove`` (a port), served live to Foxglove."""
-    from vilma.morse import MorseServer
-    from vilma.morse.components import LASER_RANGE
-
     world = scenario.sim.world_topics
     with contextlib.ExitStack() as stack:  # everything is closed however the run ends (Ctrl-C, an error)
         sim = stack.enter_context(Simulator(scenario.sim))

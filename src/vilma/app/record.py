@@ -3,16 +3,28 @@
 from __future__ import annotations
 
 import argparse
+import sys
+import threading
 from pathlib import Path
 
+from vilma.app import programs
+from vilma.app.options import scenario_or_default, zenoh_bus
+from vilma.app.programs import stop_on_signals
+from vilma.bus.local import LocalBus
+from vilma.bus.nodes import publish_readings
+from vilma.bus.topics import SENSOR_TOPICS, topic
+from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 from vilma.core.closing import Closeable
+from vilma.record.live import FoxgloveLive
+from vilma.record.reader import read_recording
+from vilma.record.replay import Replayer
+from vilma.record.report import report, world_counts
+from vilma.record.ros1 import Ros1Bridge, init_node, rospy_or_reason, shutdown_node
+from vilma.record.rosbag import export_rosbag2
 
 
 def report_command(args: argparse.Namespace) -> int:
     """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone."""
-    from vilma.record.reader import read_recording
-    from vilma.record.report import report, world_counts
-
     rec = read_recording(Path(args.recording))
     result = report(rec, Path(args.out) if args.out else None)
     for k, v in result.metrics.items():
@@ -34,8 +46,6 @@ def report_command(args: argparse.Namespace) -> int:
 
 def export_command(args: argparse.Namespace) -> int:
     """``vilma export rosbag2 RUN.mcap OUTDIR``."""
-    from vilma.record.rosbag import export_rosbag2
-
     counts = export_rosbag2(Path(args.recording), Path(args.out))
     print(f"vilma export: rosbag2 (MCAP storage) in {args.out}: "
           + ", ".join(f"{t} {n}" for t, n in counts.items()))
@@ -45,13 +55,6 @@ def export_command(args: argparse.Namespace) -> int:
 def replay_command(args: argparse.Namespace) -> int:
     """``vilma replay RUN.mcap``: play onto Zenoh; stdin lines ``p`` (pause/resume), ``s T`` (seek to T s),
     ``x K`` (speed K), ``q`` (quit)."""
-    import sys
-    import threading
-
-    from vilma.app.options import zenoh_bus
-    from vilma.app.programs import stop_on_signals
-    from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
-    from vilma.record.replay import Replayer
 
     bus, cfg = zenoh_bus(args, (DEFAULT_ENDPOINT,), ())
     with bus:
@@ -92,8 +95,6 @@ def replay_command(args: argparse.Namespace) -> int:
 def ros1_bridge_command(args: argparse.Namespace) -> int:
     """``vilma ros1-bridge [SCENARIO]``: the simulator (in-process, paced) on a ROS 1 master; with ``--connect``,
     the bus of a ``vilma sim`` elsewhere instead."""
-    from vilma.record.ros1 import init_node, rospy_or_reason, shutdown_node
-
     rospy, why = rospy_or_reason()
     if rospy is None:
         raise ValueError(why)
@@ -106,11 +107,6 @@ def ros1_bridge_command(args: argparse.Namespace) -> int:
 
 def _ros1_bridge(args: argparse.Namespace) -> int:
     """The bridge, once the ROS node runs."""
-    from vilma.app import programs
-    from vilma.app.options import scenario_or_default, zenoh_bus
-    from vilma.bus.local import LocalBus
-    from vilma.record.ros1 import Ros1Bridge
-
     if args.connect or args.zenoh_config:
         bus, cfg = zenoh_bus(args, (), ())
         with bus, Ros1Bridge(bus, cmd_topic=args.cmd_topic), programs.stop_on_signals() as stop:
@@ -131,17 +127,11 @@ class _LiveRun(Closeable):
     """Readings of a paced run, put on a local bus that a Foxglove server serves."""
 
     def __init__(self, port: int) -> None:
-        from vilma.bus.local import LocalBus
-        from vilma.bus.topics import SENSOR_TOPICS, topic
-        from vilma.record.live import FoxgloveLive
-
         self.bus = LocalBus()
         self.server = FoxgloveLive(self.bus, port=port)
         self._keys = {name: topic(name) for name in SENSOR_TOPICS}
 
     def observe(self, readings) -> None:
-        from vilma.bus.nodes import publish_readings
-
         publish_readings(self.bus, self._keys, readings)
 
     def close(self) -> None:
