@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import stat
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree.ElementTree import ParseError
 
@@ -74,7 +74,8 @@ class EgoTask:
     """The ego car's task from a planning problem: where it starts, the path to drive, the goal to reach."""
 
     file: Path
-    """The CommonRoad file."""
+    """The CommonRoad file, resolved (with the id and the scenario's speed cap it determines the rest, which
+    equality therefore skips)."""
     planning_problem_id: int
     x: float
     """Initial position [m]."""
@@ -83,12 +84,12 @@ class EgoTask:
     """Initial orientation [rad], counter-clockwise from +x."""
     speed: float
     """Initial speed [m/s]."""
-    path: np.ndarray
+    path: np.ndarray = field(compare=False)
     """The route planner's reference path from the initial position to the route's end, (n, 2) [m]."""
-    path_speed: np.ndarray
+    path_speed: np.ndarray = field(compare=False)
     """The speed to drive at each path point [m/s], (n,): the lanelet's limit (the initial speed where it has
     none), capped by the task's speed."""
-    goal: GoalRegion
+    goal: GoalRegion = field(compare=False)
     """The planning problem's goal region (position, orientation, velocity, time intervals)."""
     time_step: int
     """The initial state's time step."""
@@ -155,7 +156,7 @@ class RoadScenario:
         if not (v > 0).all():
             raise CommonRoadError(f"{where}: the car starts at rest on a lanelet without a speed limit; give the "
                                   "task a speed (task: {route: true, speed: 10})")
-        return EgoTask(file=self.file, planning_problem_id=pp.planning_problem_id, x=float(s0.position[0]),
+        return EgoTask(file=self.file.resolve(), planning_problem_id=pp.planning_problem_id, x=float(s0.position[0]),
                        y=float(s0.position[1]), yaw=float(s0.orientation), speed=v0, path=xy, path_speed=v,
                        goal=pp.goal, time_step=int(s0.time_step), dt=float(self.scenario.dt))
 
