@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import importlib
 
-EXTRAS = {"gui": ("PySide6", "pyqtgraph"), "3d": ("mujoco",), "foxglove": ("foxglove",)}
+EXTRAS = {"gui": ("PySide6", "pyqtgraph"), "3d": ("mujoco",), "foxglove": ("foxglove",),
+          "roads": ("commonroad", "commonroad_route_planner")}
 """The extras of ``pyproject.toml`` and the modules each brings; ``vilma[all]`` has them all."""
 
 

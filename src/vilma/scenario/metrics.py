@@ -9,7 +9,11 @@ a ``speed`` task, a constant target from rest, as the paper's Figure 11.
 ``completed`` says the task was done, judged on the track alone (:func:`completion`):
 a speed task when the run lasted without breaking down; a go-to when the car came
 to rest within ``MetricsSpec.end_tolerance`` of the target; a path when, besides,
-it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`).
+it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`); a CommonRoad route
+when, besides, the car was in the planning problem's goal region (``goal_reached``, by the goal's own
+check, :meth:`~vilma.world.commonroad.EgoTask.goal_time`; ``time_to_goal_s`` from the initial state).
+Traffic is not simulated yet: a route's scorecard says ``traffic: not simulated`` and
+``collisions_checked: false``.
 ``incomplete_reason`` says why not, in words.
 
 The timing keys (:data:`~vilma.scenario.scorecard.TIMING_KEYS`) are the caller's
@@ -54,7 +58,12 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
         broke_down = "the recording was cut short"
     xy = np.column_stack([x, y])
     proj = path.project_track(xy) if path is not None else None  # once, for the coverage and the errors
-    out.update(completion(scenario, xy, c("vx"), path, broke_down, None if proj is None else proj[:, 0]))
+    if scenario.road is not None:
+        goal = scenario.road.goal_time(t, x, y, yaw, speed)
+        out.update(goal_reached=goal is not None, time_to_goal_s=goal, traffic="not simulated",
+                   collisions_checked=False)
+    out.update(completion(scenario, xy, c("vx"), path, broke_down, None if proj is None else proj[:, 0],
+                          out["goal_reached"]))
     if proj is not None and counted.any():
         e = np.abs(proj[counted, 1])
         out.update(lateral_error_rms_m=_rms(e), lateral_error_max_m=float(e.max()),
@@ -90,11 +99,12 @@ def timing(sim_time: float, wall: float, loop: float | None, load: float | None)
 
 
 def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Trajectory | None,
-               broke_down: str | None = None, s: np.ndarray | None = None) -> dict:
+               broke_down: str | None = None, s: np.ndarray | None = None, goal_reached: bool | None = None) -> dict:
     """``completed``, ``incomplete_reason``, ``end_error_m``, ``path_progress`` and ``waypoints_skipped`` of a
     drive ``xy`` (n, 2) [m] at longitudinal speed ``vx`` (n,) [m/s] on the task's ``path`` (for a go-to, the
     line to the target); at rest means below the driver's ``rest_speed``, as the driver and the runner judge.
-    ``s`` is the drive's arc length projected on the path, if the caller has it (:func:`coverage`)."""
+    ``s`` is the drive's arc length projected on the path, if the caller has it (:func:`coverage`);
+    ``goal_reached`` False (a route that missed its goal region) makes it incomplete."""
     m, kind = scenario.metrics, scenario.task.kind
     out: dict = {}
     why = [broke_down] if broke_down else []
@@ -115,6 +125,9 @@ def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Traject
             why.append(f"ended {end:.3g} m from the {target} (tolerance {m.end_tolerance:g} m)")
         elif abs(vx[-1]) >= scenario.driver.rest_speed:
             why.append(f"still moving at {abs(vx[-1]):.3g} m/s at the {target} when the run ended")
+    if goal_reached is False:
+        why.append("never in the planning problem's goal region (its position, orientation, speed and time "
+                   "intervals)")
     out.update(completed=not why, incomplete_reason="; ".join(why) or None)
     return out
 

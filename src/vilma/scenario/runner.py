@@ -173,7 +173,7 @@ def start_task(driver: Driver, scenario: Scenario, path: Trajectory | None) -> T
             driver.go_to(*t.go_to, t.speed)
             return driver.task.path
         else:
-            driver.follow(path, t.speed)
+            driver.follow(path, None if t.kind == "route" else t.speed)  # a route's speeds are its lanelets' limits
     except ValueError as e:
         raise SpecError(f"{scenario.file or scenario.name}: task: {e}") from None
     return None

@@ -30,17 +30,21 @@ class SmoothSpec:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class TaskSpec:
-    """What the driver does. With none of ``go_to``, ``follow``, ``course``: hold ``speed`` straight ahead."""
+    """What the driver does. With none of ``go_to``, ``follow``, ``course``, ``route``: hold ``speed`` straight
+    ahead."""
 
     speed: float | None = None
     """Target speed [m/s], at most the car's top speed; with ``follow`` it may be left out to use the file's own
-    speeds."""
+    speeds, with ``route`` it caps the lanelets' speed limits."""
     go_to: tuple[float, float] | None = None
     """Drive to this point [m] and stop on it."""
     follow: str | None = None
     """Follow this trajectory file (original ``x y`` format, CSV or GPX), relative to the scenario file."""
     course: tuple[tuple[float, float], ...] | None = None
     """Follow a smooth spline through these points [m]."""
+    route: bool = False
+    """Drive the CommonRoad planning problem's route (``world.commonroad``; the default task there) to its goal,
+    at the lanelets' speed limits."""
     densify: int = 0
     """Apply Increase Point Count this many times (n -> 2n - 1 each), at most
     :data:`~vilma.trajectory.densify.MAX_DENSIFY`."""
@@ -50,10 +54,10 @@ class TaskSpec:
     """Resample the path at this spacing [m] (after densify and smooth)."""
 
     def __post_init__(self) -> None:
-        given = [k for k in ("go_to", "follow", "course") if getattr(self, k) is not None]
+        given = [k for k in ("go_to", "follow", "course", "route") if getattr(self, k) not in (None, False)]
         if len(given) > 1:
             raise ValueError(f"give one of go_to, follow, course, not {' and '.join(given)}")
-        if self.speed is None and not self.follow:
+        if self.speed is None and not (self.follow or self.route):
             raise ValueError("speed is missing: give the target speed in m/s")
         if self.speed is not None and not self.speed > 0:
             raise ValueError(f"speed must be > 0 m/s, got {self.speed}")
@@ -67,7 +71,9 @@ class TaskSpec:
 
     @property
     def kind(self) -> str:
-        """``speed``, ``go_to``, ``follow`` or ``course``."""
+        """``speed``, ``go_to``, ``follow``, ``course`` or ``route``."""
+        if self.route:
+            return "route"
         return next((k for k in ("go_to", "follow", "course") if getattr(self, k) is not None), "speed")
 
 

@@ -1,0 +1,217 @@
+"""CommonRoad scenarios (https://commonroad.in.tum.de): the road network and the ego's task, read with the field's
+own packages: ``commonroad-io`` (reader, traffic signs, goal check) and ``commonroad-route-planner`` (route and
+reference path over the lanelets). Needs the ``roads`` extra.
+
+Positions are the file's, in its local frame (x east, y north, m), which is vilma's world frame; orientations
+are counter-clockwise from +x, as vilma's yaw. The planning problem's position is taken as the car's centre of
+mass (CommonRoad's reference point is the centre of the car's box).
+"""
+
+from __future__ import annotations
+
+import stat
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from xml.etree.ElementTree import ParseError
+
+import numpy as np
+
+with warnings.catch_warnings():  # commonroad-io's generated protobuf modules use descriptors protobuf deprecates
+    warnings.simplefilter("ignore", DeprecationWarning)
+    from commonroad.common.file_reader import CommonRoadFileReader
+    from commonroad.planning.goal import GoalRegion
+    from commonroad.planning.planning_problem import PlanningProblem
+    from commonroad.scenario.lanelet import LaneletNetwork
+    from commonroad.scenario.scenario import Scenario
+    from commonroad.scenario.state import CustomState
+    from commonroad.scenario.traffic_sign import SupportedTrafficSignCountry
+    from commonroad.scenario.traffic_sign_interpreter import TrafficSignInterpreter
+    from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
+    from commonroad_route_planner.route_planner import RoutePlanner
+    from shapely import Point, unary_union
+
+MAX_FILE_BYTES = 64 << 20
+"""The largest scenario file read [bytes] (the benchmark's largest are a few MB)."""
+
+
+class CommonRoadError(ValueError):
+    """A CommonRoad file that cannot be used: one line naming the file, the element and how to fix it."""
+
+
+class RoadNetwork:
+    """The lanelets of a scenario (commonroad-io's :class:`LaneletNetwork`: left and right boundaries, centre
+    lines, traffic signs) and the queries a driver needs."""
+
+    def __init__(self, lanelets: LaneletNetwork, country: str) -> None:
+        self.lanelets = lanelets
+        try:
+            signs = SupportedTrafficSignCountry(country)
+        except ValueError:  # a country without a sign catalogue: the generic one
+            signs = SupportedTrafficSignCountry.ZAMUNDA
+        self._signs = TrafficSignInterpreter(signs, lanelets)
+        self._road = unary_union([lanelet.polygon.shapely_object for lanelet in lanelets.lanelets])
+
+    def lanelet_at(self, x: float, y: float) -> int | None:
+        """The id of a lanelet holding the point ``(x, y)`` [m] (the lowest where lanelets overlap), or None."""
+        ids = self.lanelets.find_lanelet_by_position([np.array([x, y])])[0]
+        return min(ids) if ids else None
+
+    def edge_distance(self, x: float, y: float) -> float:
+        """Distance [m] from ``(x, y)`` to the road's edge (the outline of all lanelets): positive on the road,
+        negative off it, 0 on the edge."""
+        p = Point(x, y)
+        d = self._road.boundary.distance(p)
+        return d if self._road.covers(p) else -d
+
+    def speed_limit(self, lanelet_id: int) -> float | None:
+        """The lanelet's speed limit [m/s] from its traffic signs, or None if it has none."""
+        return self._signs.speed_limit(frozenset([lanelet_id]))
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class EgoTask:
+    """The ego car's task from a planning problem: where it starts, the path to drive, the goal to reach."""
+
+    file: Path
+    """The CommonRoad file, resolved (with the id and the scenario's speed cap it determines the rest, which
+    equality therefore skips)."""
+    planning_problem_id: int
+    x: float
+    """Initial position [m]."""
+    y: float
+    yaw: float
+    """Initial orientation [rad], counter-clockwise from +x."""
+    speed: float
+    """Initial speed [m/s]."""
+    path: np.ndarray = field(compare=False)
+    """The route planner's reference path from the initial position to the route's end, (n, 2) [m]."""
+    path_speed: np.ndarray = field(compare=False)
+    """The speed to drive at each path point [m/s], (n,): the lanelet's limit (the initial speed where it has
+    none), capped by the task's speed."""
+    goal: GoalRegion = field(compare=False)
+    """The planning problem's goal region (position, orientation, velocity, time intervals)."""
+    time_step: int
+    """The initial state's time step."""
+    dt: float
+    """The scenario's time step [s]."""
+
+    def goal_time(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray, v: np.ndarray) -> float | None:
+        """The first sim time [s] a drive (samples at times ``t`` [s] from the initial state, position [m], yaw
+        [rad], speed [m/s]) is in the goal region, by the goal's own check (``GoalRegion.is_reached``) on the
+        samples at the scenario's time steps; None if never."""
+        if not len(t):
+            return None
+        steps = np.arange(int(t[-1] / self.dt + 1e-9) + 1)
+        rows = np.minimum(np.searchsorted(t, steps * self.dt - 1e-9), len(t) - 1)
+        for k, i in zip(steps, rows, strict=True):
+            state = CustomState(time_step=self.time_step + int(k), position=np.array([x[i], y[i]]),
+                                orientation=float(yaw[i]), velocity=float(v[i]))
+            if self.goal.is_reached(state):
+                return float(k * self.dt)
+        return None
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class RoadScenario:
+    """A CommonRoad file read: its road network, its obstacles and its planning problems."""
+
+    file: Path
+    scenario: Scenario
+    network: RoadNetwork
+    planning_problems: dict[int, PlanningProblem]
+
+    @property
+    def obstacles(self) -> int:
+        """How many obstacles (static and dynamic) the file holds."""
+        return len(self.scenario.obstacles)
+
+    def task(self, planning_problem: int | None = None, speed: float | None = None) -> EgoTask:
+        """The ego's task from the planning problem of that id (None: the file's only one), driving at the
+        lanelets' speed limits capped by ``speed`` [m/s].
+
+        Raises:
+            CommonRoadError: no such planning problem, or no route from the initial state to the goal.
+        """
+        pp = self._planning_problem(planning_problem)
+        where = f"{self.file}: planningProblem {pp.planning_problem_id}"
+        s0 = pp.initial_state
+        with warnings.catch_warnings():  # the route planner warns through logging and warnings alike
+            warnings.simplefilter("ignore")
+            routes = RoutePlanner(self.network.lanelets, pp).plan_routes()
+            if not routes:
+                raise CommonRoadError(f"{where}: no route on the lanelets from the initial state to the goal; "
+                                      "check the goal's lanelets or position")
+            ref = ReferencePathPlanner(self.network.lanelets, pp, routes).plan_shortest_reference_path()
+        xy = np.asarray(ref.reference_path, float)
+        start = int(np.argmin(np.hypot(*(xy - s0.position).T)))  # the path starts where the car does
+        xy = xy[start:]
+        if len(xy) < 2:
+            raise CommonRoadError(f"{where}: the route ends at the initial position; check the goal")
+        limits = {i: self.network.speed_limit(i) for i in ref.lanelet_ids}
+        v0 = float(s0.velocity)
+        v = np.array([_limit(limits, self.network.lanelets.find_lanelet_by_position([p])[0], v0) for p in xy])
+        if speed is not None:
+            v = np.minimum(v, speed)
+        if not (v > 0).all():
+            raise CommonRoadError(f"{where}: the car starts at rest on a lanelet without a speed limit; give the "
+                                  "task a speed (task: {route: true, speed: 10})")
+        return EgoTask(file=self.file.resolve(), planning_problem_id=pp.planning_problem_id, x=float(s0.position[0]),
+                       y=float(s0.position[1]), yaw=float(s0.orientation), speed=v0, path=xy, path_speed=v,
+                       goal=pp.goal, time_step=int(s0.time_step), dt=float(self.scenario.dt))
+
+    def _planning_problem(self, pid: int | None) -> PlanningProblem:
+        ids = ", ".join(map(str, self.planning_problems)) or "none"
+        if pid is None and len(self.planning_problems) == 1:
+            return next(iter(self.planning_problems.values()))
+        if pid is None:
+            what = "no planningProblem" if not self.planning_problems else "several planning problems"
+            raise CommonRoadError(f"{self.file}: {what} (ids: {ids}); name one (world: {{planning_problem: ID}}) "
+                                  "or give the scenario a task of its own")
+        if pid not in self.planning_problems:
+            raise CommonRoadError(f"{self.file}: no planningProblem {pid} (ids: {ids}); name one of them")
+        return self.planning_problems[pid]
+
+
+def _limit(limits: dict[int, float | None], ids: list[int], default: float) -> float:
+    """The speed limit [m/s] at a point on the lanelets ``ids``: the lowest of those on the route that have one."""
+    known = [limits[i] for i in ids if limits.get(i) is not None]
+    return min(known) if known else default
+
+
+def load(path: str | Path) -> RoadScenario:
+    """Read the CommonRoad file ``path`` (format 2018b or 2020a, as commonroad-io reads).
+
+    Raises:
+        CommonRoadError: a missing, unreadable, too large or malformed file, or one commonroad-io refuses.
+    """
+    path = Path(path)
+    _check_file(path)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            scenario, problems = CommonRoadFileReader(path).open()
+    except ParseError as e:
+        raise CommonRoadError(f"{path}:{e.position[0]}: malformed XML ({e}); fix or re-export the file") from None
+    except AssertionError as e:  # commonroad-io asserts the header: a format version it does not know
+        raise CommonRoadError(f"{path}: commonRoad: {str(e).split(': ', 1)[-1]}") from None
+    except Exception as e:  # the reader fails on a wrong element with whatever it meets there
+        raise CommonRoadError(f"{path}: not a CommonRoad scenario commonroad-io can read ({type(e).__name__}: "
+                              f"{' '.join(str(e).split())[:200]}); check the file against the format") from None
+    network = RoadNetwork(scenario.lanelet_network, scenario.scenario_id.country_id)
+    return RoadScenario(file=path, scenario=scenario, network=network,
+                        planning_problems=dict(problems.planning_problem_dict))
+
+
+def _check_file(path: Path) -> None:
+    """A regular file of at most :data:`MAX_FILE_BYTES`, checked without opening it (a pipe could block)."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        raise CommonRoadError(f"{path}: no such file; check the path") from None
+    except OSError as e:
+        raise CommonRoadError(f"{path}: cannot read it ({e.strerror}); check permissions") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise CommonRoadError(f"{path}: not a regular file; give a CommonRoad .xml file")
+    if st.st_size > MAX_FILE_BYTES:
+        raise CommonRoadError(f"{path}: {st.st_size} bytes, over the {MAX_FILE_BYTES >> 20} MiB a scenario may hold")
