@@ -78,3 +78,26 @@ def test_plot_run_writes_the_four_pngs(result, tmp_path):
     plot_run(result, tmp_path)
     for name in ("path.png", "speed.png", "cross_track.png", "effort.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_road_run_draws_the_lanelets_goal_and_traffic_beneath_the_car():
+    from tests.world.test_commonroad import TUTORIAL, _lanelets
+
+    sc = load_scenario(find_scenario("commonroad_tutorial"))
+    path = sc.reference_path()
+    rows = np.zeros((2, len(COLUMNS)))
+    rows[:, COLUMNS.index("t")] = (0.0, 2.0)
+    rows[:, COLUMNS.index("x")], rows[:, COLUMNS.index("y")] = path.xy[[0, -1]].T
+    log = DriveLog()
+    log.extend(rows)
+    ax = figures(RunResult(sc, {"time_to_goal_s": None}, [], log, path, 0.0))["path.png"].axes[0]
+    drawn = [line.get_xydata() for line in ax.get_lines() if line.get_linestyle() == "-" and line.get_zorder() < 1]
+    for left, right in _lanelets(TUTORIAL).values():
+        assert any(np.array_equal(d, left) for d in drawn) and any(np.array_equal(d, right) for d in drawn)
+    car = next(line for line in ax.get_lines() if line.get_label() == "car position")
+    road = [p for p in ax.patches if p.get_label() == "road" or p.get_zorder() == 0]
+    assert len(road) == len(_lanelets(TUTORIAL)) and all(p.get_zorder() < car.get_zorder() for p in road)
+    # the tutorial's one car, 23 m/s from (2.25, 3.5) heading east, is drawn where it is at the run's end (2 s)
+    traffic = next(p for p in ax.patches if str(p.get_label()).startswith("traffic at"))
+    assert traffic.get_label() == "traffic at 2.0 s"
+    assert traffic.get_xy()[:4].mean(axis=0)[0] == pytest.approx(2.25 + 23.0 * 2.0, abs=1.0)

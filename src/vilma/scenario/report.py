@@ -20,6 +20,7 @@ from vilma.plant3d.world import World
 
 if TYPE_CHECKING:
     from vilma.scenario.result import RunResult
+    from vilma.world.road_view import RoadView
 
 MAX_POINTS = 20_000
 """Points drawn per line at most (every k-th sample of longer runs: a PNG cannot show more)."""
@@ -59,6 +60,11 @@ def figures(result: RunResult, speed_log: tuple[np.ndarray, np.ndarray] | None =
                 solid_capstyle="round", label="reference path")
     ax.plot(x, y, "-", color="tab:blue", lw=1.2, zorder=3, label="car position")
     draw_world(ax, result.scenario.sim.world)
+    if result.scenario.road is not None:
+        from vilma.world.road_view import road_view  # the roads extra, which a road run has
+
+        goal_t = result.metrics.get("time_to_goal_s")
+        draw_road(ax, road_view(result.scenario.road), goal_t if goal_t is not None else float(log.column("t")[-1]))
     ax.set_aspect("equal", adjustable="datalim")  # fills the axes: no blank band between title and plot
     ax.set(xlabel="x [m] (east)", ylabel="y [m] (north)")
     fig.suptitle(f"{name}: path")
@@ -129,6 +135,28 @@ def draw_world(ax: Axes, world: World) -> None:
         xy = np.array([c.pos for c in world.cones])
         ax.plot(xy[:, 0], xy[:, 1], "^", color=world.cones[0].rgba, mec="k", mew=0.5, ms=7, ls="none", zorder=4,
                 label="cones")
+
+
+def draw_road(ax: Axes, view: RoadView, t: float) -> None:
+    """On ``ax`` (x, y [m]) beneath the car's line: ``view``'s lanelets (surface lightly filled, boundaries as
+    lines, dashed where the markings are), its goal region, the obstacles' trajectories (faint) and their
+    footprints at sim time ``t`` [s] (the static ones always)."""
+    for i, la in enumerate(view.lanelets):
+        ax.add_patch(Polygon(la.surface, closed=True, facecolor="0.88", edgecolor="none", zorder=0,
+                             label=None if i else "road"))
+        for line, dashed in ((la.left, la.left_dashed), (la.right, la.right_dashed)):
+            ax.plot(line[:, 0], line[:, 1], "--" if dashed else "-", color="0.45", lw=0.7, zorder=0.5)
+    for i, outline in enumerate(view.goal):
+        ax.add_patch(Polygon(outline, closed=True, facecolor=(0.1, 0.7, 0.2, 0.25), edgecolor="tab:green", lw=1,
+                             zorder=1, label=None if i else "goal region"))
+    moving = [b for b in view.bodies if not b.static]
+    for i, b in enumerate(moving):
+        ax.plot(b.pose[:, 0], b.pose[:, 1], "-", color="tab:orange", lw=0.8, alpha=0.4, zorder=1,
+                label=None if i else "traffic paths")
+    shown = view.footprints_at(t)
+    for i, (b, f) in enumerate(shown):
+        ax.add_patch(Polygon(f, closed=True, facecolor="tab:gray" if b.static else "tab:orange", edgecolor="k",
+                             lw=0.6, alpha=0.8, zorder=2, label=None if i else f"traffic at {t:.1f} s"))
 
 
 def footprint(centre, yaw: float, half_along: float, half_across: float) -> np.ndarray:
