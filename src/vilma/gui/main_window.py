@@ -38,6 +38,15 @@ TEXT_INPUTS = (QLineEdit, QAbstractSpinBox, QTextEdit, QPlainTextEdit)
 """Widgets that keep the keys typed into them (no keyboard driving there)."""
 
 
+def _road_view(scenario: Scenario | None):
+    """The road of ``scenario`` to draw on the map (:class:`~vilma.world.road_view.RoadView`), or None."""
+    if scenario is None or scenario.road is None:
+        return None
+    from vilma.world.road_view import road_view  # the roads extra, which a road scenario has
+
+    return road_view(scenario.road)
+
+
 class MainWindow(QMainWindow):
     """The control and monitoring window.
 
@@ -68,7 +77,7 @@ class MainWindow(QMainWindow):
         self.camera_dock = CameraDock(self.bridge, world, parent=self)
         self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.camera_dock)
         self.camera_dock.setVisible(bool(self.camera_dock.topics))
-        self.plots = PlotWindow(self.bridge, self.table.model, plot_ms)
+        self.plots = PlotWindow(self.bridge, self.table.model, plot_ms, road=_road_view(backend.scenario))
         self.last_message = ""
         self.link = QLabel(self)
         self.statusBar().addPermanentWidget(self.link)

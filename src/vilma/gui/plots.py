@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pyqtgraph as pg
@@ -23,7 +24,11 @@ from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import QFileDialog, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from vilma.gui.bridge import HISTORY_COLUMNS, BusBridge
+from vilma.gui.road_layer import RoadLayer
 from vilma.gui.waypoints import WaypointModel
+
+if TYPE_CHECKING:
+    from vilma.world.road_view import RoadView
 
 PATH_POINTS = 6_000
 """Most points of the car's path drawn at once (a stride above that)."""
@@ -71,12 +76,14 @@ class PlotWindow(QWidget):
         bridge: the history to draw.
         waypoints: the table whose points are the trajectory (red).
         interval_ms: refresh period while shown and not paused [ms].
+        road: a CommonRoad scenario's road, goal and traffic, drawn beneath the path (the traffic moving with
+            the car's sim time).
     """
 
     message = Signal(str)
 
     def __init__(self, bridge: BusBridge, waypoints: WaypointModel | None = None, interval_ms: int = 200,
-                 parent=None) -> None:
+                 parent=None, road: RoadView | None = None) -> None:
         super().__init__(parent)
         self.setWindowTitle("Vilma Plots")
         self.bridge, self.waypoints = bridge, waypoints
@@ -113,6 +120,7 @@ class PlotWindow(QWidget):
         self.car_curve = self.path_plot.plot(pen=pg.mkPen((0, 0, 230), width=1.5), name="car",
                                              skipFiniteCheck=True)
         self.car_curve.setZValue(self.trajectory_curve.zValue() + 1)
+        self.road = RoadLayer(self.path_plot, road) if road is not None else None
         self.speed_plot = g.addPlot(row=0, col=1, title=legend_title(
             "Speed", ((0, 0, 230), "─", "speed"), ((220, 0, 0), "╌", "target")))
         self.speed_plot.setLabel("left", "speed", units="m/s")
@@ -220,6 +228,8 @@ class PlotWindow(QWidget):
         path = h["path"].view()
         x, y, connect = self._path_points(path)
         self.car_curve.setData(x, y, connect=connect)
+        if self.road is not None and len(path):
+            self.road.show_at(float(path[-1, 0]))
         t0, t1, buckets = self._time_span()
         sp, dr, ac = h["speed"].view(), h["driver"].view(), h["actuators"].view()
         for curve, data, col in ((self.speed_curve, sp, 1), (self.target_curve, dr, 1), (self.cross_curve, dr, 3),
