@@ -26,6 +26,7 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.closing import Closeable
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
+from vilma.record.road_scene import SCENE_SCHEMA, SCENE_TOPICS, SCENE_UPDATE
 from vilma.record.schemas import DRIVE_LOG, channels, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_cdr import SCHEMAS, WorldChannels, WorldSensorParams, sensor_topics, world_channels
 from vilma.record.world_schemas import (
@@ -109,6 +110,8 @@ class Recorder(Closeable):
             elif name in self._world_types:
                 kind = self._world_types[name]
                 cid = f.add_channel(key, kind, SCHEMAS[kind], encoding="cdr")
+            elif name in SCENE_TOPICS:
+                cid = f.add_channel(key, SCENE_UPDATE, SCENE_SCHEMA)
             else:
                 cid = f.add_channel(key, f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name]))
             self._channels[name] = cid
@@ -171,6 +174,14 @@ class Recorder(Closeable):
         def put(f: McapFile) -> None:
             for k, ((c, _), data) in enumerate(zip(lay.topics, payloads, strict=True), 1):  # in one chunk
                 f.write(self._channel(f, c), msg.stamp_ns, data, close_chunk=k == len(payloads))
+        self._guard(put)
+
+    def add_scenes(self, name: str, updates: list[tuple[int, bytes]]) -> None:
+        """Scene updates (stamp [ns], JSON :mod:`vilma.record.road_scene`) of the topic ``name`` (``road``,
+        ``traffic``)."""
+        def put(f: McapFile) -> None:
+            for k, (stamp, data) in enumerate(updates, 1):
+                f.write(self._channel(f, name), stamp, data, close_chunk=k == len(updates))
         self._guard(put)
 
     def tick(self) -> None:

@@ -25,6 +25,7 @@ import numpy as np
 from vilma.core.messages import Message
 from vilma.record.process import Joined, RecorderProcess
 from vilma.record.recorder import Recorder
+from vilma.record.road_scene import ROAD, TRAFFIC, road_scene, traffic_frames
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.folder import RECORDING, RunFolder, write_metrics
 from vilma.scenario.result import RunObserver, RunResult
@@ -74,6 +75,12 @@ class RunRecorder(RunObserver):
         self.recorder = RecorderProcess(self.path, source="vilma run", world_sensors=s.sim.world_sensors)
         self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(s).encode())
         self.recorder.call(Recorder.add_metadata, "scenario", {"name": s.name, "description": s.description})
+        self._road, self._traffic_t = None, 0.0  # the road scenario drawn, and its traffic written up to [s]
+        if s.road is not None:
+            from vilma.world.road_view import road_view  # the roads extra, which a road scenario has
+
+            self._road = road_view(s.road)
+            self.recorder.call(Recorder.add_scenes, ROAD, [(0, road_scene(self._road))])
         self._row_bytes = log.rows.strides[0]
         self._written = self._marked = self._tried = 0  # log rows handed over, added, at the last hand-over
         self._pending: list[tuple[dict[str, Readings], int, int]] = []  # readings, log rows up to, bytes
@@ -85,6 +92,8 @@ class RunRecorder(RunObserver):
         size = (self._marked - marked) * self._row_bytes + sum(r.stamp_ns.nbytes + r.values.nbytes
                                                                for r in readings.values())
         self._pending.append((readings, self._marked, size))
+        if len(self.log):
+            self._traffic_until(float(self.log.rows[-1, 0]))
         if self._marked - self._tried >= self.BLOCK or time.monotonic() - self._tried_at >= self.HAND_OVER_S:
             self._hand_over(wait=False)
 
@@ -93,6 +102,14 @@ class RunRecorder(RunObserver):
         laser scans by topic name."""
         for name, msg in captures:
             self.recorder.call(Recorder.add_message, name, msg)
+
+    def _traffic_until(self, t: float) -> None:
+        """Write the road scenario's traffic frames from the last written up to sim time ``t`` [s] (excluded)."""
+        if self._road is not None and t > self._traffic_t:
+            frames = traffic_frames(self._road, self._traffic_t, t, self.scenario.road.dt)
+            if frames:
+                self.recorder.call(Recorder.add_scenes, TRAFFIC, frames)
+            self._traffic_t = t
 
     def _hand_over(self, wait: bool = True) -> None:
         """The readings (joined a sensor each, in the ring) and log rows pending, to the recorder's
@@ -123,6 +140,8 @@ class RunRecorder(RunObserver):
         """Hand over what is left, the run's facts, the path and the scorecard, and have the file finished
         (:meth:`close` waits for it)."""
         self._hand_over()
+        if len(self.log):
+            self._traffic_until(float(self.log.rows[-1, 0]) + 1e-6)  # the last row's time too
         call = self.recorder.call
         call(Recorder.add_metadata, "run", {"t_start": result.t_start, "completed": result.metrics.get("completed"),
                                             "wall_time_s": result.metrics.get("wall_time_s"),

@@ -1,0 +1,81 @@
+"""A road run's recording holds the road and the traffic as Foxglove scene primitives, where the file has them."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+
+from tests.world.test_commonroad import TUTORIAL, _lanelets
+from tests.world.test_road_view import _obstacle
+from vilma.app.batch import find_scenario
+from vilma.record.reader import read_recording
+from vilma.record.run import record_run
+from vilma.scenario.spec import load_scenario
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """The tutorial run for 2 s of sim time, recorded: its scenario and the scene messages by topic."""
+    sc = dataclasses.replace(load_scenario(find_scenario("commonroad_tutorial")), duration=2.0)
+    out = tmp_path_factory.mktemp("run")
+    record_run(sc, out)
+    scenes: dict[str, list] = {}
+    with (out / "run.mcap").open("rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            if schema.name == "foxglove.SceneUpdate":
+                scenes.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
+    assert read_recording(out / "run.mcap").complete  # the reader takes the scene channels in its stride
+    return sc, scenes
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """z of the cross products of the rows of ``a`` and ``b`` (n, 2)."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _xy(points: list[dict]) -> np.ndarray:
+    return np.array([(p["x"], p["y"]) for p in points])
+
+
+def test_the_road_is_recorded_once_with_the_files_lanelet_vertices(recorded):
+    _, scenes = recorded
+    ((stamp, road),) = scenes["vilma/vilma/road"]
+    assert stamp == 0
+    lanes = _lanelets(TUTORIAL)
+    entities = {e["id"]: e for e in road["entities"]}
+    assert set(entities) == {f"lanelet/{i}" for i in lanes} | {"goal"}
+    for i, (left, right) in lanes.items():
+        e = entities[f"lanelet/{i}"]
+        assert e["frame_id"] == "map"
+        (lt, rt) = e["lines"]
+        np.testing.assert_array_equal(_xy(lt["points"]), left)
+        np.testing.assert_array_equal(_xy(rt["points"]), right)
+        (surface,) = e["triangles"]
+        idx = np.array(surface["indices"]).reshape(-1, 3)
+        assert len(idx) == 2 * (len(left) - 1)  # two triangles between each pair of boundary points
+        pts = _xy(surface["points"])[idx]
+        area = 0.5 * np.abs(_cross(pts[:, 1] - pts[:, 0], pts[:, 2] - pts[:, 0])).sum()
+        outline = np.vstack([left, right[::-1]])  # the shoelace area of the lanelet's outline
+        assert area == pytest.approx(0.5 * abs(_cross(outline, np.roll(outline, -1, axis=0)).sum()), rel=1e-9)
+
+
+def test_the_traffic_is_recorded_a_file_step_as_boxes_where_the_file_has_them(recorded):
+    sc, scenes = recorded
+    frames = scenes["vilma/vilma/traffic"]
+    dt, k0 = sc.road.dt, sc.road.time_step
+    assert [s for s, _ in frames] == [round(k * dt * 1e9) for k in range(len(frames))]
+    assert (len(frames) - 1) * dt == pytest.approx(sc.duration, abs=dt)
+    length, width, states = _obstacle(TUTORIAL, "dynamicObstacle")
+    for (stamp, update), (k, x, y, yaw) in zip(frames, [s for s in states if s[0] >= k0], strict=False):
+        assert stamp == round((k - k0) * dt * 1e9)
+        assert update["deletions"][0]["type"] == 1  # the previous frame's boxes go
+        ((cube,),) = [e["cubes"] for e in update["entities"] if e["id"] == "obstacle/42"]
+        p, q = cube["pose"]["position"], cube["pose"]["orientation"]
+        assert (p["x"], p["y"]) == pytest.approx((x, y), abs=1e-9)
+        assert 2 * math.atan2(q["z"], q["w"]) == pytest.approx(yaw, abs=1e-9)
+        assert (cube["size"]["x"], cube["size"]["y"]) == pytest.approx((length, width))
