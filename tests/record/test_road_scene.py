@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import struct
 
 import numpy as np
 import pytest
@@ -79,3 +80,56 @@ def test_the_traffic_is_recorded_a_file_step_as_boxes_where_the_file_has_them(re
         assert (p["x"], p["y"]) == pytest.approx((x, y), abs=1e-9)
         assert 2 * math.atan2(q["z"], q["w"]) == pytest.approx(yaw, abs=1e-9)
         assert (cube["size"]["x"], cube["size"]["y"]) == pytest.approx((length, width))
+
+
+def test_a_foxglove_client_gets_the_road_and_the_moving_traffic():
+    from websockets.sync.client import connect
+
+    from tests.record.test_live import _free_port, _json_until
+    from vilma.bus.local import LocalBus
+    from vilma.bus.topics import topic
+    from vilma.core.messages import SimStatus
+    from vilma.record.live import FoxgloveLive
+    from vilma.world.road_view import road_view
+
+    task = load_scenario(find_scenario("commonroad_tutorial")).road
+    _, _, states = _obstacle(TUTORIAL, "dynamicObstacle")
+    bus = LocalBus()
+    server = FoxgloveLive(bus, port=_free_port(), road=road_view(task))
+    try:
+        with connect(f"ws://127.0.0.1:{server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
+            channels = {}
+            while not {"vilma/vilma/road", "vilma/vilma/traffic"} <= set(channels):
+                channels.update({c["topic"]: c for c in _json_until(ws, "advertise")["channels"]})
+            assert channels["vilma/vilma/road"]["schemaName"] == "foxglove.SceneUpdate"
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": 1, "channelId": channels["vilma/vilma/road"]["id"]},
+                {"id": 2, "channelId": channels["vilma/vilma/traffic"]["id"]}]}))
+            got: dict[int, list] = {1: [], 2: []}
+            k = 0
+            while len(got[2]) < 3 or not got[1]:  # the subscription takes effect asynchronously
+                assert k < 500, "no scene came"
+                bus.publish(topic("sim/status"), SimStatus(stamp_ns=round(k * task.dt * 1e9)))
+                k += 1
+                try:
+                    while True:
+                        frame = ws.recv(timeout=0.05)
+                        if isinstance(frame, bytes) and frame[0] == 0x01:
+                            sub, log_time = struct.unpack_from("<IQ", frame, 1)
+                            got[sub].append((log_time, json.loads(frame[13:])))
+                except TimeoutError:
+                    pass
+    finally:
+        server.close()
+        bus.close()
+    lanes = _lanelets(TUTORIAL)
+    road = {e["id"]: e for e in got[1][0][1]["entities"]}
+    for i, (left, right) in lanes.items():
+        np.testing.assert_array_equal(_xy(road[f"lanelet/{i}"]["lines"][0]["points"]), left)
+        np.testing.assert_array_equal(_xy(road[f"lanelet/{i}"]["lines"][1]["points"]), right)
+    for log_time, update in got[2]:  # each at a status's time, one file step apart: the file's states
+        step = round(log_time / 1e9 / task.dt)
+        _, x, y, _ = states[step]
+        p = update["entities"][0]["cubes"][0]["pose"]["position"]
+        assert (p["x"], p["y"]) == pytest.approx((x, y), abs=1e-9)
+    assert np.all(np.diff([t for t, _ in got[2]]) == round(task.dt * 1e9))

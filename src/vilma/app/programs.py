@@ -26,6 +26,7 @@ from vilma.morse.access import parse_networks
 from vilma.morse.components import LASER_RANGE
 from vilma.record.live import FoxgloveLive
 from vilma.record.recorder import BusRecorder, Recorder
+from vilma.record.road_scene import ROAD, road_scene, scenario_road
 from vilma.scenario.runner import initial_state
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sim import Simulator
@@ -100,15 +101,17 @@ def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, repo
     laser) are recorded to the MCAP file ``record`` with the scenario attached (``scenario.yaml``, as ``vilma
     run``'s), and served to Foxglove on 127.0.0.1:``foxglove`` (each only if given); both are finished when it
     ends, however it ends. Yields the recorder's once-a-second ``tick`` (None when not recording)."""
-    world_topics = scenario.sim.world_topics
+    world_topics, road = scenario.sim.world_topics, scenario_road(scenario)
     with contextlib.ExitStack() as stack:
         tick = None
         if record is not None:
             recorder = stack.enter_context(Recorder(record, source=source, world_sensors=scenario.sim.world_sensors))
             recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
+            if road is not None:
+                recorder.add_scenes(ROAD, [(0, road_scene(road))])
             tick = stack.enter_context(BusRecorder(bus, recorder, world_topics=world_topics)).recorder.tick
         if foxglove is not None:
-            live = stack.enter_context(FoxgloveLive(bus, port=foxglove, world_topics=world_topics))
+            live = stack.enter_context(FoxgloveLive(bus, port=foxglove, world_topics=world_topics, road=road))
             report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
         yield tick
 

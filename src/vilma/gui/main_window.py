@@ -31,20 +31,12 @@ from vilma.gui.manual_dock import ManualDock
 from vilma.gui.plots import PlotWindow
 from vilma.gui.status_dock import StatusDock
 from vilma.gui.waypoints import WaypointTable
+from vilma.record.road_scene import scenario_road
 from vilma.scenario.fields import SpecError
 from vilma.scenario.spec import Scenario, TaskSpec, load_scenario, to_yaml
 
 TEXT_INPUTS = (QLineEdit, QAbstractSpinBox, QTextEdit, QPlainTextEdit)
 """Widgets that keep the keys typed into them (no keyboard driving there)."""
-
-
-def _road_view(scenario: Scenario | None):
-    """The road of ``scenario`` to draw on the map (:class:`~vilma.world.road_view.RoadView`), or None."""
-    if scenario is None or scenario.road is None:
-        return None
-    from vilma.world.road_view import road_view  # the roads extra, which a road scenario has
-
-    return road_view(scenario.road)
 
 
 class MainWindow(QMainWindow):
@@ -77,7 +69,7 @@ class MainWindow(QMainWindow):
         self.camera_dock = CameraDock(self.bridge, world, parent=self)
         self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.camera_dock)
         self.camera_dock.setVisible(bool(self.camera_dock.topics))
-        self.plots = PlotWindow(self.bridge, self.table.model, plot_ms, road=_road_view(backend.scenario))
+        self.plots = PlotWindow(self.bridge, self.table.model, plot_ms, road=scenario_road(backend.scenario))
         self.last_message = ""
         self.link = QLabel(self)
         self.statusBar().addPermanentWidget(self.link)

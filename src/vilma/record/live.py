@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from vilma.bus.base import Bus
 from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
@@ -24,6 +25,7 @@ from vilma.core.extras import require
 from vilma.core.messages import Message
 from vilma.core.net import is_loopback
 from vilma.record.recorder import LIVE_TOPICS, msgspec_row
+from vilma.record.road_scene import SCENE_SCHEMA, SCENE_TOPICS, SCENE_UPDATE, SceneFeed
 from vilma.record.schemas import COMPANIONS, channels, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
@@ -33,6 +35,9 @@ from vilma.record.world_schemas import (
     world_layout,
 )
 
+if TYPE_CHECKING:
+    from vilma.world.road_view import RoadView
+
 log = logging.getLogger(__name__)
 
 DEFAULT_PORT = 8765
@@ -41,14 +46,17 @@ DEFAULT_PORT = 8765
 
 class FoxgloveLive(Closeable):
     """Serves car ``car``'s topics on ``bus`` to Foxglove at ``host``:``port`` (0: a free port) until :meth:`close`,
-    and the world sensors' ``world_topics`` (colour images as JPEG of ``jpeg_quality``, None: raw).
+    and the world sensors' ``world_topics`` (colour images as JPEG of ``jpeg_quality``, None: raw); with a
+    ``road`` (:class:`~vilma.world.road_view.RoadView`), its road and traffic as scene primitives
+    (:mod:`vilma.record.road_scene`) on the sim time of ``sim/status``.
 
     Raises:
         ValueError: a world topic that is not a camera or laser topic, or a bad JPEG quality.
     """
 
     def __init__(self, bus: Bus, car: str = "vilma", host: str = "127.0.0.1", port: int = DEFAULT_PORT,
-                 world_topics: tuple[str, ...] = (), jpeg_quality: int | None = JPEG_QUALITY) -> None:
+                 world_topics: tuple[str, ...] = (), jpeg_quality: int | None = JPEG_QUALITY,
+                 road: RoadView | None = None) -> None:
         require("foxglove", "the live Foxglove view")
         import foxglove
         from foxglove.websocket import Capability
@@ -65,7 +73,9 @@ class FoxgloveLive(Closeable):
         self._channels: dict[str, object] = {}
         self.dropped: dict[str, int] = {}
         """Malformed world-sensor messages dropped, by topic."""
-        for name in (*LIVE_TOPICS, *(c for cs in COMPANIONS.values() for c in cs), *self._world):
+        self._scene = SceneFeed(road) if road is not None else None
+        scenes = SCENE_TOPICS if road is not None else ()
+        for name in (*LIVE_TOPICS, *(c for cs in COMPANIONS.values() for c in cs), *self._world, *scenes):
             self._channel(name)  # advertised from the start: a client sees every channel at once
         self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in (*LIVE_TOPICS, *self._world)]
 
@@ -79,6 +89,7 @@ class FoxgloveLive(Closeable):
         if ch is None:
             lay = self._layouts.get(name) or self._world.get(name)
             schema_name, schema = ((lay.schema_name, lay.schema) if lay is not None
+                                   else (SCENE_UPDATE, SCENE_SCHEMA) if name in SCENE_TOPICS
                                    else (f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name])))
             cdr = name in self._layouts
             ch = self._fox.Channel(f"vilma/{self.car}/{name}", message_encoding="cdr" if cdr else "json",
@@ -111,6 +122,9 @@ class FoxgloveLive(Closeable):
                 self._channel(name).log(encode_struct(msg), log_time=msg.stamp_ns)
                 if name == "sim/status":
                     self.server.broadcast_time(msg.stamp_ns)
+                    if self._scene is not None:
+                        for scene, data in self._scene.due(msg.stamp_ns):
+                            self._channel(scene).log(data, log_time=msg.stamp_ns)
         return take
 
     def close(self) -> None:

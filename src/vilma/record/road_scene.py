@@ -4,7 +4,7 @@ recordings and the live view's 3D panel, in the ``map`` frame:
 - ``road`` (once, at the start): an entity a lanelet (``lanelet/<id>``) with its boundaries as ``LINE_STRIP``
   lines through the file's vertices (dashed markings grey, the others white; Foxglove draws no dashes) and its
   surface as a triangle list between them, and the goal region's outlines as ``LINE_LOOP`` lines (``goal``).
-- ``traffic`` (a frame, every :attr:`~vilma.world.road_view.RoadView` time step): the obstacles in the scene then,
+- ``traffic`` (a frame, every :attr:`~vilma.world.road_view.RoadView.dt`): the obstacles in the scene then,
   a ``CubePrimitive`` each (``obstacle/<id>``, the box of its outline, :data:`OBSTACLE_HEIGHT` high); each update
   first deletes the previous frame's.
 """
@@ -20,6 +20,7 @@ import numpy as np
 from vilma.record.schemas import object_schema
 
 if TYPE_CHECKING:  # the roads extra, which only a road scenario needs
+    from vilma.scenario.spec import Scenario
     from vilma.world.road_view import LaneletLines, RoadView
 
 ROAD, TRAFFIC = "road", "traffic"
@@ -33,11 +34,22 @@ LINE_STRIP, LINE_LOOP = 0, 1
 """``foxglove.LinePrimitive`` types."""
 DELETE_ALL = 1
 """``foxglove.SceneEntityDeletion`` type: every entity of the topic."""
+ROAD_REPEAT_S = 1.0
+"""How often the live view sends the road again [s of sim time] (a client that joins late sees it)."""
 OBSTACLE_HEIGHT = 1.5
 """Height of the obstacles' boxes [m] (a CommonRoad shape is a footprint)."""
 SOLID, DASHED, SURFACE = (1, 1, 1, 1), (0.6, 0.6, 0.6, 1), (0.35, 0.35, 0.38, 1)
 GOAL, MOVING, STANDING = (0.1, 0.8, 0.2, 1), (1, 0.55, 0.1, 0.9), (0.55, 0.55, 0.55, 0.9)
 IDENTITY = {"position": {"x": 0, "y": 0, "z": 0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}
+
+
+def scenario_road(scenario: Scenario | None) -> RoadView | None:
+    """What to draw of ``scenario``'s CommonRoad file, or None when it has none."""
+    if scenario is None or scenario.road is None:
+        return None
+    from vilma.world.road_view import road_view  # the roads extra, which a road scenario has
+
+    return road_view(scenario.road)
 
 
 def _time(stamp_ns: int) -> dict:
@@ -102,7 +114,29 @@ def traffic_scene(view: RoadView, t: float, stamp_ns: int) -> bytes:
                        "entities": entities}).encode()
 
 
-def traffic_frames(view: RoadView, t0: float, t1: float, dt: float) -> list[tuple[int, bytes]]:
-    """The ``traffic`` updates (stamp [ns], JSON) at the sim times ``k dt`` [s] in ``[t0, t1)``."""
+def traffic_frames(view: RoadView, t0: float, t1: float) -> list[tuple[int, bytes]]:
+    """The ``traffic`` updates (stamp [ns], JSON) at the sim times ``k dt`` [s] in ``[t0, t1)`` (``dt``: the
+    file's time step)."""
+    dt = view.dt
     ks = range(math.ceil(t0 / dt - 1e-9), math.ceil(t1 / dt - 1e-9))
     return [(round(k * dt * 1e9), traffic_scene(view, k * dt, round(k * dt * 1e9))) for k in ks]
+
+
+class SceneFeed:
+    """The live view's scene updates of ``view`` as sim time goes: the road every :data:`ROAD_REPEAT_S`, the
+    traffic every file time step (both at once again after a reset)."""
+
+    def __init__(self, view: RoadView) -> None:
+        self.view = view
+        self._road_t = self._traffic_t = -math.inf  # sim times [s] of the last updates sent
+
+    def due(self, stamp_ns: int) -> list[tuple[str, bytes]]:
+        """The updates (topic, JSON) due at sim time ``stamp_ns`` [ns]."""
+        t, out = stamp_ns / 1e9, []
+        if not self._road_t <= t < self._road_t + ROAD_REPEAT_S:
+            out.append((ROAD, road_scene(self.view, stamp_ns)))
+            self._road_t = t
+        if not self._traffic_t <= t < self._traffic_t + self.view.dt - 1e-9:
+            out.append((TRAFFIC, traffic_scene(self.view, t, stamp_ns)))
+            self._traffic_t = t
+        return out

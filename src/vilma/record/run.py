@@ -25,7 +25,7 @@ import numpy as np
 from vilma.core.messages import Message
 from vilma.record.process import Joined, RecorderProcess
 from vilma.record.recorder import Recorder
-from vilma.record.road_scene import ROAD, TRAFFIC, road_scene, traffic_frames
+from vilma.record.road_scene import ROAD, TRAFFIC, road_scene, scenario_road, traffic_frames
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.folder import RECORDING, RunFolder, write_metrics
 from vilma.scenario.result import RunObserver, RunResult
@@ -75,11 +75,8 @@ class RunRecorder(RunObserver):
         self.recorder = RecorderProcess(self.path, source="vilma run", world_sensors=s.sim.world_sensors)
         self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(s).encode())
         self.recorder.call(Recorder.add_metadata, "scenario", {"name": s.name, "description": s.description})
-        self._road, self._traffic_t = None, 0.0  # the road scenario drawn, and its traffic written up to [s]
-        if s.road is not None:
-            from vilma.world.road_view import road_view  # the roads extra, which a road scenario has
-
-            self._road = road_view(s.road)
+        self._road, self._traffic_t = scenario_road(s), 0.0  # the road drawn, its traffic written up to [s]
+        if self._road is not None:
             self.recorder.call(Recorder.add_scenes, ROAD, [(0, road_scene(self._road))])
         self._row_bytes = log.rows.strides[0]
         self._written = self._marked = self._tried = 0  # log rows handed over, added, at the last hand-over
@@ -106,7 +103,7 @@ class RunRecorder(RunObserver):
     def _traffic_until(self, t: float) -> None:
         """Write the road scenario's traffic frames from the last written up to sim time ``t`` [s] (excluded)."""
         if self._road is not None and t > self._traffic_t:
-            frames = traffic_frames(self._road, self._traffic_t, t, self.scenario.road.dt)
+            frames = traffic_frames(self._road, self._traffic_t, t)
             if frames:
                 self.recorder.call(Recorder.add_scenes, TRAFFIC, frames)
             self._traffic_t = t

@@ -78,6 +78,8 @@ class RoadView:
     goal: tuple[np.ndarray, ...]
     """The goal region's position shapes, outlines (m, 2) [m] (none for a goal without a position)."""
     bodies: tuple[Body, ...]
+    dt: float
+    """The file's time step [s]."""
 
     def footprints_at(self, t: float) -> list[tuple[Body, np.ndarray]]:
         """The obstacles in the scene at sim time ``t`` [s] with their footprints (m, 2) [m]."""
@@ -99,7 +101,7 @@ def road_view(task: EgoTask) -> RoadView:
     goal = tuple(_outline(shape) for st in task.goal.state_list if getattr(st, "position", None) is not None
                  for shape in (st.position.shapes if isinstance(st.position, ShapeGroup) else [st.position]))
     bodies = tuple(_body(o, t0, dt) for o in road.scenario.obstacles)
-    return RoadView(lanelets=lanelets, goal=goal, bodies=bodies)
+    return RoadView(lanelets=lanelets, goal=goal, bodies=bodies, dt=dt)
 
 
 def _lines(la: Lanelet) -> LaneletLines:
