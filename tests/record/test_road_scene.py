@@ -133,3 +133,15 @@ def test_a_foxglove_client_gets_the_road_and_the_moving_traffic():
         p = update["entities"][0]["cubes"][0]["pose"]["position"]
         assert (p["x"], p["y"]) == pytest.approx((x, y), abs=1e-9)
     assert np.all(np.diff([t for t, _ in got[2]]) == round(task.dt * 1e9))
+
+
+def test_up_records_the_road_at_the_start(tmp_path):
+    from vilma.app import programs
+
+    sc = load_scenario(find_scenario("commonroad_tutorial"))
+    assert programs.up(sc, 50.0, 0.2, lambda _: None, record=tmp_path / "up.mcap") == 0
+    with (tmp_path / "up.mcap").open("rb") as f:
+        ((_, _, road),) = make_reader(f).iter_messages(topics=["vilma/vilma/road"])
+    assert road.log_time == 0
+    ids = {e["id"] for e in json.loads(road.data)["entities"]}
+    assert ids == {f"lanelet/{i}" for i in _lanelets(TUTORIAL)} | {"goal"}
