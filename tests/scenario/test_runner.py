@@ -142,7 +142,9 @@ def test_cli_batch_of_runs_with_one_name_keeps_them_all(tmp_path):
 @pytest.mark.slow
 def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, processes):
     out = tmp_path / "o"
-    p = processes.vilma("run", "pi_ff_speed_5", "--realtime", "4", "--out", str(out), stderr=subprocess.PIPE)
+    # 10 minutes of sim time: Ctrl-C comes long before the end, however slowly this test is scheduled
+    p = processes.vilma("run", "pi_ff_speed_5", "--set", "duration=600", "--realtime", "4", "--out", str(out),
+                        stderr=subprocess.PIPE)
     part = out / "timeseries.csv.part"
     deadline = time.monotonic() + 120
     while not (part.exists() and part.stat().st_size > 2000) and p.poll() is None and time.monotonic() < deadline:

@@ -98,8 +98,8 @@ def ros1_bridge_command(args: argparse.Namespace) -> int:
     rospy, why = rospy_or_reason()
     if rospy is None:
         raise ValueError(why)
-    init_node()
     try:
+        init_node()  # rospy waits here for the master: Ctrl-C then must stop its threads too
         return _ros1_bridge(args)
     finally:
         shutdown_node()
