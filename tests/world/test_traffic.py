@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
+from commonroad.geometry.shape import Circle, Rectangle, ShapeGroup
 
 from vilma.world.commonroad import load
 from vilma.world.traffic import Traffic, traffic
@@ -83,3 +85,16 @@ def test_a_file_without_obstacles_has_empty_traffic(tmp_path):
     tr = traffic(scenario)
     states, present = tr.at(3.0)
     assert tr.ids.shape == (0,) and states.shape == (0, 4) and present.shape == (0,)
+
+
+def test_a_shape_group_is_covered_by_its_convex_hull():
+    scenario = load(OVER).scenario
+    obstacle = scenario.obstacles[0]
+    parts = [Rectangle(2.0, 1.0), Circle(0.5, center=np.array([3.0, 0.0]))]
+    obstacle._obstacle_shape = ShapeGroup(parts)  # commonroad-io checks the type on assignment, not the group
+    ring = traffic(scenario).outline[0]
+    hull = shapely.Polygon(ring)
+    circle = shapely.Point(3.0, 0.0).buffer(0.5 - 1e-9, quad_segs=64)
+    assert hull.covers(parts[0].shapely_object.buffer(-1e-9)) and hull.covers(circle)
+    covering = 0.5 / math.cos(math.pi / 16)  # the 16-gon around the circle reaches this far along its axes
+    assert hull.bounds == pytest.approx((-1.0, -covering, 3.0 + covering, covering))

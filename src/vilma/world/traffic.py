@@ -9,10 +9,12 @@ every time.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from commonroad.geometry.shape import Circle
 from commonroad.scenario.obstacle import DynamicObstacle
 from commonroad.scenario.scenario import Scenario
 
@@ -20,6 +22,8 @@ from vilma.core.geometry import wrap_angle
 
 X, Y, YAW, V = range(4)
 """Indices of a state's columns: position [m], orientation [rad, counter-clockwise from +x], speed [m/s]."""
+CIRCLE_SIDES = 16
+"""A circular obstacle's outline is the regular polygon of this many sides around it."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -100,9 +104,19 @@ def _moves(obstacle) -> bool:
 
 def _outline(obstacle) -> np.ndarray:
     """The obstacle's shape in its own frame as a counter-clockwise ring without the closing vertex (q, 2) [m]
-    (a circle as commonroad-io's polygon of it, a shape group as the outline of its union)."""
-    geom = obstacle.obstacle_shape.shapely_object
-    if not isinstance(geom, shapely.Polygon):
-        geom = geom.convex_hull if geom.geom_type != "Polygon" else geom
+    (a shape group as the convex hull of its shapes, which covers them)."""
+    shape = obstacle.obstacle_shape
+    geom = shapely.unary_union([_polygon(s) for s in getattr(shape, "shapes", [shape])])
+    if geom.geom_type != "Polygon":
+        geom = geom.convex_hull
     ring = shapely.geometry.polygon.orient(geom, 1.0).exterior.coords
     return np.asarray(ring, float)[:-1]
+
+
+def _polygon(shape) -> shapely.Polygon:
+    """A commonroad-io shape as a polygon; a circle as the 16-gon around it (commonroad-io's own polygon of a
+    circle has half its radius)."""
+    if isinstance(shape, Circle):
+        return shapely.Point(*shape.center).buffer(shape.radius / math.cos(math.pi / CIRCLE_SIDES),
+                                                     quad_segs=CIRCLE_SIDES // 4)
+    return shape.shapely_object
