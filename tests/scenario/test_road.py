@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
+from shapely import affinity
 
 from vilma.app.cli import main
 from vilma.scenario import SpecError, load_scenario, parse_scenario
@@ -51,12 +53,13 @@ def test_driving_the_route_through_an_obstacle_in_the_lane_is_scored_as_a_collis
     obstacle = result.scenario.road.scenario.obstacles[0]  # standing in the lane the route keeps to
     assert m["goal_reached"] is True and m["collisions"] == 1 and m["min_distance_to_traffic_m"] == 0.0
     assert m["completed"] is False and f"collided with obstacle {obstacle.obstacle_id}" in m["incomplete_reason"]
-    c = result.log.column
-    hit = float(m["incomplete_reason"].split("first at ")[1].split(" s")[0])
-    i = np.searchsorted(c("t"), hit - 1e-9)
-    front = c("x")[i] + result.scenario.sim.vehicle.body_offset + result.scenario.sim.vehicle.length / 2
+    c, car, task = result.log.column, result.scenario.sim.vehicle, result.scenario.road
+    body = shapely.box(car.body_offset - car.length / 2, -car.width / 2, car.body_offset + car.length / 2,
+                       car.width / 2)
     shape = obstacle.occupancy_at_time(0).shape.shapely_object
-    assert shape.bounds[0] <= front + 0.1 and c("x")[i - 5] + 1.0 < shape.bounds[0]  # its nose reached the box
+    first = next(k for k, i in enumerate(task.samples(c("t"))) if affinity.translate(
+        affinity.rotate(body, c("yaw")[i], origin=(0, 0), use_radians=True), c("x")[i], c("y")[i]).intersects(shape))
+    assert f"(first at {first * task.dt:.3g} s)" in m["incomplete_reason"]  # when the car's box met the obstacle's
     assert result.passed  # its expect block says so
 
 
