@@ -27,6 +27,22 @@ def test_bmw_is_commonroad_vehicle_2():
     assert p.max_power == pytest.approx(p.mass * 11.5 * 7.319)
 
 
+def test_the_outline_is_the_3d_bodys_for_vilma_and_commonroads_for_the_bmw():
+    from vilma.plant3d.car_model import BODY_LENGTH_OVERHANG
+
+    p = vilma()
+    body = (p.wheelbase + BODY_LENGTH_OVERHANG, p.track + p.suspension.wheel_width)
+    assert (p.length, p.width) == pytest.approx(body)
+    assert p.body_offset == pytest.approx(-0.125)  # midway between axles 1.1 m ahead and 1.35 m behind
+    assert (bmw_320i().length, bmw_320i().width) == (4.508, 1.610)  # parameters_vehicle2: l, w
+
+
+@pytest.mark.parametrize("field", ["length", "width"])
+def test_a_body_without_size_is_refused(field):
+    with pytest.raises(ValueError, match=f"vehicle 'vilma': {field} must be > 0"):
+        dataclasses.replace(vilma(), **{field: 0.0})
+
+
 @pytest.mark.parametrize("name", sorted(PRESETS))
 def test_axle_loads_sum_to_weight(name):
     p = preset(name)

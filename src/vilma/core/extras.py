@@ -6,7 +6,7 @@ from __future__ import annotations
 import importlib
 
 EXTRAS = {"gui": ("PySide6", "pyqtgraph"), "3d": ("mujoco",), "foxglove": ("foxglove",),
-          "roads": ("commonroad", "commonroad_route_planner")}
+          "roads": ("commonroad", "commonroad_route_planner", "commonroad_dc")}
 """The extras of ``pyproject.toml`` and the modules each brings; ``vilma[all]`` has them all."""
 
 

@@ -1,4 +1,5 @@
-"""A run's folder: the files a run writes there, each run's own folder in a batch, and claiming it.
+"""A run's folder: the files a run writes there (a CommonRoad run's ``solution.xml`` too), each run's own folder
+in a batch, and claiming it.
 
 A run writes into a folder of its own and never mixes with an earlier run: a folder that holds anything
 is refused unless the user says ``--overwrite``, and then the earlier run's files are removed first.
@@ -26,7 +27,9 @@ PLOTS = ("path.png", "speed.png", "cross_track.png", "effort.png")
 """The plots of a run (:func:`vilma.scenario.report.plot_run`)."""
 RECORDING = "run.mcap"
 """The run's recording (:mod:`vilma.record.run`)."""
-RUN_FILES = ("metrics.json", "timeseries.csv", "timeseries.csv.part", "scenario.yaml", RECORDING, *PLOTS)
+SOLUTION = "solution.xml"
+"""A CommonRoad run's drive as the benchmark's solution file (:mod:`vilma.world.solution`)."""
+RUN_FILES = ("metrics.json", "timeseries.csv", "timeseries.csv.part", "scenario.yaml", RECORDING, SOLUTION, *PLOTS)
 """The files a run writes in its folder."""
 REPORT_DIR = "run-report"
 """Where ``vilma report`` puts the report of the folder's recording."""
@@ -74,12 +77,23 @@ class RunFolder(RunObserver):
 
         self.series.close()
         write_atomic(self.out_dir / "scenario.yaml", to_yaml(result.scenario))
+        if result.scenario.road is not None:
+            write_atomic(self.out_dir / SOLUTION, solution(result))
         plot_run(result, self.out_dir, speed_log(result.scenario))
         result.out_dir = self.out_dir
 
     def failed(self, interrupted: bool) -> None:
         if self.series is not None:  # Ctrl-C keeps the timeseries so far; an error marks it unfinished
             self.series.close() if interrupted else self.series.abort()
+
+
+def solution(result: RunResult) -> str:
+    """The text of a CommonRoad run's ``solution.xml``."""
+    from vilma.world.solution import solution_xml  # the roads extra, there when the scenario is a road
+
+    c = result.log.column
+    return solution_xml(result.scenario.road, result.scenario.sim.vehicle.name, c("t"), c("x"), c("y"), c("yaw"),
+                        c("vx"), c("vy"), c("yaw_rate"), c("steer"))
 
 
 def write_metrics(result: RunResult, out_dir: Path) -> Path:

@@ -12,8 +12,10 @@ to rest within ``MetricsSpec.end_tolerance`` of the target; a path when, besides
 it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`); a CommonRoad route
 when, besides, the car was in the planning problem's goal region (``goal_reached``, by the goal's own
 check, :meth:`~vilma.world.commonroad.EgoTask.goal_time`; ``time_to_goal_s`` from the initial state).
-Traffic is not simulated yet: a route's scorecard says ``traffic: not simulated`` and
-``collisions_checked: false``.
+A route is also scored as CommonRoad's benchmark scores it (:mod:`vilma.world.benchmark`): ``collisions``
+(how many of the file's obstacles, moving along their recordings, the car's outline touched), ``off_road``
+(touched the road's boundary), ``min_distance_to_traffic_m`` and ``min_time_to_collision_s``; it is complete
+only without either (``traffic: recorded``, ``collisions_checked: true``).
 ``incomplete_reason`` says why not, in words.
 
 The timing keys (:data:`~vilma.scenario.scorecard.TIMING_KEYS`) are the caller's
@@ -25,6 +27,7 @@ bound).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -52,18 +55,21 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
     out: dict = dict.fromkeys(SCORECARD_KEYS)
     out.update(truncated=truncated, sim_time_s=float(t[-1]) if len(t) else 0.0,
                distance_m=float(np.sum(np.hypot(np.diff(x), np.diff(y)))))
-    if not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(yaw).all()):  # a blow-up reaches these
+    finite = np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(yaw).all()  # a blow-up reaches these
+    if not finite:
         broke_down = "the car's state became NaN or infinite"
     elif truncated:
         broke_down = "the recording was cut short"
     xy = np.column_stack([x, y])
     proj = path.project_track(xy) if path is not None else None  # once, for the coverage and the errors
+    road_failures = []
     if scenario.road is not None:
         goal = scenario.road.goal_time(t, x, y, yaw, speed)
-        out.update(goal_reached=goal is not None, time_to_goal_s=goal, traffic="not simulated",
-                   collisions_checked=False)
+        out.update(goal_reached=goal is not None, time_to_goal_s=goal)
+        if finite:
+            road_failures = _road_checks(scenario, log, out)
     out.update(completion(scenario, xy, c("vx"), path, broke_down, None if proj is None else proj[:, 0],
-                          out["goal_reached"]))
+                          out["goal_reached"], road_failures))
     if proj is not None and counted.any():
         e = np.abs(proj[counted, 1])
         out.update(lateral_error_rms_m=_rms(e), lateral_error_max_m=float(e.max()),
@@ -90,6 +96,26 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
     return {k: _plain(v) for k, v in out.items()}
 
 
+def _road_checks(scenario: Scenario, log: DriveLog, out: dict) -> list[str]:
+    """The benchmark's checks of a CommonRoad drive (:func:`~vilma.world.benchmark.check_drive`, the car's
+    outline from its parameters) into ``out``; what they failed, in words."""
+    from vilma.world.benchmark import EgoBox, check_drive  # the roads extra, there when the scenario is a road
+
+    car = scenario.sim.vehicle
+    c = log.column
+    found = check_drive(scenario.road, EgoBox(length=car.length, width=car.width, offset=car.body_offset), c("t"),
+                        c("x"), c("y"), c("yaw"), c("vx"), c("vy"))
+    out.update(traffic="recorded", collisions_checked=True, collisions=len(found.hit),
+               off_road=found.off_road_time is not None, min_distance_to_traffic_m=found.min_distance,
+               min_time_to_collision_s=found.min_time_to_collision)
+    why = []
+    if found.hit:
+        why.append(f"collided with obstacle {', '.join(map(str, found.hit))} (first at {found.collision_time:.3g} s)")
+    if found.off_road_time is not None:
+        why.append(f"left the road at {found.off_road_time:.3g} s")
+    return why
+
+
 def timing(sim_time: float, wall: float, loop: float | None, load: float | None) -> dict:
     """The wall-clock keys: ``wall`` [s] the whole command's share, ``loop`` [s] the closed loop's own time
     (``realtime_factor`` is sim time over it), ``load`` [s] the one-off loading of compiled code."""
@@ -99,12 +125,14 @@ def timing(sim_time: float, wall: float, loop: float | None, load: float | None)
 
 
 def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Trajectory | None,
-               broke_down: str | None = None, s: np.ndarray | None = None, goal_reached: bool | None = None) -> dict:
+               broke_down: str | None = None, s: np.ndarray | None = None, goal_reached: bool | None = None,
+               road_failures: Sequence[str] = ()) -> dict:
     """``completed``, ``incomplete_reason``, ``end_error_m``, ``path_progress`` and ``waypoints_skipped`` of a
     drive ``xy`` (n, 2) [m] at longitudinal speed ``vx`` (n,) [m/s] on the task's ``path`` (for a go-to, the
     line to the target); at rest means below the driver's ``rest_speed``, as the driver and the runner judge.
     ``s`` is the drive's arc length projected on the path, if the caller has it (:func:`coverage`);
-    ``goal_reached`` False (a route that missed its goal region) makes it incomplete."""
+    ``goal_reached`` False (a route that missed its goal region) and ``road_failures`` (collisions, leaving the
+    road, in words) make it incomplete."""
     m, kind = scenario.metrics, scenario.task.kind
     out: dict = {}
     why = [broke_down] if broke_down else []
@@ -128,6 +156,7 @@ def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Traject
     if goal_reached is False:
         why.append("never in the planning problem's goal region (its position, orientation, speed and time "
                    "intervals)")
+    why.extend(road_failures)
     out.update(completed=not why, incomplete_reason="; ".join(why) or None)
     return out
 

@@ -159,7 +159,9 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
                                                                          should_stop=finished)
     loop = time.perf_counter() - wall0 - (loading.seconds - load0)
     metrics = scorecard(log, scenario, path, t_start, broke_down=WATCHDOG_STOP if sim.watchdog_tripped else None)
-    metrics.update(collisions=sim.collisions[0], loop_wall_time_s=loop)
+    metrics.update(loop_wall_time_s=loop)
+    if scenario.road is None:  # a road's collisions are the benchmark's (the scorecard's)
+        metrics["collisions"] = sim.collisions[0]
     return RunResult(scenario, metrics, expectation_failures(metrics, scenario), log, path, t_start)
 
 

@@ -15,6 +15,7 @@ SCORECARD_KEYS = (
     "speed_rise_time_90_s", "speed_overshoot_pct", "speed_settling_time_2pct_s", "speed_steady_state_error_mps",
     "speed_error_rms_mps", "steering_rate_rms_radps", "lateral_accel_max_mps2", "longitudinal_jerk_rms_mps3",
     "pose_error_rms_m", "collisions", "goal_reached", "time_to_goal_s", "traffic", "collisions_checked",
+    "off_road", "min_distance_to_traffic_m", "min_time_to_collision_s",
     "wall_time_s", "loop_wall_time_s", "load_time_s", "realtime_factor", "controller_time_per_step_us",
 )
 """The keys of ``metrics.json``, in order (see :mod:`vilma.scenario.metrics`)."""

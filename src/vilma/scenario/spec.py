@@ -313,7 +313,7 @@ def _expect(raw: Any, src: Source) -> dict[str, Bound | bool]:
                             "see benchmarks/ for speed targets")
         if k not in keys:
             raise src.error(("expect", k), f"not a scorecard key; use one of {', '.join(keys)}")
-        if k in ("completed", "truncated", "goal_reached", "collisions_checked"):
+        if k in ("completed", "truncated", "goal_reached", "collisions_checked", "off_road"):
             out[k] = convert(bool, v, src, ("expect", k))
         else:
             bound = build(Bound, v, src, ("expect", k))

@@ -85,6 +85,10 @@ class VehicleParams:
     """Centre of mass to rear axle [m]."""
     track: float
     """Distance between left and right wheel centres [m]."""
+    length: float
+    """Length of the body's outline, a box centred midway between the axles [m] (collision checks)."""
+    width: float
+    """Width of the body's outline [m]."""
     wheel_radius: float
     """Effective rolling radius [m]."""
     max_steer: float
@@ -135,8 +139,8 @@ class VehicleParams:
             v = getattr(self, f.name)
             if isinstance(v, float | int) and not isinstance(v, bool) and not math.isfinite(v):
                 raise ValueError(f"vehicle '{self.name}': {f.name} must be finite, got {v!r}")
-        positive = ("mass", "yaw_inertia", "cg_to_front", "cg_to_rear", "track", "wheel_radius", "max_steer",
-                    "cornering_stiffness_front", "cornering_stiffness_rear", "tyre_shape", "friction",
+        positive = ("mass", "yaw_inertia", "cg_to_front", "cg_to_rear", "track", "length", "width", "wheel_radius",
+                    "max_steer", "cornering_stiffness_front", "cornering_stiffness_rear", "tyre_shape", "friction",
                     "max_power", "max_drive_force", "max_brake_force", "power_unit_force")
         for name in positive:
             if getattr(self, name) <= 0:
@@ -150,6 +154,11 @@ class VehicleParams:
     def wheelbase(self) -> float:
         """Front to rear axle [m]."""
         return self.cg_to_front + self.cg_to_rear
+
+    @property
+    def body_offset(self) -> float:
+        """How far the body's outline's centre lies ahead of the centre of mass [m] (negative: behind)."""
+        return (self.cg_to_front - self.cg_to_rear) / 2
 
     @property
     def load_front(self) -> float:
@@ -227,6 +236,8 @@ def vilma() -> VehicleParams:
         cg_to_front=1.1,
         cg_to_rear=1.35,
         track=1.57,
+        length=1.1 + 1.35 + 1.5,  # the 3D plant's body: the wheelbase and 0.75 m overhangs, the track and a tyre
+        width=1.57 + 0.2,
         wheel_radius=0.4,
         max_steer=0.6,
         cornering_stiffness_front=75_000.0,
@@ -248,7 +259,7 @@ def bmw_320i() -> VehicleParams:
     """BMW 320i, CommonRoad vehicle parameter set 2 (Althoff et al., IEEE IV 2017).
 
     From the set: m = 1093.3 kg, I_z = 1791.6 kg m^2, a = 1.156 m, b = 1.422 m,
-    track 1.387 m (front), R_w = 0.344 m, steering limit 1.066 rad and rate
+    track 1.387 m (front), length 4.508 m, width 1.610 m, R_w = 0.344 m, steering limit 1.066 rad and rate
     0.4 rad/s, friction 1.0489, cornering stiffness 20.89 /rad per unit axle
     load (C_Sf = C_Sr), lateral shape 1.3507, rear drive (T_se = 0), brake
     split 0.66 front (T_sb), a_max 11.5 m/s^2 and switching speed 7.319 m/s, so
@@ -266,6 +277,8 @@ def bmw_320i() -> VehicleParams:
         cg_to_front=a,
         cg_to_rear=b,
         track=1.387,
+        length=4.508,
+        width=1.610,
         wheel_radius=0.344,
         max_steer=1.066,
         cornering_stiffness_front=20.89 * load_f,

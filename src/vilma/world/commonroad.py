@@ -31,6 +31,8 @@ with warnings.catch_warnings():  # commonroad-io's generated protobuf modules us
     from commonroad_route_planner.route_planner import RoutePlanner
     from shapely import Point, unary_union
 
+from vilma.world.traffic import Traffic, traffic
+
 MAX_FILE_BYTES = 64 << 20
 """The largest scenario file read [bytes] (the benchmark's largest are a few MB)."""
 
@@ -95,16 +97,24 @@ class EgoTask:
     """The initial state's time step."""
     dt: float
     """The scenario's time step [s]."""
+    scenario: Scenario = field(compare=False, repr=False)
+    """commonroad-io's scenario (road network and obstacles), for the benchmark's checks."""
+    traffic: Traffic = field(compare=False, repr=False)
+    """The scenario's obstacles on the sim clock."""
+
+    def samples(self, t: np.ndarray) -> np.ndarray:
+        """The rows of a drive sampled at times ``t`` [s] from the initial state that fall on the scenario's time
+        steps 0, 1, ... after it (the first sample at or after each step), (steps,) int."""
+        if not len(t):
+            return np.zeros(0, int)
+        steps = np.arange(int(t[-1] / self.dt + 1e-9) + 1)
+        return np.minimum(np.searchsorted(t, steps * self.dt - 1e-9), len(t) - 1)
 
     def goal_time(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray, v: np.ndarray) -> float | None:
         """The first sim time [s] a drive (samples at times ``t`` [s] from the initial state, position [m], yaw
         [rad], speed [m/s]) is in the goal region, by the goal's own check (``GoalRegion.is_reached``) on the
         samples at the scenario's time steps; None if never."""
-        if not len(t):
-            return None
-        steps = np.arange(int(t[-1] / self.dt + 1e-9) + 1)
-        rows = np.minimum(np.searchsorted(t, steps * self.dt - 1e-9), len(t) - 1)
-        for k, i in zip(steps, rows, strict=True):
+        for k, i in enumerate(self.samples(t)):
             state = CustomState(time_step=self.time_step + int(k), position=np.array([x[i], y[i]]),
                                 orientation=float(yaw[i]), velocity=float(v[i]))
             if self.goal.is_reached(state):
@@ -158,7 +168,8 @@ class RoadScenario:
                                   "task a speed (task: {route: true, speed: 10})")
         return EgoTask(file=self.file.resolve(), planning_problem_id=pp.planning_problem_id, x=float(s0.position[0]),
                        y=float(s0.position[1]), yaw=float(s0.orientation), speed=v0, path=xy, path_speed=v,
-                       goal=pp.goal, time_step=int(s0.time_step), dt=float(self.scenario.dt))
+                       goal=pp.goal, time_step=int(s0.time_step), dt=float(self.scenario.dt),
+                       scenario=self.scenario, traffic=traffic(self.scenario))
 
     def _planning_problem(self, pid: int | None) -> PlanningProblem:
         ids = ", ".join(map(str, self.planning_problems)) or "none"
