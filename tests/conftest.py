@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import signal
 import socket
 import subprocess
 import sys
@@ -14,6 +15,11 @@ from vilma.core.messages import ActuatorCommand
 from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import NZ
+
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    # A suite started as a background job (`pytest &`, nohup) has SIGINT ignored, and the programs the tests start
+    # would inherit that and ignore the Ctrl-C the tests send them: the tests' own processes take it again.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture
