@@ -261,3 +261,22 @@ class PointCloud(Message, frozen=True):
     frame_id: str
     points: bytes
     ranges: bytes
+
+
+class ObjectState(msgspec.Struct, frozen=True, array_like=True):
+    """One object around the car, world frame: its id in the scenario, position [m] of its reference point,
+    orientation [rad, counter-clockwise from +x], speed along it [m/s], and outline's length and width [m]."""
+
+    id: int
+    x: float
+    y: float
+    yaw: float
+    speed: float
+    length: float
+    width: float
+
+
+class ObjectList(Message, frozen=True):
+    """The objects within the objects sensor's reach (the scenario's true obstacles, with noise)."""
+
+    objects: list[ObjectState]

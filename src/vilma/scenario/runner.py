@@ -107,6 +107,9 @@ def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: 
         def on_block(readings: dict[str, Readings]) -> None:
             for o in observers:
                 o.add(readings)
+            captures = sim.take_captures()  # camera images, laser scans, object lists: handed on, never kept
+            for o in observers if captures else ():
+                o.add_captures(captures)
 
         def step(readings: dict[str, Readings]) -> None:
             t0 = time.perf_counter()
@@ -119,13 +122,10 @@ def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: 
                      *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
                      *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
             on_block(readings)
-            captures = sim.take_captures()  # camera images and laser scans (3D plant): handed on, never kept
-            for o in observers if captures else ():
-                o.add_captures(captures)
 
         try:
-            return _drive(scenario, sim, driver, log, path, step, on_block if observers else None, realtime,
-                          compiled, loading)
+            return _drive(scenario, sim, driver, log, path, step,
+                          on_block if observers or sim.config.world_topics else None, realtime, compiled, loading)
         except KeyboardInterrupt:
             raise Interrupted(sim.time_ns * 1e-9) from None
 

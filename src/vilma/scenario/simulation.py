@@ -1,6 +1,7 @@
 """A scenario's simulation keys: the car (``vehicle``, ``actuators``), the ``plant`` and its ``world``, the 3D
-plant's ``cameras`` and ``laser``, the ``sensors``, and the times they run at, read into a
-:class:`~vilma.sim.SimConfig` (:func:`read_sim`, called by :func:`vilma.scenario.spec.parse_scenario`)."""
+plant's ``cameras``, the ``laser`` (also on flat ground), the ``objects`` sensor, the ``sensors``, and the times
+they run at, read into a :class:`~vilma.sim.SimConfig` (:func:`read_sim`, called by
+:func:`vilma.scenario.spec.parse_scenario`)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
 from vilma.scenario.fields import Key, Source, build, convert, get, read_yaml
 from vilma.sensors import SensorSuite
+from vilma.sensors.objects import ObjectsParams
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
 from vilma.vehicle import models
@@ -37,14 +39,14 @@ def read_sim(data: dict, src: Source, base: Path) -> SimConfig:
     world = build(World, {k: v for k, v in world.items() if k not in ROAD_KEYS} if isinstance(world, dict) else world,
                   src, ("world",), World())
     cameras = _cameras(data.get("cameras"), src)
-    laser = data.get("laser")
-    laser = build(LaserParams, {} if laser is True else laser, src, ("laser",)) if laser not in (None, False) else None
+    laser, objects = _optional(LaserParams, data, src, "laser"), _optional(ObjectsParams, data, src, "objects")
     integrator, step = get(data, src, ("integrator",), str, "rk4"), get(data, src, ("step",), float, 0.01)
     seed, watchdog_timeout = get(data, src, ("seed",), int, 0), get(data, src, ("watchdog_timeout",), float, 0.5)
     sensors = _sensors(data, src)
     try:
         sim = SimConfig(vehicle=vehicle, model=model, integrator=integrator, step=step, sensors=sensors, seed=seed,
-                        watchdog_timeout=watchdog_timeout, world=world, cameras=cameras, laser=laser)
+                        watchdog_timeout=watchdog_timeout, world=world, cameras=cameras, laser=laser,
+                        objects=objects)
     except ValueError as e:  # SimConfig checks the keys together; its message names the one at fault
         culprit = next((k for k, word in (("step", "step"), ("integrator", "integrator"),
                                           ("watchdog_timeout", "watchdog"), ("world", "world"),
@@ -52,6 +54,12 @@ def read_sim(data: dict, src: Source, base: Path) -> SimConfig:
         raise src.error((culprit,) if culprit else (), str(e)) from None
     check_sim_times(sim, src)
     return sim
+
+
+def _optional(cls: type, data: dict, src: Source, key: str) -> Any:
+    """An optional sensor ``key``: absent or false for none, true for the defaults, or a mapping of fields."""
+    value = data.get(key)
+    return build(cls, {} if value is True else value, src, (key,)) if value not in (None, False) else None
 
 
 def _vehicle(value: Any, src: Source, base: Path) -> VehicleParams:
@@ -122,9 +130,10 @@ def check_sim_times(sim: SimConfig, src: Source) -> None:
                 clock.period_ticks(sensor.rate_hz, f"sensor {f.name}")
             except RateError as e:
                 raise src.error(("sensors", f.name, "rate_hz"), str(e)) from None
-    for key, sensor in [*((("cameras", i), c) for i, c in enumerate(sim.cameras)), (("laser",), sim.laser)]:
+    for key, sensor in [*((("cameras", i), c) for i, c in enumerate(sim.cameras)), (("laser",), sim.laser),
+                        (("objects",), sim.objects)]:
         if sensor is not None:
             try:
-                clock.period_ticks(sensor.rate_hz, f"{sensor.name}")
+                clock.period_ticks(sensor.rate_hz, key[0] if key == ("objects",) else sensor.name)
             except RateError as e:
                 raise src.error((*key, "rate_hz"), str(e)) from None

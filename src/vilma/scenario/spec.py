@@ -125,7 +125,8 @@ def beside(file: Path | None, name: str) -> Path:
     return p if p.is_absolute() or file is None else file.parent / p
 
 
-TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "cameras", "laser", "integrator",
+TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "cameras", "laser", "objects",
+            "integrator",
             "step", "seed",
             "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
             "task", "initial", "duration", "metrics", "expect", "speed_log")
@@ -159,6 +160,8 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     top = sim.vehicle.top_speed
     task = _task(data, src, top, file)
     road = _road(data, src, task, file)
+    if road is not None:  # what the flat-ground laser and the objects sensor see
+        sim = dataclasses.replace(sim, traffic=road.traffic, traffic_t0=road.time_step * road.dt)
     return Scenario(
         name=name, description=description, file=file, sim=sim, driver=driver, task=task,
         initial=_initial(data, src, top, road), duration=_duration(data, src, period),
@@ -386,6 +389,7 @@ def to_yaml(scenario: Scenario) -> str:
                          if s.road is not None else {})}} if not s.sim.world.empty or s.road is not None else {}),
         **({"cameras": plain(s.sim.cameras)} if s.sim.cameras else {}),
         **({"laser": plain(s.sim.laser)} if s.sim.laser is not None else {}),
+        **({"objects": plain(s.sim.objects)} if s.sim.objects is not None else {}),
         "integrator": s.sim.integrator, "step": s.sim.step, "seed": s.sim.seed,
         "watchdog_timeout": s.sim.watchdog_timeout,
         "sensors": {k: (plain(v) if v is not None else False) for k, v in

@@ -15,7 +15,7 @@ import logging
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -30,11 +30,17 @@ from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
 from vilma.sensors import Readings, Samples, SensorSuite, build_sensors
 from vilma.sensors.base import rows_of, sensor_rng
+from vilma.sensors.laser import PlanarLaser
+from vilma.sensors.objects import ObjectsParams, ObjectsSensor
+from vilma.sensors.scene import Scene, SceneSensor
 from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
 from vilma.vehicle.integrate import INTEGRATORS, advance, constrain, empty_records
 from vilma.vehicle.params import VehicleParams, plant_consts, vilma
 from vilma.vehicle.state import N3, NX, VehicleState
+
+if TYPE_CHECKING:  # the roads extra
+    from vilma.world.traffic import Traffic
 
 log = logging.getLogger(__name__)
 
@@ -66,15 +72,25 @@ class SimConfig:
     cameras: tuple[CameraParams, ...] = ()
     """Cameras on the car (the 3D plant only), e.g. :func:`~vilma.plant3d.camera.stereo_pair`."""
     laser: LaserParams | None = None
-    """A laser scanner on the car (the 3D plant only)."""
+    """A laser scanner on the car: in the 3D plant, it sees the MuJoCo world; on flat ground, a planar one (one
+    layer) sees the ``traffic``."""
+    objects: ObjectsParams | None = None
+    """The objects sensor: the ``traffic`` near the car."""
+    traffic: Traffic | None = field(default=None, compare=False, repr=False)
+    """The obstacles of a CommonRoad scenario, which the flat-ground laser and the objects sensor see."""
+    traffic_t0: float = 0.0
+    """The traffic's time at sim time 0 [s] from its time step 0 (the planning problem's initial step)."""
 
     def __post_init__(self) -> None:
         if self.model not in (*models.MODELS, MUJOCO):
             raise ValueError(f"unknown model {self.model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
         for what, present in (("a world with ramps, bumps or obstacles needs", not self.world.empty),
-                              ("cameras need", bool(self.cameras)), ("a laser needs", self.laser is not None)):
+                              ("cameras need", bool(self.cameras))):
             if present and self.model != MUJOCO:
                 raise ValueError(f"{what} the 3D plant (model {MUJOCO}), not {self.model}")
+        if self.laser is not None and self.model != MUJOCO and self.laser.layers != (0.0,):
+            raise ValueError(f"a laser on flat ground ({self.model}) scans one layer: give layers: [0], or plant: "
+                             f"{MUJOCO}")
         names = [c.name for c in self.cameras] + ([self.laser.name] if self.laser is not None else [])
         if len(set(names)) != len(names):
             raise ValueError(f"camera and laser names must differ, got {', '.join(names)}")
@@ -96,7 +112,18 @@ class SimConfig:
         out = []
         for c in self.cameras:
             out += [f"camera/{c.name}", *([f"camera/{c.name}/depth"] if c.depth else [])]
-        return (*out, *(["laser"] if self.laser is not None else []))
+        return (*out, *(["laser"] if self.laser is not None else []), *(["objects"] if self.objects else []))
+
+    def scene_sensors(self) -> list[SceneSensor]:
+        """The sensors of the ``traffic`` (the planar laser on flat ground, the objects sensor), in a fixed order."""
+        scene, out = Scene.of(self.traffic, self.traffic_t0), []
+        if self.laser is not None and self.model != MUJOCO:
+            p = self.laser
+            out.append(PlanarLaser(name=p.name, mount=(*p.position[:2], p.yaw), bearings=p.bearings,
+                                   min_range=p.min_range, max_range=p.max_range, rate_hz=p.rate_hz, scene=scene))
+        if self.objects is not None:
+            out.append(ObjectsSensor(self.objects, scene))
+        return out
 
 
 class PlantKernel(NamedTuple):
@@ -169,8 +196,10 @@ class Simulator(Closeable):
         self._model = models.MODELS.index(c.model) if c.model in models.MODELS else -1
         self._integrator = INTEGRATORS.index(c.integrator)
         self.sensors = build_sensors(c.sensors, c.vehicle)
-        self._periods = np.array(
-            [self.clock.period_ticks(s.rate_hz, f"sensor '{s.name}'") for s in self.sensors], dtype=np.int64)
+        self._scene = c.scene_sensors()
+        self._periods = np.array(  # the scene sensors' samples are recorded after the others'
+            [self.clock.period_ticks(s.rate_hz, f"sensor '{s.name}'") for s in [*self.sensors, *self._scene]],
+            dtype=np.int64)
         self._dead_ticks = self.clock.ticks_for(c.vehicle.actuators.dead_time)
         self._watchdog_ticks = self.clock.ticks_for(c.watchdog_timeout)
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -191,6 +220,8 @@ class Simulator(Closeable):
             self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), self._z[NX:], self._consts)
         for sensor in self.sensors:
             sensor.reset(self._z.copy(), sensor_rng(c.seed, sensor.name))
+        for scene in self._scene:
+            scene.reset(sensor_rng(c.seed, scene.name))
         self._mode = MODE_IDS[ActuatorCommand().longitudinal]
         self._cmd = np.zeros(4)
         self._cmd[3] = np.inf
@@ -234,8 +265,8 @@ class Simulator(Closeable):
             sensor.close()
 
     def take_captures(self) -> list[tuple[str, Message]]:
-        """The world sensors' messages (camera images, laser scans) made since the last call, in time order,
-        with their topic names."""
+        """The world and scene sensors' messages (camera images, laser scans, object lists) made since the last
+        call, in time order, with their topic names."""
         out, self._captures = self._captures, []
         return out
 
@@ -371,10 +402,15 @@ class Simulator(Closeable):
                  parts: dict[str, list[Readings]], extra: np.ndarray | None = None) -> None:
         """The sensors' readings of the steps ``t0 + 1 .. t0 + n`` from the plant recorded at ``ticks`` (with
         the 3D plant's ``extra``)."""
-        step_ns = self.clock.step_ns
-        for sensor, period in zip(self.sensors, self._periods.tolist(), strict=True):
+        step_ns, scans = self.clock.step_ns, []
+        for sensor, period in zip([*self.sensors, *self._scene], self._periods.tolist(), strict=True):
             first, count = (t0 // period + 1) * period, (t0 + n) // period - t0 // period
             if count:
                 s = Samples(rows_of(ticks, period, count), out_z, out_dx, extra)
                 stamps = np.arange(first, first + count * period, period, dtype=np.int64) * step_ns
-                parts[sensor.name].append(Readings(sensor.name, sensor.message, stamps, sensor.measure(s)))
+                if sensor in self._scene:
+                    scans += [(sensor.topic, msg) for msg in sensor.scan(s, stamps)]
+                else:
+                    parts[sensor.name].append(Readings(sensor.name, sensor.message, stamps, sensor.measure(s)))
+        if scans:  # after the 3D plant's captures of the steps before (it stops at theirs)
+            self._captures += sorted(scans, key=lambda c: c[1].stamp_ns)

@@ -18,10 +18,8 @@ from commonroad.geometry.shape import Circle
 from commonroad.scenario.obstacle import DynamicObstacle
 from commonroad.scenario.scenario import Scenario
 
-from vilma.core.geometry import wrap_angle
+from vilma.world.states import YAW, V, X, Y, states_at  # noqa: F401 (V: the columns of Traffic.states, here too)
 
-X, Y, YAW, V = range(4)
-"""Indices of a state's columns: position [m], orientation [rad, counter-clockwise from +x], speed [m/s]."""
 CIRCLE_SIDES = 16
 """A circular obstacle's outline is the regular polygon of this many sides around it."""
 
@@ -46,16 +44,8 @@ class Traffic:
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """The states (m, 4) at time ``t`` [s] from time step 0, interpolated, and which are present (m,)."""
-        k = self.states.shape[1]
-        s = t / self.dt
-        i = int(np.clip(np.floor(s), 0, k - 1))
-        j = min(i + 1, k - 1)
-        f = float(np.clip(s - i, 0.0, 1.0)) if j > i else 0.0
-        a, b = self.states[:, i], self.states[:, j]
-        out = a + f * (b - a)
-        out[:, YAW] = wrap_angle(a[:, YAW] + f * wrap_angle(b[:, YAW] - a[:, YAW]))
-        inside = 0 <= s <= k - 1
-        present = self.static | (inside & self.present[:, i] & (self.present[:, j] | (f == 0)))
+        out, present = np.empty((len(self.ids), 4)), np.empty(len(self.ids), bool)
+        states_at(self.states, self.present, self.static, self.dt, float(t), out, present)
         return out, present
 
     def polygons(self, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
