@@ -13,10 +13,9 @@ import pytest
 import shapely
 
 from vilma.core.messages import ObjectList, PointCloud
-from vilma.scenario import SpecError, parse_scenario
+from vilma.scenario import SpecError, parse_scenario, runner
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.result import RunObserver
-from vilma.scenario import runner
 from vilma.scenario.runner import run
 
 DATA = Path(str(importlib.resources.files("vilma") / "scenarios/data/commonroad"))
