@@ -13,6 +13,8 @@ import pytest
 import shapely
 
 from vilma.core.messages import ObjectList, PointCloud
+from vilma.record.reader import read_recording
+from vilma.record.run import record_run
 from vilma.scenario import SpecError, parse_scenario, runner
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.result import RunObserver
@@ -109,3 +111,13 @@ def test_bad_objects_fields_are_one_line_errors(tmp_path):
     with pytest.raises(SpecError, match=r"s.yaml.*objects.*range") as e:
         _yaml("task: {speed: 5}\nobjects: {range: -1}\n", tmp_path)
     assert "\n" not in str(e.value)
+
+
+def test_a_recorded_run_holds_the_scans_and_the_object_lists(tmp_path):
+    seen = Captures()
+    record_run(_yaml(SCENARIO, tmp_path), tmp_path / "out", observers=[seen])
+    rec = read_recording(tmp_path / "out" / "run.mcap")
+    assert rec.schemas["objects"] == "vilma.ObjectList" and rec.schemas["laser"] == "sensor_msgs/msg/LaserScan"
+    assert rec.messages("objects") == [m for name, m in seen.got if name == "objects"]
+    assert rec.messages("laser") == [m for name, m in seen.got if name == "laser"]
+    assert rec.count("objects") == rec.count("laser") == len(seen.got) // 2 > 0

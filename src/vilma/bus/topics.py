@@ -3,7 +3,8 @@
 ``vilma/<car>/<name>``, for example ``vilma/vilma/pose``. Sensor topics carry
 what the simulator's sensors of the same name measure; ``cmd`` the actuator
 commands; ``driver/status`` and ``driver/cmd`` the self-driver's state and
-orders; ``sim/status`` and ``sim/cmd`` the simulator's. The 3D plant's world
+orders; ``sim/status`` and ``sim/cmd`` the simulator's; ``objects`` the objects
+sensor's lists (of varying length, so not a sensor topic). The 3D plant's world
 sensors add ``camera/<name>`` (and ``camera/<name>/depth``) images and the
 ``laser`` point cloud.
 """
@@ -30,6 +31,7 @@ TOPICS: dict[str, type[m.Message]] = {
     "driver/cmd": m.DriverOrder,
     "sim/status": m.SimStatus,
     "sim/cmd": m.SimControl,
+    "objects": m.ObjectList,
 }
 """Every topic of a car -> the message type it carries (requests on ``*/cmd`` are answered with a Reply)."""
 WORLD_TOPICS: dict[str, type[m.Message]] = {"camera": m.Image, "laser": m.PointCloud}

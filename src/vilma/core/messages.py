@@ -263,7 +263,7 @@ class PointCloud(Message, frozen=True):
     ranges: bytes
 
 
-class ObjectState(msgspec.Struct, frozen=True, array_like=True):
+class ObjectState(msgspec.Struct, frozen=True):
     """One object around the car, world frame: its id in the scenario, position [m] of its reference point,
     orientation [rad, counter-clockwise from +x], speed along it [m/s], and outline's length and width [m]."""
 
@@ -279,4 +279,4 @@ class ObjectState(msgspec.Struct, frozen=True, array_like=True):
 class ObjectList(Message, frozen=True):
     """The objects within the objects sensor's reach (the scenario's true obstacles, with noise)."""
 
-    objects: list[ObjectState]
+    objects: list[ObjectState] = []

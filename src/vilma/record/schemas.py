@@ -32,7 +32,9 @@ a comment. Recordings made before the standard types have every sensor so (and `
 
 Every numeric message has a fixed size (its strings, the frames, are constants), so a column of them is packed
 in one compiled loop (:mod:`vilma.record.cdr`). Messages that are not only numbers (orders, statuses) are JSON
-objects with a ``vilma.<Type>`` JSON schema.
+objects with a ``vilma.<Type>`` JSON schema; so are the objects sensor's lists (``objects``, ``vilma.ObjectList``,
+an object's fields by name): of varying length, they have no fixed size, and neither ROS 2's common interfaces
+nor Foxglove's schemas have a list of true objects with id, pose, speed and size.
 """
 
 from __future__ import annotations
@@ -340,6 +342,8 @@ def decode_fields(cls: type[m.Message], obj: dict) -> m.Message:
             v = d if isinstance(d, float) and math.isinf(d) else math.nan
         elif v is not None and isinstance(f.type, type) and issubclass(f.type, Enum):
             v = f.type(v)
+        elif isinstance(v, list) and v and isinstance(v[0], dict):  # nested structs (ObjectList's objects)
+            v = msgspec.convert(v, f.type)
         if v is not None:
             kw[f.name] = v
     return cls(**kw)

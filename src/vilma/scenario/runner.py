@@ -124,8 +124,7 @@ def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: 
             on_block(readings)
 
         try:
-            return _drive(scenario, sim, driver, log, path, step,
-                          on_block if observers or sim.config.world_topics else None, realtime, compiled, loading)
+            return _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled, loading)
         except KeyboardInterrupt:
             raise Interrupted(sim.time_ns * 1e-9) from None
 

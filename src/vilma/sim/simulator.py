@@ -112,7 +112,7 @@ class SimConfig:
         out = []
         for c in self.cameras:
             out += [f"camera/{c.name}", *([f"camera/{c.name}/depth"] if c.depth else [])]
-        return (*out, *(["laser"] if self.laser is not None else []), *(["objects"] if self.objects else []))
+        return (*out, *(["laser"] if self.laser is not None else []))
 
     def scene_sensors(self) -> list[SceneSensor]:
         """The sensors of the ``traffic`` (the planar laser on flat ground, the objects sensor), in a fixed order."""
