@@ -15,7 +15,7 @@ import shapely
 from vilma.core.messages import ObjectList, PointCloud
 from vilma.record.reader import read_recording
 from vilma.record.run import record_run
-from vilma.scenario import SpecError, parse_scenario, runner
+from vilma.scenario import SpecError, parse_scenario, runner, to_yaml
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.result import RunObserver
 from vilma.scenario.runner import run
@@ -121,3 +121,10 @@ def test_a_recorded_run_holds_the_scans_and_the_object_lists(tmp_path):
     assert rec.messages("objects") == [m for name, m in seen.got if name == "objects"]
     assert rec.messages("laser") == [m for name, m in seen.got if name == "laser"]
     assert rec.count("objects") == rec.count("laser") == len(seen.got) // 2 > 0
+
+
+def test_the_sensors_and_the_traffic_clock_survive_the_resolved_yaml(tmp_path):
+    s = _yaml(SCENARIO, tmp_path)
+    assert s.sim.objects.position_noise == 0 and s.sim.laser.max_range == 60
+    assert s.sim.traffic is s.road.traffic and s.sim.traffic_t0 == s.road.time_step * s.road.dt
+    assert _yaml(to_yaml(s), tmp_path) == s

@@ -3,6 +3,7 @@ meet rectangles."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -87,6 +88,8 @@ def test_a_moving_box_is_where_its_recording_puts_it_at_the_scan_time():
     for t in (0.0, 0.25, 1.0):
         assert scan(moving, stamp_ns=round(t * 1e9))[0][90] == pytest.approx(10 + v * t - L / 2, abs=1e-5)
     assert np.isinf(scan(moving, stamp_ns=1_100_000_000)[0]).all()  # past its recording: gone
+    later = dataclasses.replace(moving, t0=0.5)  # the planning problem starts at the recording's 0.5 s
+    assert scan(later)[0][90] == pytest.approx(10 + v * 0.5 - L / 2, abs=1e-5)
 
 
 def test_an_absent_obstacle_is_not_seen():
