@@ -9,10 +9,11 @@ import math
 import numpy as np
 import pytest
 
+from vilma.core.messages import PointCloud
 from vilma.plant3d.laser import LaserParams
 from vilma.record.world_schemas import cloud_problem
 from vilma.sensors import SensorSuite
-from vilma.sensors.base import Samples
+from vilma.sensors.base import Samples, sensor_rng
 from vilma.sensors.laser import PlanarLaser
 from vilma.sensors.scene import Scene
 from vilma.sim import SimConfig, Simulator
@@ -31,14 +32,21 @@ def box(*poses, static=True, dt=0.1, present=None) -> Scene:
                  np.ones(states.shape[:2], bool) if present is None else np.array([present]), dt)
 
 
-def scan(scene: Scene, car=VehicleState(), stamp_ns=0, **laser) -> np.ndarray:
-    """The ranges [m] of one scan from ``car`` at sim time ``stamp_ns`` [ns]."""
+def scans(scene: Scene, n=1, car=VehicleState(), stamp_ns=0, **laser) -> list[PointCloud]:
+    """``n`` scans from ``car`` at sim time ``stamp_ns`` [ns]."""
     p = LaserParams(**laser)
     sensor = PlanarLaser(name="laser", mount=(*p.position[:2], p.yaw), bearings=p.bearings, min_range=p.min_range,
-                         max_range=p.max_range, rate_hz=p.rate_hz, scene=scene)
-    z = car.to_array()[None]
-    msg = sensor.scan(Samples(np.array([0]), z, np.zeros((1, 6))), np.array([stamp_ns]))[0]
-    assert cloud_problem(msg) is None  # a scan the recorders take as the 3D laser's
+                         max_range=p.max_range, noise=p.range_noise, rate_hz=p.rate_hz, scene=scene)
+    sensor.reset(sensor_rng(0, "laser"))
+    z = np.repeat(car.to_array()[None], n, 0)
+    out = sensor.scan(Samples(np.arange(n), z, np.zeros((n, 6))), np.full(n, stamp_ns))
+    assert all(cloud_problem(m) is None for m in out)  # scans the recorders take as the 3D laser's
+    return out
+
+
+def scan(scene: Scene, car=VehicleState(), stamp_ns=0, **laser) -> tuple[np.ndarray, np.ndarray]:
+    """The ranges [m] and hit points (hits, 3) [m] of one scan from ``car`` at sim time ``stamp_ns`` [ns]."""
+    (msg,) = scans(scene, 1, car, stamp_ns, **laser)
     return np.frombuffer(msg.ranges, "<f4").astype(float), np.frombuffer(msg.points, "<f4").reshape(-1, 3)
 
 
@@ -97,6 +105,15 @@ def test_an_absent_obstacle_is_not_seen():
                              present=[False, False]))[0]).all()
 
 
+def test_ranges_have_the_given_noise_and_misses_stay_misses():
+    d, sigma, n = 20.0, 0.05, 4000
+    got = np.array([np.frombuffer(m.ranges, "<f4") for m in scans(box((MOUNT + d, 0, 0, 0)), n, range_noise=sigma)])
+    centre = got[:, 90]
+    assert abs(centre.mean() - (d - L / 2)) < 4 * sigma / math.sqrt(n)  # within 4 standard errors
+    assert abs(centre.std(ddof=1) - sigma) < 4 * sigma / math.sqrt(2 * n)
+    assert np.isinf(got[:, :80]).all()  # the noise is on the hits only
+
+
 def test_the_simulator_scans_the_traffic_at_the_laser_rate_on_flat_ground():
     """The single-track car coasting at 10 m/s towards a box 40 m ahead: each scan's centre range is the gap."""
     b = box((MOUNT + 40 + L / 2, 0, 0, 0))
@@ -115,6 +132,10 @@ def test_the_simulator_scans_the_traffic_at_the_laser_rate_on_flat_ground():
     assert xs[-1] > 9  # it drove: the gap shrank by the distance driven
 
 
-def test_a_laser_on_flat_ground_has_one_layer():
+def test_a_laser_on_flat_ground_has_one_layer_and_only_it_has_noise():
     with pytest.raises(ValueError, match="one layer"):
         SimConfig(laser=LaserParams(layers=(0.0, 5.0)))
+    with pytest.raises(ValueError, match="exact: remove the laser's range_noise"):
+        SimConfig(model="mujoco", laser=LaserParams(range_noise=0.1))
+    with pytest.raises(ValueError, match="range_noise must be a number >= 0"):
+        LaserParams(range_noise=-1.0)

@@ -49,6 +49,8 @@ class LaserParams:
     """Farther hits are not reported [m]."""
     rate_hz: float = 10.0
     """Scan rate [Hz]."""
+    range_noise: float = 0.0
+    """Standard deviation of each range [m], Gaussian (the flat-ground laser only; the 3D plant's is exact)."""
 
     def __post_init__(self) -> None:
         what = check_mount("laser", self.name, self.position, self.yaw)
@@ -72,6 +74,8 @@ class LaserParams:
                              f"got {self.min_range!r}, {self.max_range!r}")
         if not (all_finite(self.rate_hz) and self.rate_hz > 0):
             raise ValueError(f"{what} rate_hz must be a positive number [Hz], got {self.rate_hz!r}")
+        if not (all_finite(self.range_noise) and self.range_noise >= 0):
+            raise ValueError(f"{what} range_noise must be a number >= 0 [m], got {self.range_noise!r}")
 
     @property
     def bearings(self) -> np.ndarray:

@@ -11,6 +11,7 @@ from numba import njit
 
 from vilma.core.messages import Message, PointCloud
 from vilma.sensors.base import Samples
+from vilma.sensors.noise import standard_normals
 from vilma.sensors.scene import Scene
 from vilma.vehicle.state import YAW, X, Y
 from vilma.world.states import states_at
@@ -30,9 +31,10 @@ def _hit(ax, ay, bx, by, dx, dy):
 
 
 @njit(cache=True)
-def _scan(rows, z, t, states, present, static, dt, outline, radius, mount, bearings, min_range, max_range, out):
+def _scan(rows, z, t, states, present, static, dt, outline, radius, mount, bearings, min_range, max_range, noise,
+          out):
     """The ranges [m] of every ray (inf: no hit within ``min_range .. max_range``) at the samples ``rows`` of
-    ``z`` at obstacle times ``t`` [s] into ``out`` (n, rays)."""
+    ``z`` at obstacle times ``t`` [s] into ``out`` (n, rays); ``noise`` (n, rays) [m] is added to each hit."""
     m, p = outline.shape[0], outline.shape[1]
     pose, seen = np.empty((m, 4)), np.empty(m, np.bool_)
     dx, dy = np.empty(bearings.shape[0]), np.empty(bearings.shape[0])
@@ -44,9 +46,10 @@ def _scan(rows, z, t, states, present, static, dt, outline, radius, mount, beari
             dx[r], dy[r] = math.cos(z[i, YAW] + mount[2] + bearings[r]), math.sin(z[i, YAW] + mount[2] + bearings[r])
             out[k, r] = math.inf
         states_at(states, present, static, dt, t[k], pose, seen)
+        reach = max_range + np.abs(noise[k]).max()
         for n in range(m):
             px, py = pose[n, X] - ox, pose[n, Y] - oy
-            if not seen[n] or math.hypot(px, py) - radius[n] > max_range:  # wholly out of reach
+            if not seen[n] or math.hypot(px, py) - radius[n] > reach:  # wholly out of reach, with the noise
                 continue
             co, so = math.cos(pose[n, YAW]), math.sin(pose[n, YAW])
             for e in range(p):
@@ -56,6 +59,7 @@ def _scan(rows, z, t, states, present, static, dt, outline, radius, mount, beari
                 for r in range(bearings.shape[0]):
                     out[k, r] = min(out[k, r], _hit(ax, ay, bx, by, dx[r], dy[r]))
         for r in range(bearings.shape[0]):
+            out[k, r] += noise[k, r]
             if out[k, r] < min_range or out[k, r] > max_range:
                 out[k, r] = math.inf
 
@@ -68,7 +72,8 @@ class PlanarLaser:
         mount: position x, y [m] in the body frame from the centre of mass and heading [rad] of the scan's centre
             from body x, counter-clockwise.
         bearings: each ray's bearing from the scan's centre, counter-clockwise [rad], (rays,).
-        min_range, max_range: the hits reported lie between these [m].
+        min_range, max_range: the hits reported lie between these [m] (with the noise).
+        noise: standard deviation of each range [m], Gaussian.
         rate_hz: scan rate [Hz].
         scene: the obstacles it sees.
     """
@@ -76,21 +81,22 @@ class PlanarLaser:
     topic = "laser"
 
     def __init__(self, *, name: str, mount: tuple[float, float, float], bearings: np.ndarray, min_range: float,
-                 max_range: float, rate_hz: float, scene: Scene) -> None:
+                 max_range: float, noise: float = 0.0, rate_hz: float, scene: Scene) -> None:
         self.name, self.rate_hz, self.scene = name, rate_hz, scene
         self._mount, self._bearings = np.array(mount, float), np.asarray(bearings, float)
-        self._limits = (min_range, max_range)
+        self._limits, self._sigma = (min_range, max_range), noise
         self._radius = scene.radius
         self._unit = np.stack([np.cos(self._bearings), np.sin(self._bearings), np.zeros(len(self._bearings))], -1)
 
     def reset(self, rng: np.random.Generator) -> None:
-        """Nothing to reset: the ranges are exact."""
+        self.rng = rng
 
     def scan(self, s: Samples, stamp_ns: np.ndarray) -> list[Message]:
         sc = self.scene
         ranges = np.empty((len(s), len(self._bearings)))
+        noise = self._sigma * standard_normals(self.rng, len(s), len(self._bearings))
         _scan(s.rows, s.z, sc.times(stamp_ns), sc.states, sc.present, sc.static, sc.dt, sc.outline, self._radius,
-              self._mount, self._bearings, *self._limits, ranges)
+              self._mount, self._bearings, *self._limits, noise, ranges)
         out = []
         for t, r in zip(stamp_ns.tolist(), ranges, strict=True):
             hit = np.isfinite(r)

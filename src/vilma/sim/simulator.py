@@ -88,6 +88,9 @@ class SimConfig:
                               ("cameras need", bool(self.cameras))):
             if present and self.model != MUJOCO:
                 raise ValueError(f"{what} the 3D plant (model {MUJOCO}), not {self.model}")
+        if self.laser is not None and self.model == MUJOCO and self.laser.range_noise:
+            raise ValueError(f"the 3D plant's laser is exact: remove the laser's range_noise "
+                             f"({self.laser.range_noise!r} m), or drive on flat ground")
         if self.laser is not None and self.model != MUJOCO and self.laser.layers != (0.0,):
             raise ValueError(f"a laser on flat ground ({self.model}) scans one layer: give layers: [0], or plant: "
                              f"{MUJOCO}")
@@ -120,7 +123,8 @@ class SimConfig:
         if self.laser is not None and self.model != MUJOCO:
             p = self.laser
             out.append(PlanarLaser(name=p.name, mount=(*p.position[:2], p.yaw), bearings=p.bearings,
-                                   min_range=p.min_range, max_range=p.max_range, rate_hz=p.rate_hz, scene=scene))
+                                   min_range=p.min_range, max_range=p.max_range, noise=p.range_noise, rate_hz=p.rate_hz,
+                                   scene=scene))
         if self.objects is not None:
             out.append(ObjectsSensor(self.objects, scene))
         return out
