@@ -201,7 +201,7 @@ class Simulator(Closeable):
         self._integrator = INTEGRATORS.index(c.integrator)
         self.sensors = build_sensors(c.sensors, c.vehicle)
         self._scene = c.scene_sensors()
-        self._periods = np.array(  # the scene sensors' samples are recorded after the others'
+        self._periods = np.array(  # sample periods [ticks]: the sensors', then the scene sensors'
             [self.clock.period_ticks(s.rate_hz, f"sensor '{s.name}'") for s in [*self.sensors, *self._scene]],
             dtype=np.int64)
         self._dead_ticks = self.clock.ticks_for(c.vehicle.actuators.dead_time)
