@@ -21,6 +21,7 @@ from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the 
 from vilma.scenario.bundled import find_scenario as find_scenario
 from vilma.scenario.fields import SpecError
 from vilma.scenario.folder import claim
+from vilma.scenario.lockstep import _loop
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario, load_scenario
 
@@ -138,8 +139,6 @@ def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:
 def numba_cache_cold() -> bool:
     """Whether the next run compiles the closed loop: not yet in this process, and numba's cache on disk holds no
     version of it for this source (its index is missing or stale)."""
-    from vilma.scenario.lockstep import _loop
-
     # numba has no public call for this: its cache's index, read as numba reads it (checked against the source)
     return not _loop.signatures and not _loop._cache._cache_file._load_index()
 
