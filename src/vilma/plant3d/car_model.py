@@ -55,9 +55,10 @@ def spring_preload(p: VehicleParams, corner: str) -> float:
 
 
 def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
-            imu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> str:
+            imu: tuple[float, float, float] = (0.0, 0.0, 0.0), scene: tuple[str, str] = ("", "")) -> str:
     """The MJCF text of the car at the origin on ``world``; ``cameras``: extra MJCF inside the chassis body;
-    ``imu``: where the accelerometer and gyro sit in the body frame from the centre of mass [m]."""
+    ``imu``: where the accelerometer and gyro sit in the body frame from the centre of mass [m]; ``scene``: more
+    ``(assets, worldbody elements)`` (a road and its traffic, :mod:`vilma.plant3d.road`)."""
     s = p.suspension
     r, hw = p.wheel_radius, s.wheel_width / 2
     ms, ixx, iyy, izz = sprung_inertia(p)
@@ -96,7 +97,7 @@ def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
     <default class="terrain"><geom contype="1" conaffinity="1" condim="3" rgba="0.55 0.55 0.5 1"
       friction="{world.ground_friction:.6g} 0.005 0.0001"/></default>
   </default>
-  <asset>{assets}</asset>
+  <asset>{assets}{scene[0]}</asset>
   <worldbody>
     <light pos="0 0 50" dir="0 0 -1" directional="true"/>
     <geom name="ground" type="plane" size="0 0 1" rgba="0.45 0.5 0.45 1" contype="1" conaffinity="1"
@@ -110,7 +111,7 @@ def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
       {cameras}
       {"".join(corners)}
     </body>
-    {things}
+    {things}{scene[1]}
   </worldbody>
   <actuator>{motors}{steering}</actuator>
   <sensor><accelerometer name="imu_accel" site="imu"/><gyro name="imu_gyro" site="imu"/></sensor>

@@ -3,16 +3,22 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from vilma.plant3d.car_model import CORNERS, TIMESTEP, car_xml
+from vilma.plant3d.road import TrafficMover, road_xml, traffic_xml
 from vilma.plant3d.world import World
 from vilma.vehicle.actuators import actuator_step, targets
 from vilma.vehicle.models.common import V_SIGN
 from vilma.vehicle.params import VehicleParams, plant_consts
 from vilma.vehicle.state import N3, NX, VehicleState
+
+if TYPE_CHECKING:  # the roads extra
+    from vilma.world.road_view import LaneletLines
+    from vilma.world.traffic import Traffic
 
 COLLISION_GAP = 0.5
 """A touch of an obstacle is a new collision if the car was off it this long [s] (a bounce is the same one)."""
@@ -35,15 +41,23 @@ class MujocoPlant:
     that starts touching an obstacle of ``world`` is a collision (:data:`COLLISION_GAP`;
     :attr:`collisions`, :attr:`last_collision`).
     ``cameras``: MJCF of the world sensors inside the chassis; ``imu``: the IMU's place in the body [m].
+    A CommonRoad scenario adds its ``road`` (drawn on the ground) and its ``traffic`` (``traffic<id>``, obstacles
+    too), at the traffic's time ``traffic_t0`` [s] at sim time 0 (:mod:`vilma.plant3d.road`).
     """
 
     def __init__(self, params: VehicleParams, world: World = World(), cameras: str = "",
-                 imu: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+                 imu: tuple[float, float, float] = (0.0, 0.0, 0.0), road: tuple[LaneletLines, ...] = (),
+                 traffic: Traffic | None = None, traffic_t0: float = 0.0) -> None:
         self.params, self.world = params, world
-        self.model = mujoco.MjModel.from_xml_string(car_xml(params, world, cameras, imu))
+        assets, surface = road_xml(road)
+        scene = (assets, surface + (traffic_xml(traffic) if traffic is not None else ""))
+        self.model = mujoco.MjModel.from_xml_string(car_xml(params, world, cameras, imu, scene))
         self.data = mujoco.MjData(self.model)
         m = self.model
-        self._obstacles = {m.geom(f"obstacle:{n}").id: n for n in world.obstacle_names()}
+        ids = traffic.ids.tolist() if traffic is not None else []
+        names = [*world.obstacle_names(), *(f"traffic{i}" for i in ids)]
+        self._obstacles = {m.geom(f"obstacle:{n}").id: n for n in names}
+        self._traffic = TrafficMover(m, traffic, traffic_t0) if traffic is not None else None
         self._obstacle_ids = np.array(sorted(self._obstacles), dtype=np.int32)
         self._chassis = m.body("chassis").id
         self._car_geoms = np.flatnonzero(m.body_rootid[m.geom_bodyid] == self._chassis)
@@ -75,6 +89,8 @@ class MujocoPlant:
         d.qvel[self._spin_dof] = state.vx / self.params.wheel_radius
         self.set_controls(state.steer, 0.0, 0.0)
         d.qpos[self._steer_q] = ackermann(state.steer, self.params.wheelbase, self.params.track)
+        if self._traffic is not None:
+            self._traffic.move(d, 0.0)
         mujoco.mj_forward(m, d)
         self.collisions, self.last_collision = 0, ""
         self._touched: dict[int, float] = {}
@@ -104,7 +120,10 @@ class MujocoPlant:
     def step(self, steer: float, drive: float, brake: float, dt: float) -> None:
         """Advance ``dt`` [s] (a whole number of MuJoCo steps) with these actuator outputs."""
         self.set_controls(steer, drive, brake)
-        mujoco.mj_step(self.model, self.data, nstep=max(1, round(dt / TIMESTEP)))
+        nstep = max(1, round(dt / TIMESTEP))
+        if self._traffic is not None:  # where the traffic is at the block's end, when the sensors look
+            self._traffic.move(self.data, self.data.time + nstep * TIMESTEP)
+        mujoco.mj_step(self.model, self.data, nstep=nstep)
         mujoco.mj_kinematics(self.model, self.data)  # body poses at the step's end, as qpos (cameras see them)
         if len(self._obstacle_ids):
             self._check_contacts()

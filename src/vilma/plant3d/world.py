@@ -124,9 +124,9 @@ class World:
                [c.name or f"cone{i}" for i, c in enumerate(self.cones)]
 
 
-def fmt(*v: float) -> str:
-    """Numbers as MJCF writes them: space-separated, six significant digits."""
-    return " ".join(f"{x:.6g}" for x in v)
+def fmt(*v: float, digits: int = 6) -> str:
+    """Numbers as MJCF writes them: space-separated, six significant digits (or ``digits``)."""
+    return " ".join(f"{x:.{digits}g}" for x in v)
 
 
 def _frame(yaw: float, pitch: float = 0.0) -> str:

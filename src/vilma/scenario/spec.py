@@ -57,6 +57,7 @@ from vilma.scenario.simulation import ROAD_KEYS, read_sim
 from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig
+from vilma.sim.simulator import MUJOCO
 from vilma.trajectory import Trajectory, TrajectoryFileError, densify, load_trajectory, resample
 from vilma.trajectory.course import spline_course
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
@@ -160,8 +161,11 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     top = sim.vehicle.top_speed
     task = _task(data, src, top, file)
     road = _road(data, src, task, file)
-    if road is not None:  # what the flat-ground laser and the objects sensor see
-        sim = dataclasses.replace(sim, traffic=road.traffic, traffic_t0=road.time_step * road.dt)
+    if road is not None:  # what the flat-ground laser, the objects sensor and the 3D plant see
+        from vilma.world.road_view import road_view  # the roads extra, which _road required
+
+        sim = dataclasses.replace(sim, traffic=road.traffic, traffic_t0=road.time_step * road.dt,
+                                  road=road_view(road).lanelets if sim.model == MUJOCO else ())
     return Scenario(
         name=name, description=description, file=file, sim=sim, driver=driver, task=task,
         initial=_initial(data, src, top, road), duration=_duration(data, src, period),

@@ -40,6 +40,7 @@ from vilma.vehicle.params import VehicleParams, plant_consts, vilma
 from vilma.vehicle.state import N3, NX, VehicleState
 
 if TYPE_CHECKING:  # the roads extra
+    from vilma.world.road_view import LaneletLines
     from vilma.world.traffic import Traffic
 
 log = logging.getLogger(__name__)
@@ -80,6 +81,8 @@ class SimConfig:
     """The obstacles of a CommonRoad scenario, which the flat-ground laser and the objects sensor see."""
     traffic_t0: float = 0.0
     """The traffic's time at sim time 0 [s] from its time step 0 (the planning problem's initial step)."""
+    road: tuple[LaneletLines, ...] = field(default=(), compare=False, repr=False)
+    """The lanelets of a CommonRoad scenario, which the 3D plant draws on its ground (and its traffic moves on)."""
 
     def __post_init__(self) -> None:
         if self.model not in (*models.MODELS, MUJOCO):
@@ -190,7 +193,8 @@ class Simulator(Closeable):
                 self._world_sensors.append(LaserSensor(c.laser))
 
             imu = c.sensors.imu.offset if c.sensors.imu is not None else (0.0, 0.0, 0.0)
-            self._plant3d = MujocoPlant(c.vehicle, c.world, "".join(s.mjcf() for s in self._world_sensors), imu)
+            self._plant3d = MujocoPlant(c.vehicle, c.world, "".join(s.mjcf() for s in self._world_sensors), imu,
+                                        c.road, c.traffic, c.traffic_t0)
             for s in self._world_sensors:
                 s.attach(self._plant3d)
         self._capture_periods = np.array(
