@@ -13,9 +13,10 @@ it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`);
 when, besides, the car was in the planning problem's goal region (``goal_reached``, by the goal's own
 check, :meth:`~vilma.world.commonroad.EgoTask.goal_time`; ``time_to_goal_s`` from the initial state).
 A route is also scored as CommonRoad's benchmark scores it (:mod:`vilma.world.benchmark`): ``collisions``
-(how many of the file's obstacles, moving along their recordings, the car's outline touched), ``off_road``
+(how many of the file's obstacles, moving along their recordings or, with ``traffic: reactive``, where IDM
+drove them, the car's outline touched), ``off_road``
 (touched the road's boundary), ``min_distance_to_traffic_m`` and ``min_time_to_collision_s``; it is complete
-only without either (``traffic: recorded``, ``collisions_checked: true``).
+only without either (``traffic``: recorded or reactive, ``collisions_checked: true``).
 ``incomplete_reason`` says why not, in words.
 
 The timing keys (:data:`~vilma.scenario.scorecard.TIMING_KEYS`) are the caller's
@@ -105,7 +106,7 @@ def _road_checks(scenario: Scenario, log: DriveLog, out: dict) -> list[str]:
     c = log.column
     found = check_drive(scenario.road, EgoBox(length=car.length, width=car.width, offset=car.body_offset), c("t"),
                         c("x"), c("y"), c("yaw"), c("vx"), c("vy"))
-    out.update(traffic="recorded", collisions_checked=True, collisions=len(found.hit),
+    out.update(traffic=scenario.traffic, collisions_checked=True, collisions=len(found.hit),
                off_road=found.off_road_time is not None, min_distance_to_traffic_m=found.min_distance,
                min_time_to_collision_s=found.min_time_to_collision)
     why = []

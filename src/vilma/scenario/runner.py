@@ -8,10 +8,12 @@ the machine allows; ``realtime`` paces it with :class:`~vilma.sim.Pacer`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from numba.core.event import TimingListener, install_listener
 
@@ -25,7 +27,10 @@ from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
 from vilma.sim import Pacer, Simulator
 from vilma.trajectory import Trajectory
-from vilma.vehicle.state import VX, VehicleState
+from vilma.vehicle.state import VX, YAW, VehicleState, X, Y
+
+if TYPE_CHECKING:  # the roads extra
+    from vilma.world.reactive import ReactiveTraffic
 
 
 def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
@@ -44,8 +49,9 @@ def run(scenario: Scenario, realtime: float | None = None, compiled: bool = True
     """Drive ``scenario`` to its end and score it; ``realtime`` paces it to that many times real time.
 
     Unpaced runs that qualify (:func:`~vilma.scenario.lockstep.compiled_ok`) run compiled, unless
-    ``compiled`` is False; the drive is the same either way. The ``observers`` watch it as it goes (the
-    run's folder, its recording, a live view: :class:`~vilma.scenario.result.RunObserver`); the runner
+    ``compiled`` is False; the drive is the same either way. Reactive traffic runs the Python loop: its IDM
+    steps in Python each driver period, which the compiled loop cannot call. The ``observers`` watch it as it
+    goes (the run's folder, its recording, a live view: :class:`~vilma.scenario.result.RunObserver`); the runner
     writes no file itself. ``started`` is the :func:`time.perf_counter` reading the run's share of the
     command began at (``wall_time_s``; default: now).
 
@@ -97,12 +103,23 @@ class _LoadTimer(TimingListener):
 def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: Sequence[RunObserver],
          loading: _LoadTimer) -> RunResult:
     path = scenario.reference_path()
-    with Simulator(scenario.sim) as sim:  # the 3D plant's renderers are freed however the run ends
+    driver = Driver(scenario.sim.vehicle, scenario.driver, step=scenario.sim.step)
+    capacity = round(scenario.duration / driver.period) + 2  # a row a period, allocated once
+    reactive = _reactive(scenario, driver.period, capacity)
+    config = scenario.sim if reactive is None else dataclasses.replace(scenario.sim, traffic=reactive.traffic,
+                                                                        traffic_t0=0.0)
+    with Simulator(config) as sim:  # the 3D plant's renderers are freed however the run ends
         sim.reset(initial_state(scenario, path))
-        driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
-        log = DriveLog(capacity=round(scenario.duration / driver.period) + 2)  # a row a period, allocated once
+        log = DriveLog(capacity=capacity)
         for o in observers:
             o.started(sim, log)
+
+        def react() -> None:
+            if reactive is not None:  # the traffic's next period, seeing the ego's box where it is now
+                z, car = sim.plant, sim.config.vehicle
+                reactive.step(z[X] + car.body_offset * math.cos(z[YAW]),
+                              z[Y] + car.body_offset * math.sin(z[YAW]), z[VX])
+        react()
 
         def on_block(readings: dict[str, Readings]) -> None:
             for o in observers:
@@ -121,17 +138,20 @@ def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: 
             log.add((sim.time_ns * 1e-9, *z, st.target_speed, st.speed,
                      *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
                      *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
+            react()
             on_block(readings)
 
         try:
-            return _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled, loading)
+            return _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled, loading, reactive)
         except KeyboardInterrupt:
             raise Interrupted(sim.time_ns * 1e-9) from None
 
 
 def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, path: Trajectory | None, step,
-           on_block, realtime: float | None, compiled: bool, loading: _LoadTimer) -> RunResult:
-    """The loop of :func:`run`: start the task, step until it is done or time is up, score."""
+           on_block, realtime: float | None, compiled: bool, loading: _LoadTimer,
+           reactive: ReactiveTraffic | None) -> RunResult:
+    """The loop of :func:`run`: start the task, step until it is done or time is up, score (against the traffic
+    where it drove when it is ``reactive``)."""
     period = driver.period_ticks
     wall0, load0 = time.perf_counter(), loading.seconds
     step(sim.advance(period))  # the first readings: the estimator starts
@@ -146,7 +166,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
 
     remaining = scenario.duration - t_start
     periods = round(remaining / (period * sim.clock.step_s))
-    if realtime is None and compiled and compiled_ok(sim, driver):
+    if realtime is None and compiled and reactive is None and compiled_ok(sim, driver):
         run_compiled(sim, driver, log, periods, follows, on_block)
     elif realtime is None:
         for _ in range(periods):
@@ -157,11 +177,23 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
         Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(remaining, on_period=step,
                                                                          should_stop=finished)
     loop = time.perf_counter() - wall0 - (loading.seconds - load0)
+    if reactive is not None:
+        scenario = dataclasses.replace(scenario, road=reactive.task(scenario.road))
     metrics = scorecard(log, scenario, path, t_start, broke_down=WATCHDOG_STOP if sim.watchdog_tripped else None)
     metrics.update(loop_wall_time_s=loop)
     if scenario.road is None:  # a road's collisions are the benchmark's (the scorecard's)
         metrics["collisions"] = sim.collisions[0]
     return RunResult(scenario, metrics, expectation_failures(metrics, scenario), log, path, t_start)
+
+
+def _reactive(scenario: Scenario, period: float, periods: int) -> ReactiveTraffic | None:
+    """The road's traffic driven by IDM at the driver ``period`` [s] for ``periods``, if ``traffic: reactive``."""
+    if scenario.traffic != "reactive":
+        return None
+    from vilma.world.reactive import ReactiveTraffic  # the roads extra, there when the scenario is a road
+
+    road, car = scenario.road, scenario.sim.vehicle
+    return ReactiveTraffic(road.traffic, road.time_step * road.dt, period, periods, car.length)
 
 
 def start_task(driver: Driver, scenario: Scenario, path: Trajectory | None) -> Trajectory | None:

@@ -25,6 +25,8 @@ Top-level keys (all optional but ``task``):
   ``type`` and that controller's parameter fields. ``driver``: other
   :class:`~vilma.control.driver.DriverParams` fields, and ``original: true`` for the shipped program.
 - ``speed_log``: a speed log of the original program to overlay and compare (``data/SpeedLog10.txt``).
+- ``traffic``: with ``world: {commonroad: file.xml}``, ``recorded`` (default: as in the file) or ``reactive``
+  (IDM along the recorded paths behind the car ahead, the ego included: :mod:`vilma.world.reactive`).
 - ``task``: see :class:`~vilma.scenario.task.TaskSpec`. ``initial``: see
   :class:`~vilma.scenario.task.InitialSpec`. ``duration``: the longest
   drive [s], at most :data:`~vilma.scenario.drive_log.MAX_ROWS` driver periods (the run keeps a log row
@@ -85,6 +87,9 @@ class Scenario:
     """A speed log of the original program (time, speed) to compare with, relative to the scenario file."""
     road: EgoTask | None = None
     """The task of a CommonRoad planning problem (``world.commonroad``) for a ``route`` task."""
+    traffic: str = "recorded"
+    """How a road's traffic drives: ``recorded`` (as in the file) or ``reactive`` (IDM along the recorded paths,
+    :mod:`vilma.world.reactive`)."""
 
     def reference_path(self) -> Trajectory | None:
         """The path the task follows (loaded, densified, smoothed, resampled), or None for a speed task."""
@@ -130,7 +135,11 @@ TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "ca
             "integrator",
             "step", "seed",
             "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
-            "task", "initial", "duration", "metrics", "expect", "speed_log")
+            "task", "initial", "duration", "metrics", "expect", "speed_log", "traffic")
+
+
+TRAFFIC = ("recorded", "reactive")
+"""The ways a CommonRoad world's traffic drives (``traffic``)."""
 
 
 def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> Scenario:
@@ -170,7 +179,17 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
         name=name, description=description, file=file, sim=sim, driver=driver, task=task,
         initial=_initial(data, src, top, road), duration=_duration(data, src, period),
         metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
-        speed_log=get(data, src, ("speed_log",), str, None), road=road)
+        speed_log=get(data, src, ("speed_log",), str, None), road=road, traffic=_traffic(data, src, road))
+
+
+def _traffic(data: dict, src: Source, road: EgoTask | None) -> str:
+    """``traffic``: ``recorded`` or ``reactive``, for a CommonRoad world only."""
+    value = get(data, src, ("traffic",), str, "recorded")
+    if value not in TRAFFIC:
+        raise src.error(("traffic",), f"unknown traffic {value!r}; use one of {', '.join(TRAFFIC)}")
+    if "traffic" in data and road is None:
+        raise src.error(("traffic",), "traffic needs a CommonRoad world: world: {commonroad: file.xml}")
+    return value
 
 
 def _document(data: Any, src: Source, overrides: dict[str, str]) -> tuple[dict, Source]:
@@ -407,6 +426,7 @@ def to_yaml(scenario: Scenario) -> str:
         "initial": {k: v for k, v in plain(s.initial).items() if v is not None},
         "duration": s.duration, "metrics": plain(s.metrics),
         **({"speed_log": str(beside(s.file, s.speed_log).resolve())} if s.speed_log else {}),
+        **({"traffic": s.traffic} if s.road is not None else {}),
         "expect": {k: (v if isinstance(v, bool) else {b: x for b, x in plain(v).items() if x is not None})
                    for k, v in s.expect.items()},
     }
