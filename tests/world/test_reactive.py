@@ -57,9 +57,9 @@ def test_a_car_behind_a_standing_one_stops_near_s0_behind_it_without_touching():
     leader, v0 = 100.0, 15.0
     rt = ReactiveTraffic(_lane(np.full(301, v0), standing_at=leader), 0.0, PERIOD, 6000, ego_length=LENGTH)
     gaps = []
-    for _ in range(6000):  # 120 s
+    for j in range(1, 6001):  # 120 s
         rt.step(*FAR, 0.0)
-        x = rt.traffic.states[0, rt._j, 0]
+        x = rt.traffic.states[0, j, 0]
         gaps.append((leader - LENGTH / 2) - (x + LENGTH / 2))
     rest, smallest = _idm_stop(p, leader - LENGTH, v0, v0, PERIOD / 20)
     # at rest IDM's acceleration is a_max (1 - (s0/s)^2): a car rests only at a gap s <= s0 (+ v T, v = 0); the
@@ -67,7 +67,7 @@ def test_a_car_behind_a_standing_one_stops_near_s0_behind_it_without_touching():
     assert rest <= p.s0 and rest > 0.8 * p.s0
     assert gaps[-1] == pytest.approx(rest, abs=0.01)
     assert min(gaps) >= smallest - 0.01 and min(gaps) > 0  # no collision
-    assert rt.traffic.states[0, rt._j, 3] == 0.0
+    assert rt.traffic.states[0, 6000, 3] == 0.0
 
 
 def test_on_a_free_road_a_car_speeds_up_by_idms_acceleration_law():

@@ -92,16 +92,21 @@ def place(outline: np.ndarray, pose: np.ndarray) -> np.ndarray:
     return outline @ np.array([[c, s], [-s, c]]) + pose[:2]
 
 
-@lru_cache(maxsize=4)  # the GUI, the report and the recorder of one run draw the same file
 def road_view(task: EgoTask) -> RoadView:
-    """What to draw of the CommonRoad file of ``task``."""
-    road = load(task.file)
-    t0, dt = task.time_step, task.dt
-    lanelets = tuple(_lines(la) for la in road.network.lanelets.lanelets)
+    """What to draw of the CommonRoad file of ``task``, its traffic as ``task.scenario`` has it (recorded, or
+    where reactive traffic drove)."""
+    lanelets, goal = _road(task)
+    bodies = tuple(_body(o, task.time_step, task.dt) for o in task.scenario.obstacles)
+    return RoadView(lanelets=lanelets, goal=goal, bodies=bodies, dt=task.dt)
+
+
+@lru_cache(maxsize=4)  # the GUI, the report and the recorder of one run draw the same file
+def _road(task: EgoTask) -> tuple[tuple[LaneletLines, ...], tuple[np.ndarray, ...]]:
+    """The lanelets and the goal region's outlines of ``task``'s file."""
+    lanelets = tuple(_lines(la) for la in load(task.file).network.lanelets.lanelets)
     goal = tuple(_outline(shape) for st in task.goal.state_list if getattr(st, "position", None) is not None
                  for shape in (st.position.shapes if isinstance(st.position, ShapeGroup) else [st.position]))
-    bodies = tuple(_body(o, t0, dt) for o in road.scenario.obstacles)
-    return RoadView(lanelets=lanelets, goal=goal, bodies=bodies, dt=dt)
+    return lanelets, goal
 
 
 def _lines(la: Lanelet) -> LaneletLines:

@@ -1,0 +1,134 @@
+"""``traffic: reactive``: a recorded car that never saw the slow ego drives into it as recorded, and brakes behind it
+by the Intelligent Driver Model when reactive; the key is for CommonRoad worlds only."""
+
+from __future__ import annotations
+
+import importlib.resources
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from commonroad.geometry.shape import Rectangle
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.prediction.prediction import TrajectoryPrediction
+from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
+from commonroad.scenario.state import CustomState, InitialState
+from commonroad.scenario.trajectory import Trajectory
+
+from vilma.scenario import SpecError, parse_scenario
+from vilma.scenario.fields import load_yaml
+from vilma.scenario.result import RunObserver
+from vilma.scenario.runner import run
+from vilma.world.commonroad import load
+from vilma.world.reactive import IdmParams
+from vilma.world.road_view import road_view
+
+DATA = Path(str(importlib.resources.files("vilma") / "scenarios/data/commonroad"))
+TUTORIAL = DATA / "ZAM_Tutorial-1_1_T-1.xml"  # three straight lanes along +x from x = 0 to 199 m
+EGO_X, EGO_SPEED = 60.0, 3.0  # the ego starts here [m] in the right lane, slow [m/s]
+CAR_X, CAR_SPEED = 5.0, 15.0  # the recorded car, behind it in the same lane [m], [m/s]
+
+
+def _rear_ended(tmp_path: Path) -> Path:
+    """The tutorial's road with the ego at EGO_X at EGO_SPEED and a car recorded for 10 s at CAR_SPEED from CAR_X
+    in the ego's lane (its own car removed)."""
+    road = load(TUTORIAL)
+    sc = road.scenario
+    for o in list(sc.obstacles):
+        sc.remove_obstacle(o)
+    pp = next(iter(road.planning_problems.values()))
+    pp.initial_state.position, pp.initial_state.velocity = np.array([EGO_X, 0.0]), EGO_SPEED
+    shape = Rectangle(4.5, 2.0)
+    states = [CustomState(time_step=k, position=np.array([CAR_X + CAR_SPEED * k * sc.dt, 0.0]), orientation=0.0,
+                          velocity=CAR_SPEED) for k in range(1, 101)]
+    init = InitialState(time_step=0, position=np.array([CAR_X, 0.0]), orientation=0.0, velocity=CAR_SPEED,
+                        acceleration=0.0, yaw_rate=0.0, slip_angle=0.0)
+    sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
+                                   TrajectoryPrediction(Trajectory(1, states), shape)))
+    out = tmp_path / "rear_ended.xml"
+    with warnings.catch_warnings():  # commonroad-io's protobuf writer warns of deprecated calls on import
+        warnings.simplefilter("ignore")
+        from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
+
+        CommonRoadFileWriter(sc, PlanningProblemSet([pp]), author="vilma tests", affiliation="", source="",
+                             tags=set()).write_to_file(str(out), OverwriteExistingFile.ALWAYS)
+    return out
+
+
+def _scenario(tmp_path: Path, extra: str):
+    xml = _rear_ended(tmp_path)
+    text = f"world: {{commonroad: {xml.name}}}\ntask: {{route: true, speed: {EGO_SPEED}}}\nduration: 8\n{extra}"
+    data, src = load_yaml(text, str(tmp_path / "s.yaml"))
+    return parse_scenario(data, src, file=tmp_path / "s.yaml")
+
+
+@pytest.mark.slow
+def test_a_recorded_car_drives_into_the_slow_ego(tmp_path):
+    m = run(_scenario(tmp_path, "traffic: recorded")).metrics
+    assert m["traffic"] == "recorded" and m["collisions"] == 1 and m["min_distance_to_traffic_m"] == 0.0
+
+
+class Captures(RunObserver):
+    def __init__(self) -> None:
+        self.got: list = []
+
+    def add_captures(self, captures) -> None:
+        self.got += captures
+
+
+@pytest.fixture(scope="module")
+def reactive(tmp_path_factory):
+    """A reactive run with a noise-free objects sensor, and what its sensors handed on."""
+    seen = Captures()
+    scenario = _scenario(tmp_path_factory.mktemp("r"), "traffic: reactive\nobjects: {position_noise: 0, "
+                                                      "speed_noise: 0, range: 200}")
+    return run(scenario, observers=[seen]), seen.got
+
+
+@pytest.mark.slow
+def test_a_reactive_car_brakes_behind_the_slow_ego(reactive):
+    result, _ = reactive
+    m = result.metrics
+    assert m["traffic"] == "reactive" and m["collisions"] == 0
+    # IDM keeps at least its standstill gap s0 behind a leader (less the approach's undershoot, < 0.25 m here:
+    # tests/world/test_reactive.py)
+    assert m["min_distance_to_traffic_m"] >= IdmParams().s0 - 0.25
+    car = result.scenario.road.traffic  # where the car drove, as scored: behind the ego, at its speed by then
+    x, present = car.states[0, :, 0], car.present[0]
+    assert present.any() and x[present].max() < EGO_X + EGO_SPEED * 8
+
+
+@pytest.mark.slow
+def test_the_objects_sensor_sees_the_car_where_it_drove_not_where_it_was_recorded(reactive):
+    result, got = reactive
+    car = result.scenario.road.traffic
+    lists = [msg for name, msg in got if name == "objects"]
+    assert lists
+    for msg in lists:
+        k = round(msg.stamp_ns * 1e-9 / car.dt)
+        (o,) = msg.objects
+        assert (o.x, o.y, o.speed) == pytest.approx((car.states[0, k, 0], car.states[0, k, 1], car.states[0, k, 3]))
+    last = lists[-1]
+    assert last.objects[0].x < CAR_X + CAR_SPEED * last.stamp_ns * 1e-9 - 10  # held back by the ego
+
+
+def test_traffic_is_refused_without_a_commonroad_world(tmp_path):
+    data, src = load_yaml("task: {speed: 5}\ntraffic: reactive\n", str(tmp_path / "s.yaml"))
+    with pytest.raises(SpecError, match=r"s.yaml:2: traffic: traffic needs a CommonRoad world") as e:
+        parse_scenario(data, src, file=tmp_path / "s.yaml")
+    assert "\n" not in str(e.value)
+
+
+def test_an_unknown_traffic_names_the_choices(tmp_path):
+    with pytest.raises(SpecError, match=r"traffic: unknown traffic 'smart'; use one of recorded, reactive"):
+        _scenario(tmp_path, "traffic: smart")
+
+
+@pytest.mark.slow
+def test_path_png_draws_the_car_where_it_drove(reactive):
+    result, _ = reactive
+    car = result.scenario.road.traffic
+    (body,) = road_view(result.scenario.road).bodies  # what path.png draws
+    for k in np.flatnonzero(car.present[0]):
+        np.testing.assert_allclose(body.pose_at(k * car.dt), car.states[0, k, :3], atol=1e-9)
