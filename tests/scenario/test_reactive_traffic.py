@@ -115,7 +115,7 @@ def test_the_objects_sensor_sees_the_car_where_it_drove_not_where_it_was_recorde
 
 def test_traffic_is_refused_without_a_commonroad_world(tmp_path):
     data, src = load_yaml("task: {speed: 5}\ntraffic: reactive\n", str(tmp_path / "s.yaml"))
-    with pytest.raises(SpecError, match=r"s.yaml:2: traffic: traffic needs a CommonRoad world") as e:
+    with pytest.raises(SpecError, match=r"s.yaml:2: traffic: only for a CommonRoad world") as e:
         parse_scenario(data, src, file=tmp_path / "s.yaml")
     assert "\n" not in str(e.value)
 

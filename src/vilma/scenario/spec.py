@@ -188,7 +188,7 @@ def _traffic(data: dict, src: Source, road: EgoTask | None) -> str:
     if value not in TRAFFIC:
         raise src.error(("traffic",), f"unknown traffic {value!r}; use one of {', '.join(TRAFFIC)}")
     if "traffic" in data and road is None:
-        raise src.error(("traffic",), "traffic needs a CommonRoad world: world: {commonroad: file.xml}")
+        raise src.error(("traffic",), "only for a CommonRoad world: add world: {commonroad: file.xml} or remove it")
     return value
 
 

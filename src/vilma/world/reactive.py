@@ -145,19 +145,17 @@ class ReactiveTraffic:
         sc = task.scenario
         out = Scenario(dt=sc.dt, scenario_id=sc.scenario_id)
         out.add_objects(sc.lanelet_network)
-        steps = int((self._j * self.period) / sc.dt + 1e-9) + 1
-        pose, seen = np.empty((len(self._s), 4)), np.empty(len(self._s), bool)
-        tr = self.traffic
+        steps, m, tr = int((self._j * self.period) / sc.dt + 1e-9) + 1, len(self._s), self.traffic
+        pose, seen = np.empty((steps, m, 4)), np.empty((steps, m), bool)
+        for k in range(steps):
+            states_at(tr.states, tr.present, tr.static, tr.dt, k * sc.dt, pose[k], seen[k])
         for n, o in enumerate(sc.obstacles):
             if not self._moving[n]:
                 out.add_objects(o)
                 continue
-            states = []
-            for k in range(steps):
-                states_at(tr.states, tr.present, tr.static, tr.dt, k * sc.dt, pose, seen)
-                if seen[n]:
-                    states.append(CustomState(time_step=task.time_step + k, position=pose[n, [X, Y]].copy(),
-                                              orientation=float(pose[n, YAW]), velocity=float(pose[n, V])))
+            states = [CustomState(time_step=task.time_step + k, position=pose[k, n, [X, Y]],
+                                  orientation=float(pose[k, n, YAW]), velocity=float(pose[k, n, V]))
+                      for k in np.flatnonzero(seen[:, n]).tolist()]
             if len(states) > 1:
                 init = InitialState(**{a: getattr(states[0], a) for a in ("time_step", "position", "orientation",
                                                                             "velocity")}, acceleration=0.0,
