@@ -31,7 +31,7 @@ from vilma.control.registry import Controller, path_step, speed_step
 from vilma.control.speed.vilma_pid import VilmaPidParams
 from vilma.core.clock import Clock, seconds_to_ns
 from vilma.core.messages import ActuatorCommand, DriverStatus, PoseEstimate
-from vilma.localization import make_estimator
+from vilma.localization import SOURCES, make_estimator
 from vilma.sensors import Readings
 from vilma.trajectory import Trajectory, speed_profile
 from vilma.trajectory.trajectory import path_project, path_speed_at
@@ -79,8 +79,8 @@ class DriverParams:
                 registry.controller_type(getattr(self, name), kind)
             except ValueError as e:
                 raise ValueError(f"driver {name}: {e}") from None
-        if self.pose_source not in ("truth", "ekf"):
-            raise ValueError(f"driver pose_source {self.pose_source!r} is unknown; use one of truth, ekf")
+        if self.pose_source not in SOURCES:
+            raise ValueError(f"driver pose_source {self.pose_source!r} is unknown; use one of {', '.join(SOURCES)}")
         gains = dict(self.gains)
         for name, params in gains.items():
             try:
