@@ -32,8 +32,9 @@ def test_a_commonroad_file_is_a_scenario_with_the_planning_problems_task():
     assert s.task.kind == "route"
     assert (s.initial.x, s.initial.y, s.initial.yaw, s.initial.speed) == (15.0, 0.0, 0.0, 22.0)  # its initialState
     assert (s.driver.speed_controller, s.driver.path_controller, s.sim.model) == ("pi_ff", "stanley", "single_track")
-    path = s.reference_path()
-    assert np.all(path.speed == 22.0)
+    path, d = s.reference_path(), s.driver.stop_deceleration
+    # the lane's speed (no sign: the initial 22 m/s; the goal's time window met with it), braking to the end
+    np.testing.assert_allclose(path.speed, np.minimum(22.0, np.sqrt(2 * d * (path.s[-1] - path.s))), rtol=1e-9)
 
 
 @pytest.mark.slow
@@ -61,6 +62,19 @@ def test_driving_the_route_through_an_obstacle_in_the_lane_is_scored_as_a_collis
         affinity.rotate(body, c("yaw")[i], origin=(0, 0), use_radians=True), c("x")[i], c("y")[i]).intersects(shape))
     assert f"(first at {first * task.dt:.3g} s)" in m["incomplete_reason"]  # when the car's box met the obstacle's
     assert result.passed  # its expect block says so
+
+
+@pytest.mark.slow
+def test_the_t_junction_is_reached_inside_its_goals_time_and_speed_windows():
+    result = run(load_scenario("commonroad_tjunction"))
+    m, task = result.metrics, result.scenario.road
+    (goal,) = task.goal.state_list  # the file's goal: lanelet 50203 at steps 146-147, at most 10.63 m/s
+    assert (goal.time_step.start, goal.time_step.end) == (146, 147) and goal.velocity.end < 14.0  # 14: the limit
+    assert m["goal_reached"] is True and m["completed"] is True and m["collisions"] == 0, m["incomplete_reason"]
+    assert 14.6 - 1e-9 <= m["time_to_goal_s"] <= 14.7 + 1e-9
+    c = result.log.column
+    i = task.samples(c("t"))[round(m["time_to_goal_s"] / task.dt)]
+    assert abs(c("vx")[i]) <= goal.velocity.end and result.passed
 
 
 @pytest.mark.slow
@@ -102,7 +116,10 @@ def test_the_run_writes_its_drive_as_a_solution_commonroad_io_reads_back(tmp_pat
 def test_a_yaml_scenario_names_a_file_and_caps_the_speed(tmp_path):
     s = _yaml(f"world: {{commonroad: {TUTORIAL}, planning_problem: 100}}\ntask: {{route: true, speed: 10}}\n"
               "vehicle: bmw_320i\nseed: 3\n", tmp_path)
-    assert np.all(s.reference_path().speed == 10.0)
+    path, d = s.reference_path(), s.driver.stop_deceleration
+    ramp = path.s < (22.0 ** 2 - 10.0 ** 2) / (2 * d)  # from the initial 22 m/s down to the cap at d
+    np.testing.assert_allclose(path.speed[ramp], np.sqrt(22.0 ** 2 - 2 * d * path.s[ramp]), rtol=1e-9)
+    assert np.all(path.speed[~ramp] <= 10.0) and np.any(path.speed[~ramp] == 10.0)
     assert s.sim.seed == 3 and s.road.planning_problem_id == 100
 
 

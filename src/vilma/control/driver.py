@@ -70,6 +70,9 @@ class DriverParams:
     """Braking of the final approach and ahead of curves [m/s^2]."""
     max_lateral_accel: float = 2.0
     """Lateral acceleration the speed profile allows in curves [m/s^2]."""
+    max_accel: float = 1.5
+    """Acceleration a profile timed to arrive in a goal's window plans with [m/s^2]
+    (:func:`~vilma.trajectory.arrival_profile`)."""
     rest_speed: float = 0.05
     """Below this speed [m/s] the car is at rest."""
 
@@ -92,8 +95,9 @@ class DriverParams:
         # one spelling (sorted, defaults left out), so that parameters that drive alike compare equal
         object.__setattr__(self, "gains", tuple(sorted((name, params) for name, params in gains.items()
                                                        if params != type(params)())))
-        if not self.stop_deceleration > 0:
-            raise ValueError(f"driver stop_deceleration must be > 0 m/s^2, got {self.stop_deceleration!r}")
+        for name in ("stop_deceleration", "max_accel"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"driver {name} must be > 0 m/s^2, got {getattr(self, name)!r}")
 
     def gains_of(self, name: str) -> Any:
         """The parameters of the controller ``name``: as set, or its defaults."""

@@ -60,8 +60,10 @@ from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
-from vilma.trajectory import Trajectory, TrajectoryFileError, densify, load_trajectory, resample
+from vilma.trajectory import Arrival, Trajectory, TrajectoryFileError, arrival_profile, densify, load_trajectory
 from vilma.trajectory.course import spline_course
+from vilma.trajectory.densify import resample
+from vilma.trajectory.profile import speed_profile
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 
 if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file
@@ -99,7 +101,7 @@ class Scenario:
         if t.kind == "go_to":
             return None  # the driver plans it from where the car is
         if t.kind == "route":
-            return Trajectory(self.road.path, self.road.path_speed)
+            return self._route()
         if t.kind == "course":
             path = spline_course(t.course)
         else:
@@ -119,6 +121,15 @@ class Scenario:
         except ValueError as e:  # too many points for this path
             raise SpecError(f"{self.file or self.name}: task: {e}") from None
         return path
+
+    def _route(self) -> Trajectory:
+        """The planning problem's route at the lanelets' speeds, capped to arrive in the goal's windows where
+        the limits alone would not (:func:`~vilma.trajectory.arrival_profile`)."""
+        road, d = self.road, self.driver
+        path = speed_profile(Trajectory(road.path, road.path_speed), None, d.max_lateral_accel, d.stop_deceleration)
+        timed = arrival_profile(path, road.speed, d.max_accel, d.stop_deceleration,
+                                tuple(Arrival(*w) for w in road.arrivals))
+        return path if timed is None else timed
 
     def trajectory_file(self) -> Path:
         """The ``follow`` file, resolved against the scenario's folder."""

@@ -20,6 +20,7 @@ import numpy as np
 with warnings.catch_warnings():  # commonroad-io's generated protobuf modules use descriptors protobuf deprecates
     warnings.simplefilter("ignore", DeprecationWarning)
     from commonroad.common.file_reader import CommonRoadFileReader
+    from commonroad.geometry.shape import ShapeGroup
     from commonroad.planning.goal import GoalRegion
     from commonroad.planning.planning_problem import PlanningProblem
     from commonroad.scenario.lanelet import LaneletNetwork
@@ -29,10 +30,16 @@ with warnings.catch_warnings():  # commonroad-io's generated protobuf modules us
     from commonroad.scenario.traffic_sign_interpreter import TrafficSignInterpreter
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
     from commonroad_route_planner.route_planner import RoutePlanner
-    from shapely import Point, unary_union
+    from shapely import Point, contains_xy, unary_union
 
 from vilma.world.traffic import Traffic, traffic
 
+EXTENSION_M = 50.0
+"""How far [m] the reference path runs on past the route's end along the lanelets that follow (if any), so that
+the car is not already braking to its final stop in a goal region at the route's end (50 km/h stops in 48 m at
+2 m/s^2)."""
+GOAL_SPACING_M = 0.1
+"""Spacing [m] of the path samples that locate a goal region along the path."""
 MAX_FILE_BYTES = 64 << 20
 """The largest scenario file read [bytes] (the benchmark's largest are a few MB)."""
 
@@ -93,6 +100,9 @@ class EgoTask:
     none), capped by the task's speed."""
     goal: GoalRegion = field(compare=False)
     """The planning problem's goal region (position, orientation, velocity, time intervals)."""
+    arrivals: tuple = field(compare=False)
+    """Each goal state's windows along :attr:`path`: ((arc lo, hi) [m], (time lo, hi) [s from the initial
+    state], (speed lo, hi) [m/s]), for a speed profile timed to arrive (a state the path misses left out)."""
     time_step: int
     """The initial state's time step."""
     dt: float
@@ -153,7 +163,7 @@ class RoadScenario:
                 raise CommonRoadError(f"{where}: no route on the lanelets from the initial state to the goal; "
                                       "check the goal's lanelets or position")
             ref = ReferencePathPlanner(self.network.lanelets, pp, routes).plan_shortest_reference_path()
-        xy = np.asarray(ref.reference_path, float)
+        xy = _extend(np.asarray(ref.reference_path, float), self.network.lanelets, ref.lanelet_ids[-1])
         start = int(np.argmin(np.hypot(*(xy - s0.position).T)))  # the path starts where the car does
         xy = xy[start:]
         if len(xy) < 2:
@@ -168,7 +178,8 @@ class RoadScenario:
                                   "task a speed (task: {route: true, speed: 10})")
         return EgoTask(file=self.file.resolve(), planning_problem_id=pp.planning_problem_id, x=float(s0.position[0]),
                        y=float(s0.position[1]), yaw=float(s0.orientation), speed=v0, path=xy, path_speed=v,
-                       goal=pp.goal, time_step=int(s0.time_step), dt=float(self.scenario.dt),
+                       goal=pp.goal, arrivals=_arrivals(pp.goal, xy, int(s0.time_step), float(self.scenario.dt)),
+                       time_step=int(s0.time_step), dt=float(self.scenario.dt),
                        scenario=self.scenario, traffic=traffic(self.scenario))
 
     def _planning_problem(self, pid: int | None) -> PlanningProblem:
@@ -188,6 +199,48 @@ def _limit(limits: dict[int, float | None], ids: list[int], default: float) -> f
     """The speed limit [m/s] at a point on the lanelets ``ids``: the lowest of those on the route that have one."""
     known = [limits[i] for i in ids if limits.get(i) is not None]
     return min(known) if known else default
+
+
+def _extend(xy: np.ndarray, lanelets: LaneletNetwork, last: int) -> np.ndarray:
+    """The path ``xy`` (n, 2) [m] run on by :data:`EXTENSION_M` along the centre lines of the first successors of
+    the lanelet ``last`` (as far as there are any)."""
+    seen, more, added = {last}, [xy], 0.0
+    lanelet = lanelets.find_lanelet_by_id(last)
+    while added < EXTENSION_M and lanelet.successor and lanelet.successor[0] not in seen:
+        lanelet = lanelets.find_lanelet_by_id(lanelet.successor[0])
+        seen.add(lanelet.lanelet_id)
+        centre = np.asarray(lanelet.center_vertices, float)
+        centre = centre[np.hypot(*(centre - more[-1][-1]).T) > 1e-6]  # the joint once
+        step = np.hypot(*np.diff(np.vstack([more[-1][-1:], centre]), axis=0).T)
+        keep = np.cumsum(step) - step < EXTENSION_M - added  # up to the first point at or past the length
+        more.append(centre[keep])
+        added += float(step[keep].sum())
+    return np.vstack(more)
+
+
+def _arrivals(goal: GoalRegion, xy: np.ndarray, time_step: int, dt: float) -> tuple:
+    """:attr:`EgoTask.arrivals` of ``goal`` along the path ``xy`` (n, 2) [m], times from ``time_step`` (of
+    ``dt`` [s]); a position's arc interval is the first stretch of the path inside it."""
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    s = np.append(np.arange(0.0, arc[-1], GOAL_SPACING_M), arc[-1])
+    x, y = np.interp(s, arc, xy[:, 0]), np.interp(s, arc, xy[:, 1])
+    out = []
+    for state in goal.state_list:
+        inside = contains_xy(_geometry(state.position), x, y) if state.has_value("position") else np.ones(len(s), bool)
+        if not inside.any():
+            continue
+        first = int(inside.argmax())
+        rest = ~inside[first:]
+        last = first + (int(rest.argmax()) if rest.any() else len(rest)) - 1
+        steps, speed = state.time_step, state.velocity if state.has_value("velocity") else None  # time: mandatory
+        out.append(((float(s[first]), float(s[last])), ((steps.start - time_step) * dt, (steps.end - time_step) * dt),
+                    (-np.inf, np.inf) if speed is None else (float(speed.start), float(speed.end))))
+    return tuple(out)
+
+
+def _geometry(shape):
+    """The shapely geometry of a commonroad-io shape (a shape group: their union)."""
+    return unary_union([_geometry(x) for x in shape.shapes]) if isinstance(shape, ShapeGroup) else shape.shapely_object
 
 
 def load(path: str | Path) -> RoadScenario:
