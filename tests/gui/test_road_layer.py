@@ -76,7 +76,7 @@ def test_screenshot_of_the_map_on_a_real_road(qtbot, tmp_path, screenshots):
         w.plots.pause_button.click()  # the map holds still for the picture
         w.plots.refresh(force=True)
         (box,) = w.plots.road.traffic.values()  # the file's static obstacle, on the car's lane ahead
-        np.testing.assert_allclose(_xy(box).mean(axis=0), w.plots.road.view.bodies[0].pose[0, :2], atol=1e-9)
+        np.testing.assert_allclose(_xy(box).mean(axis=0), w.plots.road.view.at(0.0)[0].pose[:2], atol=1e-9)
         w.plots.path_plot.setRange(xRange=(20, 110), yRange=(-6, 14), padding=0)
         assert w.plots.export_png(screenshots / "gui-road.png")
         assert (screenshots / "gui-road.png").stat().st_size > 20_000

@@ -129,6 +129,7 @@ def test_an_unknown_traffic_names_the_choices(tmp_path):
 def test_path_png_draws_the_car_where_it_drove(reactive):
     result, _ = reactive
     car = result.scenario.road.traffic
-    (body,) = road_view(result.scenario.road).bodies  # what path.png draws
+    view = road_view(result.scenario.road)  # what path.png draws
     for k in np.flatnonzero(car.present[0]):
-        np.testing.assert_allclose(body.pose_at(k * car.dt), car.states[0, k, :3], atol=1e-9)
+        (body,) = view.at(k * car.dt - view.t0)
+        np.testing.assert_allclose(body.pose, car.states[0, k, :3], atol=1e-9)

@@ -6,7 +6,7 @@ import itertools
 import math
 import time
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -81,13 +81,13 @@ def plan(files: Sequence[str], sets: Sequence[str]) -> list[Job]:
 
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,
-            observers: Sequence[RunObserver] = (), record: bool = True, overwrite: bool = False,
-            started: float | None = None) -> list[RunResult]:
+            observers: Callable[[Scenario], Sequence[RunObserver]] = lambda _: (), record: bool = True,
+            overwrite: bool = False, started: float | None = None) -> list[RunResult]:
     """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``)
     into its own folder (:func:`out_dirs`); returns the results.
 
     A folder that holds anything stops the batch before it runs, unless ``overwrite`` (then the earlier
-    run's files go first). The ``observers`` watch each run as it goes (see
+    run's files go first). The ``observers`` of a scenario watch its run as it goes (see
     :func:`~vilma.scenario.runner.run`); ``started`` is when the command began (:func:`time.perf_counter`),
     counted in the first run's ``wall_time_s``.
     """
@@ -102,7 +102,7 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             name = job.scenario.name + (f" {job.label}" if job.label else "")
             bar.update(task, description=Text(name))
             t0 = time.perf_counter()
-            r = record_run(job.scenario, out_dir, record=record, realtime=realtime, observers=observers,
+            r = record_run(job.scenario, out_dir, record=record, realtime=realtime, observers=observers(job.scenario),
                            started=started)
             results.append(r)
             started = time.perf_counter()  # each run's share of the command starts where the last one's ended

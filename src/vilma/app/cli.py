@@ -77,12 +77,11 @@ def _run(args: argparse.Namespace) -> int:
     live = None
     if args.foxglove is not None:
         from vilma.app.record import foxglove_observer
-        from vilma.scenario.result import OnReadings
 
         live = foxglove_observer(args.foxglove, args.realtime, console.print)
     with live or contextlib.nullcontext():
         results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
-                                [OnReadings(live.observe)] if live else (), record=not args.no_record,
+                                live.watch if live else lambda _: (), record=not args.no_record,
                                 overwrite=args.overwrite,
                                 started=STARTED)
     if len(results) == 1:

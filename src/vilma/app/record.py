@@ -19,8 +19,14 @@ from vilma.record.live import FoxgloveLive
 from vilma.record.reader import read_recording
 from vilma.record.replay import Replayer
 from vilma.record.report import report, world_counts
+from vilma.record.road_scene import scenario_road
 from vilma.record.ros1 import Ros1Bridge, init_node, rospy_or_reason, shutdown_node
 from vilma.record.rosbag import export_rosbag2
+from vilma.scenario.drive_log import DriveLog
+from vilma.scenario.result import RunObserver
+from vilma.scenario.spec import Scenario
+from vilma.sensors import Readings
+from vilma.sim import Simulator
 
 
 def report_command(args: argparse.Namespace) -> int:
@@ -124,20 +130,37 @@ def _ros1_bridge(args: argparse.Namespace) -> int:
 
 
 class _LiveRun(Closeable):
-    """Readings of a paced run, put on a local bus that a Foxglove server serves."""
+    """Paced runs shown by a Foxglove server: their readings and the simulator's status put on a local bus that
+    it serves, and a road scenario's road and traffic (where the run's simulator has it, reactive too)."""
 
     def __init__(self, port: int) -> None:
         self.bus = LocalBus()
         self.server = FoxgloveLive(self.bus, port=port)
         self._keys = {name: topic(name) for name in SENSOR_TOPICS}
 
-    def observe(self, readings) -> None:
-        publish_readings(self.bus, self._keys, readings)
+    def watch(self, scenario: Scenario) -> list[RunObserver]:
+        """The observers of a run of ``scenario``."""
+        return [_Watch(self, scenario)]
 
     def close(self) -> None:
         """Stop the server and release the bus (closing again does nothing)."""
         self.server.close()
         self.bus.close()
+
+
+class _Watch(RunObserver):
+    """One run of ``scenario`` shown by ``live``."""
+
+    def __init__(self, live: _LiveRun, scenario: Scenario) -> None:
+        self.live, self.scenario = live, scenario
+
+    def started(self, sim: Simulator, log: DriveLog) -> None:
+        self.sim = sim
+        self.live.server.show_road(scenario_road(self.scenario, sim.config))
+
+    def add(self, readings: dict[str, Readings]) -> None:
+        publish_readings(self.live.bus, self.live._keys, readings)
+        self.live.bus.publish(topic("sim/status"), self.sim.status())  # Foxglove's clock, the scene's time
 
 
 def foxglove_observer(port: int, realtime: float | None, say) -> _LiveRun:

@@ -52,7 +52,8 @@ class RoadLayer:
     def show_at(self, t: float) -> None:
         """Place the traffic where it is at sim time ``t`` [s] (hidden when out of the scene then)."""
         seen = set()
-        for body, outline in self.view.footprints_at(t):
+        for body in self.view.at(t):
+            outline = body.footprint
             item = self.traffic.get(body.id)
             if item is None:
                 item = self.traffic[body.id] = _polygon(outline, STATIC if body.static else TRAFFIC, (0, 0, 0), -10)

@@ -73,16 +73,21 @@ class FoxgloveLive(Closeable):
         self._channels: dict[str, object] = {}
         self.dropped: dict[str, int] = {}
         """Malformed world-sensor messages dropped, by topic."""
-        self._scene = SceneFeed(road) if road is not None else None
-        scenes = SCENE_TOPICS if road is not None else ()
-        for name in (*LIVE_TOPICS, *(c for cs in COMPANIONS.values() for c in cs), *self._world, *scenes):
+        for name in (*LIVE_TOPICS, *(c for cs in COMPANIONS.values() for c in cs), *self._world):
             self._channel(name)  # advertised from the start: a client sees every channel at once
+        self.show_road(road)
         self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in (*LIVE_TOPICS, *self._world)]
 
     @property
     def port(self) -> int:
         """The port the server listens on."""
         return self.server.port
+
+    def show_road(self, road: RoadView | None) -> None:
+        """Draw ``road`` (its road and traffic) from the next ``sim/status`` on; None: no road."""
+        for name in SCENE_TOPICS if road is not None else ():
+            self._channel(name)
+        self._scene = SceneFeed(road) if road is not None else None
 
     def _channel(self, name: str):
         ch = self._channels.get(name)

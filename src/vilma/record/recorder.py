@@ -18,6 +18,7 @@ import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,7 +27,15 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.closing import Closeable
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
-from vilma.record.road_scene import SCENE_SCHEMA, SCENE_TOPICS, SCENE_UPDATE
+from vilma.record.road_scene import (
+    ROAD,
+    SCENE_SCHEMA,
+    SCENE_TOPICS,
+    SCENE_UPDATE,
+    TRAFFIC,
+    TrafficFrames,
+    road_scene,
+)
 from vilma.record.schemas import DRIVE_LOG, channels, encode_struct, numeric_layouts, struct_schema
 from vilma.record.world_cdr import SCHEMAS, WorldChannels, WorldSensorParams, sensor_topics, world_channels
 from vilma.record.world_schemas import (
@@ -36,6 +45,9 @@ from vilma.record.world_schemas import (
     note_dropped,
 )
 from vilma.sensors import Readings
+
+if TYPE_CHECKING:  # the roads extra, which only a road scenario needs
+    from vilma.world.road_view import RoadView
 
 log = logging.getLogger(__name__)
 
@@ -214,14 +226,20 @@ def msgspec_row(msg: Message) -> list[float]:
 
 class BusRecorder(Closeable):
     """Records every topic of ``car`` on ``bus`` into ``recorder`` until :meth:`close`, and the world sensors'
-    ``world_topics`` (e.g. ``("camera/front_left", "camera/front_left/depth", "laser")``).
+    ``world_topics`` (e.g. ``("camera/front_left", "camera/front_left/depth", "laser")``); with a ``road``
+    (:class:`~vilma.world.road_view.RoadView`), its road at the start and its traffic frames as the sim time of
+    ``sim/status`` goes (:mod:`vilma.record.road_scene`).
 
     Raises:
         ValueError: a world topic that is not a camera or laser topic.
     """
 
-    def __init__(self, bus: Bus, recorder: Recorder, car: str = "vilma", world_topics: tuple[str, ...] = ()) -> None:
+    def __init__(self, bus: Bus, recorder: Recorder, car: str = "vilma", world_topics: tuple[str, ...] = (),
+                 road: RoadView | None = None) -> None:
         self.recorder = recorder
+        self._traffic = TrafficFrames(road) if road is not None else None
+        if road is not None:
+            recorder.add_scenes(ROAD, [(0, road_scene(road))])
         names = (*LIVE_TOPICS, *check_world_topics(world_topics))
         self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in names]
 
@@ -230,6 +248,10 @@ class BusRecorder(Closeable):
 
         def take(msg: Message) -> None:
             rec.add_message(name, msg)
+            if name == "sim/status" and self._traffic is not None:
+                frames = self._traffic.until(msg.stamp_ns * 1e-9)
+                if frames:
+                    rec.add_scenes(TRAFFIC, frames)
         return take
 
     def close(self) -> None:

@@ -21,6 +21,7 @@ from vilma.record.schemas import object_schema
 
 if TYPE_CHECKING:  # the roads extra, which only a road scenario needs
     from vilma.scenario.spec import Scenario
+    from vilma.sim import SimConfig
     from vilma.world.road_view import LaneletLines, RoadView
 
 ROAD, TRAFFIC = "road", "traffic"
@@ -43,13 +44,15 @@ GOAL, MOVING, STANDING = (0.1, 0.8, 0.2, 1), (1, 0.55, 0.1, 0.9), (0.55, 0.55, 0
 IDENTITY = {"position": {"x": 0, "y": 0, "z": 0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}
 
 
-def scenario_road(scenario: Scenario | None) -> RoadView | None:
-    """What to draw of ``scenario``'s CommonRoad file, or None when it has none."""
+def scenario_road(scenario: Scenario | None, sim: SimConfig | None = None) -> RoadView | None:
+    """What to draw of ``scenario``'s CommonRoad file, its traffic where the simulator ``sim`` of the run has it
+    (default: the scenario's own, recorded), or None when it has none."""
     if scenario is None or scenario.road is None:
         return None
     from vilma.world.road_view import road_view  # the roads extra, which a road scenario has
 
-    return road_view(scenario.road)
+    sim = sim or scenario.sim
+    return road_view(scenario.road, sim.traffic, sim.traffic_t0)
 
 
 def _time(stamp_ns: int) -> dict:
@@ -97,10 +100,8 @@ def road_scene(view: RoadView, stamp_ns: int = 0) -> bytes:
 def traffic_scene(view: RoadView, t: float, stamp_ns: int) -> bytes:
     """The ``traffic`` update of ``view`` at sim time ``t`` [s], stamped ``stamp_ns`` [ns], JSON."""
     entities = []
-    for body in view.bodies:
-        pose = body.pose_at(t)
-        if pose is None:
-            continue
+    for body in view.at(t):
+        pose = body.pose
         lo, hi = body.outline.min(axis=0), body.outline.max(axis=0)
         c, s = math.cos(pose[2]), math.sin(pose[2])
         mx, my = (lo + hi) / 2
@@ -120,6 +121,21 @@ def traffic_frames(view: RoadView, t0: float, t1: float) -> list[tuple[int, byte
     dt = view.dt
     ks = range(math.ceil(t0 / dt - 1e-9), math.ceil(t1 / dt - 1e-9))
     return [(round(k * dt * 1e9), traffic_scene(view, k * dt, round(k * dt * 1e9))) for k in ks]
+
+
+class TrafficFrames:
+    """A recording's ``traffic`` updates of ``view`` as sim time goes (:func:`traffic_frames`), each written once;
+    after a reset (the time goes back) they start again from there."""
+
+    def __init__(self, view: RoadView) -> None:
+        self.view = view
+        self.t = 0.0
+        """Sim time the frames were taken up to [s] (excluded)."""
+
+    def until(self, t: float) -> list[tuple[int, bytes]]:
+        """The frames (stamp [ns], JSON) not yet taken up to sim time ``t`` [s] (excluded)."""
+        start, self.t = min(self.t, t), t  # after a reset, from where the time went back to
+        return traffic_frames(self.view, start, t)
 
 
 class SceneFeed:

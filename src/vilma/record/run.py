@@ -25,7 +25,7 @@ import numpy as np
 from vilma.core.messages import Message
 from vilma.record.process import Joined, RecorderProcess
 from vilma.record.recorder import Recorder
-from vilma.record.road_scene import ROAD, TRAFFIC, road_scene, scenario_road, traffic_frames
+from vilma.record.road_scene import ROAD, TRAFFIC, TrafficFrames, road_scene, scenario_road
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.folder import RECORDING, RunFolder, write_metrics
 from vilma.scenario.result import RunObserver, RunResult
@@ -75,9 +75,10 @@ class RunRecorder(RunObserver):
         self.recorder = RecorderProcess(self.path, source="vilma run", world_sensors=s.sim.world_sensors)
         self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(s).encode())
         self.recorder.call(Recorder.add_metadata, "scenario", {"name": s.name, "description": s.description})
-        self._road, self._traffic_t = scenario_road(s), 0.0  # the road drawn, its traffic written up to [s]
-        if self._road is not None:
-            self.recorder.call(Recorder.add_scenes, ROAD, [(0, road_scene(self._road))])
+        road = scenario_road(s, sim.config)  # its traffic where the sensors see it (reactive too)
+        self._traffic = TrafficFrames(road) if road is not None else None
+        if road is not None:
+            self.recorder.call(Recorder.add_scenes, ROAD, [(0, road_scene(road))])
         self._row_bytes = log.rows.strides[0]
         self._written = self._marked = self._tried = 0  # log rows handed over, added, at the last hand-over
         self._pending: list[tuple[dict[str, Readings], int, int]] = []  # readings, log rows up to, bytes
@@ -102,11 +103,9 @@ class RunRecorder(RunObserver):
 
     def _traffic_until(self, t: float) -> None:
         """Write the road scenario's traffic frames from the last written up to sim time ``t`` [s] (excluded)."""
-        if self._road is not None and t > self._traffic_t:
-            frames = traffic_frames(self._road, self._traffic_t, t)
-            if frames:
-                self.recorder.call(Recorder.add_scenes, TRAFFIC, frames)
-            self._traffic_t = t
+        frames = self._traffic.until(t) if self._traffic is not None else []
+        if frames:
+            self.recorder.call(Recorder.add_scenes, TRAFFIC, frames)
 
     def _hand_over(self, wait: bool = True) -> None:
         """The readings (joined a sensor each, in the ring) and log rows pending, to the recorder's

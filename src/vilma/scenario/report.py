@@ -149,14 +149,12 @@ def draw_road(ax: Axes, view: RoadView, t: float) -> None:
     for i, outline in enumerate(view.goal):
         ax.add_patch(Polygon(outline, closed=True, facecolor=(0.1, 0.7, 0.2, 0.25), edgecolor="tab:green", lw=1,
                              zorder=1, label=None if i else "goal region"))
-    moving = [b for b in view.bodies if not b.static]
-    for i, b in enumerate(moving):
-        ax.plot(b.pose[:, 0], b.pose[:, 1], "-", color="tab:orange", lw=0.8, alpha=0.4, zorder=1,
+    for i, xy in enumerate(view.paths()):
+        ax.plot(xy[:, 0], xy[:, 1], "-", color="tab:orange", lw=0.8, alpha=0.4, zorder=1,
                 label=None if i else "traffic paths")
-    shown = view.footprints_at(t)
-    for i, (b, f) in enumerate(shown):
-        ax.add_patch(Polygon(f, closed=True, facecolor="tab:gray" if b.static else "tab:orange", edgecolor="k",
-                             lw=0.6, alpha=0.8, zorder=2, label=None if i else f"traffic at {t:.1f} s"))
+    for i, b in enumerate(view.at(t)):
+        ax.add_patch(Polygon(b.footprint, closed=True, facecolor="tab:gray" if b.static else "tab:orange",
+                             edgecolor="k", lw=0.6, alpha=0.8, zorder=2, label=None if i else f"traffic at {t:.1f} s"))
 
 
 def footprint(centre, yaw: float, half_along: float, half_across: float) -> np.ndarray:

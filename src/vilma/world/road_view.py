@@ -1,6 +1,7 @@
 """What to draw of a CommonRoad scenario (path.png, the GUI's map, Foxglove): the lanelets' boundaries with their
 markings, the goal region and the obstacles' footprints at any sim time, as plain arrays (x, y [m], the file's
-frame). Needs the ``roads`` extra.
+frame). The obstacles are read from a :class:`~vilma.world.traffic.Traffic`, the arrays the simulator's sensors
+read: the views draw the traffic where the run has it, recorded or reactive. Needs the ``roads`` extra.
 
 Sim time 0 is the planning problem's initial time step; an obstacle's pose between the file's time steps is
 interpolated linearly (its yaw along the shorter arc). Dynamic obstacles exist from their initial to their last
@@ -15,9 +16,9 @@ from functools import lru_cache
 import numpy as np
 from commonroad.geometry.shape import Shape, ShapeGroup
 from commonroad.scenario.lanelet import Lanelet, LineMarking
-from commonroad.scenario.obstacle import Obstacle, ObstacleRole
 
 from vilma.world.commonroad import EgoTask, load
+from vilma.world.traffic import Traffic
 
 DASHED = {LineMarking.DASHED, LineMarking.BROAD_DASHED, LineMarking.DASHED_DASHED}
 """Markings drawn dashed (the others, unknown and none included, solid)."""
@@ -40,34 +41,25 @@ class LaneletLines:
 
 
 @dataclass(frozen=True, slots=True)
-class Body:
-    """An obstacle's shape and its poses at the file's time steps."""
+class Placed:
+    """An obstacle in the scene at a sim time."""
 
     id: int
-    outline: np.ndarray
-    """The shape in the obstacle's frame (m, 2) [m] (x forward)."""
-    size: tuple[float, float]
-    """Length and width of the outline's bounding box [m]."""
     static: bool
-    t: np.ndarray
-    """Sim times of the poses [s], (k,) increasing (one pose for a static obstacle)."""
     pose: np.ndarray
-    """x, y [m] and yaw [rad] a time, (k, 3)."""
+    """x, y [m] and yaw [rad]."""
+    outline: np.ndarray
+    """The shape in the obstacle's frame (p, 2) [m] (x forward)."""
 
-    def pose_at(self, t: float) -> np.ndarray | None:
-        """x, y [m], yaw [rad] at sim time ``t`` [s], or None when the obstacle is not in the scene then."""
-        if self.static:
-            return self.pose[0]
-        if not self.t[0] - 1e-9 <= t <= self.t[-1] + 1e-9:
-            return None
-        yaw = np.unwrap(self.pose[:, 2])
-        return np.array([np.interp(t, self.t, self.pose[:, 0]), np.interp(t, self.t, self.pose[:, 1]),
-                         np.interp(t, self.t, yaw)])
+    @property
+    def footprint(self) -> np.ndarray:
+        """The outline placed at the pose (p, 2) [m]."""
+        return place(self.outline, self.pose)
 
-    def footprint_at(self, t: float) -> np.ndarray | None:
-        """The outline (m, 2) [m] placed at its pose at sim time ``t`` [s], or None when not in the scene."""
-        p = self.pose_at(t)
-        return None if p is None else place(self.outline, p)
+    @property
+    def size(self) -> tuple[float, float]:
+        """Length and width of the outline's bounding box [m]."""
+        return tuple(float(v) for v in self.outline.max(axis=0) - self.outline.min(axis=0))
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -77,13 +69,25 @@ class RoadView:
     lanelets: tuple[LaneletLines, ...]
     goal: tuple[np.ndarray, ...]
     """The goal region's position shapes, outlines (m, 2) [m] (none for a goal without a position)."""
-    bodies: tuple[Body, ...]
+    traffic: Traffic
+    """The obstacles where the run has them: the arrays the simulator's sensors read (filled as it goes when
+    the traffic is reactive)."""
+    t0: float
+    """The traffic's time at sim time 0 [s] from its time step 0."""
     dt: float
     """The file's time step [s]."""
 
-    def footprints_at(self, t: float) -> list[tuple[Body, np.ndarray]]:
-        """The obstacles in the scene at sim time ``t`` [s] with their footprints (m, 2) [m]."""
-        return [(b, f) for b in self.bodies if (f := b.footprint_at(t)) is not None]
+    def at(self, t: float) -> list[Placed]:
+        """The obstacles in the scene at sim time ``t`` [s]."""
+        tr = self.traffic
+        states, present = tr.at(self.t0 + t)
+        return [Placed(int(tr.ids[n]), bool(tr.static[n]), states[n, :3], tr.outline[n])
+                for n in np.flatnonzero(present).tolist()]
+
+    def paths(self) -> list[np.ndarray]:
+        """The moving obstacles' positions (k, 2) [m] at their time steps on the road."""
+        tr = self.traffic
+        return [tr.states[n, tr.present[n], :2] for n in np.flatnonzero(~tr.static).tolist()]
 
 
 def place(outline: np.ndarray, pose: np.ndarray) -> np.ndarray:
@@ -92,12 +96,14 @@ def place(outline: np.ndarray, pose: np.ndarray) -> np.ndarray:
     return outline @ np.array([[c, s], [-s, c]]) + pose[:2]
 
 
-def road_view(task: EgoTask) -> RoadView:
-    """What to draw of the CommonRoad file of ``task``, its traffic as ``task.scenario`` has it (recorded, or
-    where reactive traffic drove)."""
+def road_view(task: EgoTask, traffic: Traffic | None = None, t0: float | None = None) -> RoadView:
+    """What to draw of the CommonRoad file of ``task``, its obstacles as ``traffic`` has them from ``t0`` [s] at
+    sim time 0 (default: ``task.traffic`` from the initial time step: recorded, or where reactive traffic
+    drove)."""
     lanelets, goal = _road(task)
-    bodies = tuple(_body(o, task.time_step, task.dt) for o in task.scenario.obstacles)
-    return RoadView(lanelets=lanelets, goal=goal, bodies=bodies, dt=task.dt)
+    if traffic is None:
+        traffic, t0 = task.traffic, task.time_step * task.dt
+    return RoadView(lanelets=lanelets, goal=goal, traffic=traffic, t0=t0, dt=task.dt)
 
 
 @lru_cache(maxsize=4)  # the GUI, the report and the recorder of one run draw the same file
@@ -117,16 +123,3 @@ def _lines(la: Lanelet) -> LaneletLines:
 def _outline(shape: Shape) -> np.ndarray:
     """The outline (m, 2) [m] of a commonroad-io shape (rectangle, circle, polygon), first point not repeated."""
     return np.asarray(shape.shapely_object.exterior.coords, float)[:-1]
-
-
-def _body(o: Obstacle, t0: int, dt: float) -> Body:
-    """An obstacle's outline and poses, its time steps counted from ``t0`` in steps of ``dt`` [s]."""
-    static = o.obstacle_role == ObstacleRole.STATIC or o.prediction is None
-    states = [o.initial_state]
-    if not static and hasattr(o.prediction, "trajectory"):
-        states += list(o.prediction.trajectory.state_list)
-    t = np.array([(s.time_step - t0) * dt for s in states], float)
-    pose = np.array([[*s.position, s.orientation] for s in states], float)
-    outline = _outline(o.obstacle_shape)
-    size = tuple(float(v) for v in outline.max(axis=0) - outline.min(axis=0))
-    return Body(o.obstacle_id, outline, size, static, t, pose)
