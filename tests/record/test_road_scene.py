@@ -1,4 +1,5 @@
-"""A road run's recording holds the road and the traffic as Foxglove scene primitives, where the file has them."""
+"""A road run's recording and live view hold the road and the traffic as Foxglove scene primitives, the traffic
+where the run has it: as the file recorded it, or where reactive traffic drove."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import dataclasses
 import json
 import math
 import struct
+import threading
 
 import numpy as np
 import pytest
@@ -145,3 +147,113 @@ def test_up_records_the_road_at_the_start(tmp_path):
     assert road.log_time == 0
     ids = {e["id"] for e in json.loads(road.data)["entities"]}
     assert ids == {f"lanelet/{i}" for i in _lanelets(TUTORIAL)} | {"goal"}
+
+
+def test_up_records_the_traffic_a_file_step_where_the_file_has_it(tmp_path):
+    from vilma.app import programs
+
+    sc = load_scenario(find_scenario("commonroad_tutorial"))
+    assert programs.up(sc, 50.0, 1.0, lambda _: None, record=tmp_path / "up.mcap") == 0
+    with (tmp_path / "up.mcap").open("rb") as f:
+        frames = [(m.log_time, json.loads(m.data)) for _, _, m in make_reader(f).iter_messages(
+            topics=["vilma/vilma/traffic"])]
+    dt, k0 = sc.road.dt, sc.road.time_step
+    assert len(frames) >= round(0.9 / dt)
+    assert [s for s, _ in frames] == [round(k * dt * 1e9) for k in range(len(frames))]
+    _, _, states = _obstacle(TUTORIAL, "dynamicObstacle")
+    for (_, update), (_, x, y, _) in zip(frames, [s for s in states if s[0] >= k0], strict=False):
+        ((cube,),) = [e["cubes"] for e in update["entities"] if e["id"] == "obstacle/42"]
+        assert (cube["pose"]["position"]["x"], cube["pose"]["position"]["y"]) == pytest.approx((x, y), abs=1e-9)
+
+
+def _live_scenes(ws, run: threading.Thread) -> dict[str, list]:
+    """The scene updates (log time, JSON) by topic a Foxglove client gets while ``run`` goes; it subscribes to
+    the road and the traffic once they are advertised."""
+    channels: dict[str, dict] = {}
+    got: dict[str, list] = {}
+    while True:
+        try:
+            frame = ws.recv(timeout=0.5)
+        except TimeoutError:
+            if run.is_alive():
+                continue
+            return got
+        if isinstance(frame, str):
+            msg = json.loads(frame)
+            if msg.get("op") == "advertise":
+                channels.update({c["topic"]: c for c in msg["channels"]})
+                if {"vilma/vilma/road", "vilma/vilma/traffic"} <= set(channels):
+                    ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                        {"id": i, "channelId": channels[t]["id"]}
+                        for i, t in enumerate(("vilma/vilma/road", "vilma/vilma/traffic"))]}))
+        elif frame[0] == 0x01:
+            sub, log_time = struct.unpack_from("<IQ", frame, 1)
+            got.setdefault(("road", "traffic")[sub], []).append((log_time, json.loads(frame[13:])))
+
+
+@pytest.fixture(scope="module")
+def reactive_live(tmp_path_factory):
+    """A reactive run (the recorded car brakes behind the slow ego), at 2x real time, recorded and shown live
+    as ``vilma run --realtime 2 --foxglove`` does: the recorded scenario, the result, the scene updates of the
+    recording and of a Foxglove client, by topic."""
+    from websockets.sync.client import connect
+
+    from tests.record.test_live import _free_port
+    from tests.scenario.test_reactive_traffic import _scenario
+    from vilma.app.record import foxglove_observer
+
+    sc = dataclasses.replace(_scenario(tmp_path_factory.mktemp("s"), "traffic: reactive"), duration=4.0)
+    out, results = tmp_path_factory.mktemp("run"), []
+    with foxglove_observer(_free_port(), 2.0, print) as live, connect(
+            f"ws://127.0.0.1:{live.server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
+        run = threading.Thread(target=lambda: results.append(record_run(sc, out, realtime=2.0,
+                                                                        observers=live.watch(sc))))
+        run.start()
+        shown = _live_scenes(ws, run)
+        run.join()
+    recorded: dict[str, list] = {}
+    with (out / "run.mcap").open("rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            if schema.name == "foxglove.SceneUpdate":
+                recorded.setdefault(channel.topic.rsplit("/", 1)[1], []).append(
+                    (message.log_time, json.loads(message.data)))
+    return sc, results[0], recorded, shown
+
+
+def _car_xy(update: dict) -> tuple[float, float]:
+    ((cube,),) = [e["cubes"] for e in update["entities"]]
+    return cube["pose"]["position"]["x"], cube["pose"]["position"]["y"]
+
+
+def _check_where_it_drove(sc, result, frames: list, abs_m: float) -> None:
+    """Each traffic frame draws the car where the run drove it (``result``'s traffic, as scored), which is at
+    least 2 m behind where the file recorded it in some frame (the views would draw the recording)."""
+    from vilma.world.road_view import road_view
+
+    drove, file = road_view(result.scenario.road), road_view(sc.road)
+    behind = 0.0
+    for stamp, update in frames:
+        (car,), (rec,) = drove.at(stamp * 1e-9), file.at(stamp * 1e-9)
+        assert _car_xy(update) == pytest.approx(tuple(car.pose[:2]), abs=abs_m)
+        behind = max(behind, rec.pose[0] - car.pose[0])
+    assert behind > 2.0
+
+
+@pytest.mark.slow
+def test_a_reactive_runs_recording_draws_the_traffic_where_it_drove(reactive_live):
+    sc, result, recorded, _ = reactive_live
+    assert result.metrics["traffic"] == "reactive"
+    frames = recorded["traffic"]
+    assert len(frames) >= round(sc.duration / sc.road.dt)
+    _check_where_it_drove(sc, result, frames, 1e-9)  # at the file's steps: exactly the scored states
+
+
+@pytest.mark.slow
+def test_vilma_run_foxglove_shows_the_road_and_the_reactive_traffic(reactive_live):
+    sc, result, _, shown = reactive_live
+    lanes = _lanelets(TUTORIAL)
+    assert {e["id"] for e in shown["road"][0][1]["entities"]} == {f"lanelet/{i}" for i in lanes} | {"goal"}
+    assert len(shown["traffic"]) >= 5
+    # at a status's time, between the file's steps: linear between the scored states (IDM's braking of at
+    # most ~4 m/s^2 bends the path by a dt^2 / 8 < 5 mm within a file step of 0.1 s)
+    _check_where_it_drove(sc, result, shown["traffic"], 0.01)
