@@ -1,6 +1,9 @@
-"""The road on the map: the lanelets of the CommonRoad file, the traffic where the file has it at the sim time."""
+"""The road on the map: the lanelets of the CommonRoad file, the traffic where the simulator has it at the sim time
+(the file's recording, or where reactive traffic drove)."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -80,6 +83,28 @@ def test_screenshot_of_the_map_on_a_real_road(qtbot, tmp_path, screenshots):
         w.plots.path_plot.setRange(xRange=(20, 110), yRange=(-6, 14), padding=0)
         assert w.plots.export_png(screenshots / "gui-road.png")
         assert (screenshots / "gui-road.png").stat().st_size > 20_000
+        w.close()
+    finally:
+        backend.close()
+
+
+def test_the_map_draws_the_traffic_where_the_simulator_has_it(qtbot, tmp_path):
+    """The traffic the simulator's sensors read (here 5 m north of the file's, as a reactive run's would stray
+    from it), not the file's recording."""
+    from vilma.gui.backend import Embedded
+    from vilma.gui.main_window import MainWindow
+
+    sc = load_scenario(find_scenario("commonroad_tutorial"))
+    tr = sc.sim.traffic
+    moved = dataclasses.replace(tr, states=tr.states + np.array([0.0, 5.0, 0.0, 0.0]))
+    backend = Embedded(dataclasses.replace(sc, sim=dataclasses.replace(sc.sim, traffic=moved)))
+    try:
+        w = MainWindow(backend, record_dir=tmp_path)
+        qtbot.addWidget(w)
+        (file_car,) = road_view(sc.road).at(0.0)
+        ((car_id, box),) = [(i, b) for i, b in w.plots.road.traffic.items() if b.isVisible()]
+        assert car_id == file_car.id
+        np.testing.assert_allclose(_xy(box), file_car.footprint + np.array([0.0, 5.0]), atol=1e-9)
         w.close()
     finally:
         backend.close()

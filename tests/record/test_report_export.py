@@ -197,6 +197,32 @@ def _bag(path):
     return out
 
 
+def test_rosbag2_export_gives_the_objects_as_markers_read_back(tmp_path):
+    """Each object of the objects sensor's lists: a cube of its id, pose and size, and an arrow of its speed."""
+    from tests.scenario.test_reactive_traffic import _scenario
+
+    sc = dataclasses.replace(_scenario(tmp_path, "objects: {range: 200}"), duration=1.0)
+    record_run(sc, tmp_path / "run")
+    lists = read_recording(tmp_path / "run" / "run.mcap").messages("objects")
+    assert sum(len(ol.objects) for ol in lists) > 0
+    counts = export_rosbag2(tmp_path / "run" / "run.mcap", tmp_path / "bag")
+    got = _bag(tmp_path / "bag")["/objects"]
+    assert counts["/objects"] == len(got) == len(lists)
+    for (stamp, msg, kind), ol in zip(got, lists, strict=True):
+        assert kind == "visualization_msgs/msg/MarkerArray" and stamp == ol.stamp_ns
+        clear, *markers = msg.markers
+        assert clear.action == clear.DELETEALL  # the last list's markers go
+        assert [(mk.ns, mk.id) for mk in markers] == [(ns, o.id) for o in ol.objects
+                                                      for ns in ("objects", "objects/velocity")]
+        for o, cube, arrow in zip(ol.objects, markers[::2], markers[1::2], strict=True):
+            assert (cube.type, arrow.type) == (cube.CUBE, arrow.ARROW)
+            for mk in (cube, arrow):
+                q = mk.pose.orientation
+                assert mk.header.frame_id == "map" and (mk.pose.position.x, mk.pose.position.y) == (o.x, o.y)
+                assert 2 * math.atan2(q.z, q.w) == pytest.approx(o.yaw, abs=1e-12)
+            assert (cube.scale.x, cube.scale.y) == (o.length, o.width) and arrow.scale.x == o.speed
+
+
 def test_rosbag2_export_reads_back_with_values_and_timestamps(finished_run, tmp_path):
     _, out = finished_run
     rec = read_recording(out / "run.mcap")

@@ -19,7 +19,19 @@ topic           type                             content
                                                  longitudinal mode (``drive[force|accel|power]``)
 ``/tf``         tf2_msgs/msg/TFMessage           ``map`` -> ``<car>`` from the pose
 ``/drive_log``  std_msgs/msg/Float64MultiArray   the runner's row (labels: the DriveLog columns)
+``/objects``    visualization_msgs/msg/          the objects sensor's list, frame ``map``: a
+                MarkerArray                      ``DELETEALL``, then an object a ``CUBE`` (ns
+                                                 ``objects``, its id, on the ground at its reference
+                                                 point, scale its length, width and
+                                                 :data:`OBJECT_HEIGHT`)
+                                                 and an ``ARROW`` (ns ``objects/velocity``, its id,
+                                                 along its yaw, ``scale.x`` its speed [m/s]: a second
+                                                 of travel)
 =============== ================================ =====================================================
+
+ROS 2 has no standard message for true objects with id, pose, speed and size: a MarkerArray carries them all
+(the speed as its arrow's length) and RViz and Foxglove draw it as it is, where a ``std_msgs/String`` of the
+JSON would be readable by vilma alone.
 
 and the world sensors' topics, under ROS ``image_transport`` names, as recorded
 (:mod:`vilma.record.world_cdr`; the CDR payloads are copied as they are):
@@ -59,6 +71,8 @@ from vilma.scenario.drive_log import COLUMNS
 
 STORE = Stores.ROS2_HUMBLE
 """The message definitions written (ROS 2 Humble's)."""
+OBJECT_HEIGHT = 1.5
+"""Height of an object's cube [m] (the objects sensor gives a footprint)."""
 
 
 class _Types:
@@ -136,6 +150,32 @@ def _cmd(T: _Types, c: m.ActuatorCommand, car: str):
                    f"steer [rad],drive[{c.longitudinal.value}],brake,velocity_limit [m/s],autonomous")
 
 
+def _objects(T: _Types, ol: m.ObjectList, car: str):
+    header, Marker = T.header(ol.stamp_ns, "map"), T.t["visualization_msgs/msg/Marker"]
+    markers = [_marker(T, header, "", 0, Marker.DELETEALL, Marker.CUBE, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)]
+    for o in ol.objects:
+        markers += [_marker(T, header, "objects", o.id, Marker.ADD, Marker.CUBE, o.x, o.y, o.yaw, o.length, o.width,
+                            OBJECT_HEIGHT),
+                    _marker(T, header, "objects/velocity", o.id, Marker.ADD, Marker.ARROW, o.x, o.y, o.yaw, o.speed,
+                            0.2, 0.2)]
+    return T.t["visualization_msgs/msg/MarkerArray"](markers=markers)
+
+
+def _marker(T: _Types, header, ns: str, mid: int, action: int, kind: int, x: float, y: float, yaw: float,
+            sx: float, sy: float, sz: float):
+    """A marker ``kind`` at ``x, y`` [m] standing on the ground (its centre ``sz / 2`` up) facing ``yaw`` [rad], of
+    scale ``sx, sy, sz``, in the traffic's orange (:mod:`vilma.record.road_scene`)."""
+    t = T.t
+    pose = t["geometry_msgs/msg/Pose"](position=T.Point(x=x, y=y, z=sz / 2), orientation=T.quat(0.0, 0.0, yaw))
+    return t["visualization_msgs/msg/Marker"](
+        header=header, ns=ns, id=mid, type=kind, action=action, pose=pose, scale=T.Vec(x=sx, y=sy, z=sz),
+        color=t["std_msgs/msg/ColorRGBA"](r=1.0, g=0.55, b=0.1, a=0.9), lifetime=t["builtin_interfaces/msg/Duration"](
+            sec=0, nanosec=0), frame_locked=False, points=[], colors=[], texture_resource="",
+        texture=t["sensor_msgs/msg/CompressedImage"](header=header, format="", data=np.zeros(0, np.uint8)),
+        uv_coordinates=[], text="", mesh_resource="", mesh_file=t["visualization_msgs/msg/MeshFile"](
+            filename="", data=np.zeros(0, np.uint8)), mesh_use_embedded_materials=False)
+
+
 def _tf(T: _Types, p: m.Pose, car: str):
     t = T.t
     tr = t["geometry_msgs/msg/Transform"](translation=T.Vec(x=p.x, y=p.y, z=p.z),
@@ -188,6 +228,7 @@ TOPICS = {  # vilma topic -> (ROS topic, ROS type, converter)
     "odometry": ("/odom", "nav_msgs/msg/Odometry", _odometry),
     "actuators": ("/actuators", "std_msgs/msg/Float64MultiArray", _actuators),
     "cmd": ("/cmd", "std_msgs/msg/Float64MultiArray", _cmd),
+    "objects": ("/objects", "visualization_msgs/msg/MarkerArray", _objects),
 }
 """What :func:`export_rosbag2` writes for each vilma topic (see the module docstring)."""
 
