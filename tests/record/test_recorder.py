@@ -33,6 +33,7 @@ from vilma.record.run import RunRecorder
 from vilma.record.world_cdr import CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, LASER_SCAN, POINT_CLOUD2
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import DriveLog
+from vilma.sim import Simulator
 
 
 def _publish_world(bus: LocalBus, n: int) -> list[tuple[str, object]]:
@@ -147,7 +148,8 @@ def test_a_run_records_the_captures_it_is_handed(tmp_path):
     """With the scenario's sensors: the default laser (:func:`wall_scan`'s rays), a 320x240 stereo pair."""
     scenario = load_scenario(BUNDLED / "course_3d_obstacles.yaml")
     run = RunRecorder(tmp_path / "run.mcap", scenario)
-    run.started(None, DriveLog(capacity=10))  # the recorder reads the log alone
+    with Simulator() as sim:  # any simulator: the scenario has no road, whose traffic the recorder would read
+        run.started(sim, DriveLog(capacity=10))
     depth = depth_image(PERIOD_NS, 320, 240)
     run.add_captures([("laser", wall_scan(PERIOD_NS)), ("camera/front_left/depth", depth)])
     run.failed(interrupted=False)
