@@ -96,9 +96,9 @@ def place(outline: np.ndarray, pose: np.ndarray) -> np.ndarray:
     return outline @ np.array([[c, s], [-s, c]]) + pose[:2]
 
 
-def road_view(task: EgoTask, traffic: Traffic | None = None, t0: float | None = None) -> RoadView:
-    """What to draw of the CommonRoad file of ``task``, its obstacles as ``traffic`` has them from ``t0`` [s] at
-    sim time 0 (default: ``task.traffic`` from the initial time step: recorded, or where reactive traffic
+def road_view(task: EgoTask, traffic: Traffic | None = None, t0: float = 0.0) -> RoadView:
+    """What to draw of the CommonRoad file of ``task``, its obstacles as ``traffic`` has them, its time ``t0`` [s]
+    at sim time 0 (default: ``task.traffic`` from the initial time step: recorded, or where reactive traffic
     drove)."""
     lanelets, goal = _road(task)
     if traffic is None:
