@@ -24,6 +24,7 @@ from vilma.record.run import RunRecorder, _write
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.sensors import Readings
+from vilma.sim import Simulator
 
 STAMPS = np.arange(1, 201, dtype=np.int64) * 20_000_000
 VALUES = np.column_stack([np.linspace(0, 10, 200), np.linspace(0, -5, 200), np.zeros((200, 3)),
@@ -125,7 +126,8 @@ def test_a_run_hands_its_blocks_over_in_parts_the_ring_holds(tmp_path, monkeypat
     monkeypatch.setattr(RunRecorder, "BLOCK", 100)  # a hand-over tried every other block
     log = DriveLog(capacity=16)
     rec = RunRecorder(tmp_path / "run.mcap", load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"))
-    rec.started(None, log)  # the recorder reads the log alone
+    with Simulator() as sim:  # any simulator: the scenario has no road, whose traffic the recorder would read
+        rec.started(sim, log)  # the recorder reads the log alone
     rng = np.random.default_rng(2)
     n, periods = 3000, 50  # a block: 168 kB of poses; the ring takes two or three at a time
     values = rng.normal(size=(30 * n, 6))
