@@ -17,6 +17,9 @@ from numba import njit
 
 from vilma.world.states import YAW, V, X, Y
 
+CHUNK = 8
+"""Path segments per bounding box: a body farther than half a lane from a chunk's box is not near its segments."""
+
 A_MAX, B, HEADWAY, S0, DELTA, LANE_WIDTH, EGO_HALF, T0, PERIOD = range(9)
 """Indices of :attr:`IdmArrays.consts`: IDM's parameters (:class:`~vilma.world.reactive.IdmParams`), the ego's
 half length [m], the recording's time at sim time 0 [s] and the period [s]."""
@@ -43,7 +46,8 @@ class IdmArrays(NamedTuple):
     arc: np.ndarray
     """Arc length at each point [m], (m, k)."""
     bounds: np.ndarray
-    """Each path's bounding box ``[x min, y min, x max, y max]`` [m], (m, 4)."""
+    """The bounding boxes ``[x min, y min, x max, y max]`` [m] of each path's chunks of :data:`CHUNK` segments,
+    (m, ceil((k - 1) / CHUNK), 4) (:func:`chunk_bounds`)."""
     s: np.ndarray
     """Each car's arc position [m], (m,), updated in place."""
     v: np.ndarray
@@ -59,8 +63,18 @@ class IdmArrays(NamedTuple):
 def idle() -> IdmArrays:
     """Arrays of no cars and no periods: the step does nothing (the closed loop without reactive traffic)."""
     e = np.zeros((0, 1))
-    return IdmArrays(np.zeros(9), np.zeros(0), np.zeros(0, bool), np.zeros(0), e, e, e, e, e, np.zeros((0, 4)),
+    return IdmArrays(np.zeros(9), np.zeros(0), np.zeros(0, bool), np.zeros(0), e, e, e, e, e, np.zeros((0, 0, 4)),
                      np.zeros(0), np.zeros(0), np.zeros((0, 0, 4)), np.zeros((0, 0), bool), np.zeros(1, np.int64))
+
+
+def chunk_bounds(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """:attr:`IdmArrays.bounds` of the paths through the points ``x``, ``y`` (m, k) [m]."""
+    m, k = x.shape
+    out = np.empty((m, max(-(-(k - 1) // CHUNK), 0), 4))
+    for c in range(out.shape[1]):
+        px, py = x[:, c * CHUNK:(c + 1) * CHUNK + 1], y[:, c * CHUNK:(c + 1) * CHUNK + 1]
+        out[:, c] = np.stack([px.min(1), py.min(1), px.max(1), py.max(1)], axis=1)
+    return out
 
 
 @njit(cache=True)
@@ -84,7 +98,7 @@ def idm_step(a, ego_x, ego_y, ego_speed):
             continue
         gap, lead_v = _leader(a, i, j, ego_x, ego_y, ego_speed)
         v = a.v[i]
-        acc = acceleration(c, v, max(np.interp(a.s[i] + c[S0], a.arc[i], a.speed[i]), 0.1), gap, v - lead_v)
+        acc = acceleration(c, v, max(interp(a.s[i] + c[S0], a.arc[i], a.speed[i]), 0.1), gap, v - lead_v)
         v1 = max(v + acc * dt, 0.0)
         a.s[i] += (v + v1) / 2 * dt if v + acc * dt >= 0 else -v * v / (2 * acc)
         a.v[i] = v1
@@ -100,11 +114,22 @@ def place(a, j):
         if not a.moving[i]:
             continue
         s, st = a.s[i], a.states[i, j]
-        st[X], st[Y] = np.interp(s, a.arc[i], a.x[i]), np.interp(s, a.arc[i], a.y[i])
-        st[YAW] = (np.interp(s, a.arc[i], a.yaw[i]) + math.pi) % (2 * math.pi) - math.pi
+        st[X], st[Y] = interp(s, a.arc[i], a.x[i]), interp(s, a.arc[i], a.y[i])
+        st[YAW] = (interp(s, a.arc[i], a.yaw[i]) + math.pi) % (2 * math.pi) - math.pi
         st[V] = a.v[i]
         # on the road from its first recorded time until it has driven its whole path
         a.present[i, j] = t >= a.appear[i] - 1e-9 and s < a.arc[i, -1] - 1e-6
+
+
+@njit(cache=True)
+def interp(x, xp, fp):
+    """``np.interp(x, xp, fp)`` for one ``x`` (``xp`` non-decreasing), without numba's temporary arrays."""
+    if x < xp[0]:
+        return fp[0]
+    if x >= xp[-1]:
+        return fp[-1]
+    j = np.searchsorted(xp, x, side="right") - 1  # xp[j] <= x < xp[j + 1]
+    return fp[j] + (fp[j + 1] - fp[j]) * ((x - xp[j]) / (xp[j + 1] - xp[j]))
 
 
 @njit(cache=True)
@@ -112,34 +137,36 @@ def _leader(a, i, j, ego_x, ego_y, ego_speed):
     """Car ``i``'s bumper gap [m] (inf: none) to, and the speed [m/s] of, the nearest body present at period ``j``
     (the other cars, the ego) ahead on its path within half a lane of it."""
     best, lead_v, reach = np.inf, 0.0, a.consts[LANE_WIDTH] / 2
-    lo_x, lo_y, hi_x, hi_y = a.bounds[i]
+    xs, ys, arc, bounds = a.x[i], a.y[i], a.arc[i], a.bounds[i]  # views taken once: the arguments stay small
     for n in range(len(a.s) + 1):
         ego = n == len(a.s)
         if not ego and (n == i or not a.present[n, j]):
             continue
         px = ego_x if ego else a.states[n, j, X]
         py = ego_y if ego else a.states[n, j, Y]
-        if px < lo_x - reach or px > hi_x + reach or py < lo_y - reach or py > hi_y + reach:
-            continue  # farther than half a lane from every point of the path
-        lateral, ahead = _project(a, i, px, py)
-        half = a.consts[EGO_HALF] if ego else a.half[n]
-        gap = ahead - a.half[i] - half
+        lateral, along = _project(xs, ys, arc, bounds, px, py, reach)
+        ahead = along - a.s[i]
+        gap = ahead - a.half[i] - (a.consts[EGO_HALF] if ego else a.half[n])
         if lateral <= reach and ahead > 0 and gap < best:
             best, lead_v = gap, ego_speed if ego else a.states[n, j, V]
     return best, lead_v
 
 
 @njit(cache=True)
-def _project(a, i, px, py):
-    """The distance [m] of the point ``px, py`` from path ``i`` and how far ahead of car ``i`` along the path [m]
-    its nearest point lies (the first of the nearest segments)."""
-    xs, ys, arc = a.x[i], a.y[i], a.arc[i]
-    lateral, along = np.inf, 0.0
-    for k in range(len(xs) - 1):
-        dx, dy, rx, ry = xs[k + 1] - xs[k], ys[k + 1] - ys[k], px - xs[k], py - ys[k]
-        length2 = max(dx * dx + dy * dy, 1e-12)
-        f = min(max((rx * dx + ry * dy) / length2, 0.0), 1.0)
-        d = math.hypot(rx - f * dx, ry - f * dy)
-        if d < lateral:
-            lateral, along = d, arc[k] + f * math.sqrt(length2)
-    return lateral, along - a.s[i]
+def _project(xs, ys, arc, bounds, px, py, reach):
+    """The distance [m] of the point ``px, py`` from the path through ``xs, ys`` [m] (its chunks' ``bounds``) and
+    the arc length ``arc`` [m] of its nearest point (on the first of the nearest segments), if within ``reach``
+    [m] of the path (else a distance beyond it)."""
+    nearest, along = np.inf, 0.0  # squared distance [m^2]
+    for c in range(bounds.shape[0]):
+        if px < bounds[c, 0] - reach or px > bounds[c, 2] + reach or py < bounds[c, 1] - reach or \
+                py > bounds[c, 3] + reach:
+            continue  # farther than reach from each of the chunk's segments: not the nearest within reach
+        for k in range(c * CHUNK, min((c + 1) * CHUNK, len(xs) - 1)):
+            dx, dy, rx, ry = xs[k + 1] - xs[k], ys[k + 1] - ys[k], px - xs[k], py - ys[k]
+            length2 = max(dx * dx + dy * dy, 1e-12)
+            f = min(max((rx * dx + ry * dy) / length2, 0.0), 1.0)
+            d = (rx - f * dx) ** 2 + (ry - f * dy) ** 2
+            if d < nearest:
+                nearest, along = d, arc[k] + f * math.sqrt(length2)
+    return math.sqrt(nearest), along

@@ -20,7 +20,7 @@ from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory
 
 from vilma.world.commonroad import EgoTask
-from vilma.world.idm import IdmArrays, acceleration, idm_step, place
+from vilma.world.idm import IdmArrays, acceleration, chunk_bounds, idm_step, place
 from vilma.world.states import YAW, V, X, Y, states_at
 from vilma.world.traffic import Traffic, traffic
 
@@ -84,7 +84,7 @@ class ReactiveTraffic:
         half = (recorded.outline[..., 0].max(axis=1) - recorded.outline[..., 0].min(axis=1)) / 2
         self.arrays = IdmArrays(
             _consts(params, ego_length / 2, t0, period), half, moving, first * recorded.dt, x, y,
-            np.unwrap(yaw, axis=1), speed, arc, np.stack([x.min(1), y.min(1), x.max(1), y.max(1)], axis=1),
+            np.unwrap(yaw, axis=1), speed, arc, chunk_bounds(x, y),
             np.zeros(m), speed[:, 0].copy(), states, present, np.zeros(1, np.int64))
         """What :func:`~vilma.world.idm.idm_step` works on (the ``traffic``'s states among them)."""
         place(self.arrays, 0)
