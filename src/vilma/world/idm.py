@@ -168,5 +168,5 @@ def _project(xs, ys, arc, bounds, px, py, reach):
             f = min(max((rx * dx + ry * dy) / length2, 0.0), 1.0)
             d = (rx - f * dx) ** 2 + (ry - f * dy) ** 2
             if d < nearest:
-                nearest, along = d, arc[k] + f * math.sqrt(length2)
+                nearest, along = d, arc[k] + f * (arc[k + 1] - arc[k])
     return math.sqrt(nearest), along
