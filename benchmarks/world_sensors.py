@@ -7,7 +7,7 @@ Default file: ``USA_Lanker-1_1_T-1`` (24 vehicles) from the shared CommonRoad fo
 planning problem with its defaults (single-track plant, pi_ff + stanley, compiled), once to load the numba
 caches, then ``REPEATS`` times: simulated seconds per wall second of the loop (median), against the issue's
 anchor of 500x with both sensors on (laser: 181 rays at 10 Hz, 30 m; objects: 50 m at 10 Hz), with the
-recorded and with reactive traffic (measured here: about 1400x recorded, 640-710x reactive).
+recorded and with reactive traffic.
 """
 
 from __future__ import annotations
