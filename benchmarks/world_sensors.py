@@ -1,12 +1,13 @@
 """Speed of the compiled closed loop on a CommonRoad road with traffic, with the flat-ground laser and the objects
-sensor on and off: prints JSON.
+sensor on and off, and with both on and ``traffic: reactive`` (IDM, stepped in the loop): prints JSON.
 
     python benchmarks/world_sensors.py [FILE.xml]
 
 Default file: ``USA_Lanker-1_1_T-1`` (24 vehicles) from the shared CommonRoad folder. Each case runs the file's
 planning problem with its defaults (single-track plant, pi_ff + stanley, compiled), once to load the numba
 caches, then ``REPEATS`` times: simulated seconds per wall second of the loop (median), against the issue's
-anchor of 500x with both sensors on (laser: 181 rays at 10 Hz, 30 m; objects: 50 m at 10 Hz).
+anchor of 500x with both sensors on (laser: 181 rays at 10 Hz, 30 m; objects: 50 m at 10 Hz), with the
+recorded and with reactive traffic.
 """
 
 from __future__ import annotations
@@ -40,8 +41,8 @@ class Count(RunObserver):
             self.objects += len(m.objects) if name == "objects" else 0
 
 
-def case(file: Path, sensors: bool) -> dict:
-    scenario = load_scenario(file, {"laser": "true", "objects": "true"} if sensors else {})
+def case(file: Path, sensors: bool, traffic: str = "recorded") -> dict:
+    scenario = load_scenario(file, {"laser": "true", "objects": "true", "traffic": traffic} if sensors else {})
     count = Count()
     run(scenario, observers=[count])  # compile / load the numba caches outside the timing
     rates = []
@@ -49,7 +50,8 @@ def case(file: Path, sensors: bool) -> dict:
         r = run(scenario)
         rates.append(r.metrics["sim_time_s"] / r.metrics["loop_wall_time_s"])
     obstacles = len(scenario.road.traffic.ids)
-    return {"laser_and_objects": sensors, "obstacles": obstacles, "sim_seconds": r.metrics["sim_time_s"],
+    return {"laser_and_objects": sensors, "traffic": traffic, "obstacles": obstacles,
+            "sim_seconds": r.metrics["sim_time_s"],
             "real_time_factor": round(statistics.median(rates), 1), "messages": count.counts,
             "laser_hits": count.hits, "objects_listed": count.objects}
 
@@ -57,8 +59,8 @@ def case(file: Path, sensors: bool) -> dict:
 def main(files: list[str]) -> None:
     file = Path(files[0]) if files else FILE
     out = {"benchmark": "world_sensors", "file": file.name, "anchor_real_time_factor": ANCHOR,
-           "cases": [case(file, True), case(file, False)]}
-    out["meets_anchor"] = out["cases"][0]["real_time_factor"] >= ANCHOR
+           "cases": [case(file, True), case(file, True, "reactive"), case(file, False)]}
+    out["meets_anchor"] = all(c["real_time_factor"] >= ANCHOR for c in out["cases"][:2])
     print(json.dumps(out, indent=2))
 
 

@@ -16,10 +16,12 @@ from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
 from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory
 
-from vilma.scenario import SpecError, parse_scenario
+from vilma.scenario import SpecError, parse_scenario, runner
+from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.result import RunObserver
 from vilma.scenario.runner import run
+from vilma.scenario.scorecard import TIMING_KEYS
 from vilma.world.commonroad import load
 from vilma.world.reactive import IdmParams
 from vilma.world.road_view import road_view
@@ -111,6 +113,32 @@ def test_the_objects_sensor_sees_the_car_where_it_drove_not_where_it_was_recorde
         assert (o.x, o.y, o.speed) == pytest.approx((car.states[0, k, 0], car.states[0, k, 1], car.states[0, k, 3]))
     last = lists[-1]
     assert last.objects[0].x < CAR_X + CAR_SPEED * last.stamp_ns * 1e-9 - 10  # held back by the ego
+
+
+@pytest.mark.slow
+def test_reactive_traffic_drives_alike_in_the_compiled_and_the_python_loop(tmp_path, monkeypatch):
+    """Both loops step the same compiled IDM at the same point of each period: the same drive, traffic and scans,
+    bit for bit."""
+    scenario = _scenario(tmp_path, "traffic: reactive\nobjects: {range: 200}\nlaser: true")
+    real, loops, got = runner.run_compiled, [], []
+
+    def spy(*args):
+        loops.append(args[-1])  # the traffic it steps
+        return real(*args)
+
+    monkeypatch.setattr(runner, "run_compiled", spy)
+    for compiled in (True, False):
+        seen = Captures()
+        got.append((run(scenario, compiled=compiled, observers=[seen]), seen.got))
+    assert len(loops) == 1 and loops[0] is not None  # the first ran compiled with the traffic, the second did not
+    (fast, fast_seen), (slow, slow_seen) = got
+    keep = [i for i, c in enumerate(COLUMNS) if c != "controller_us"]
+    assert np.array_equal(fast.log.rows[:, keep], slow.log.rows[:, keep], equal_nan=True)
+    a, b = fast.scenario.road.traffic, slow.scenario.road.traffic
+    assert np.array_equal(a.states, b.states) and np.array_equal(a.present, b.present)
+    assert fast_seen == slow_seen and {n for n, _ in fast_seen} == {"laser", "objects"}
+    assert {k: v for k, v in fast.metrics.items() if k not in TIMING_KEYS} == \
+        {k: v for k, v in slow.metrics.items() if k not in TIMING_KEYS}
 
 
 def test_traffic_is_refused_without_a_commonroad_world(tmp_path):

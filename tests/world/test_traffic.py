@@ -41,6 +41,17 @@ def test_between_two_steps_the_state_is_interpolated_linearly():
     assert got[0, 3] == pytest.approx(0.75 * a.velocity + 0.25 * b.velocity)
 
 
+def test_at_a_time_step_only_that_step_is_read():
+    states = np.zeros((1, 8, 4))
+    states[0, 6] = (1.0, 2.0, 0.5, 3.0)
+    states[0, 7] = np.nan  # not known yet (reactive traffic fills it a period later)
+    tr = Traffic(ids=np.array([1]), static=np.array([False]), outline=np.zeros((1, 1, 2)), states=states,
+                 present=np.ones((1, 8), bool), dt=0.1)
+    assert 6 * 0.1 / 0.1 > 6  # the time of step 6 divided by the step lands an ulp past it
+    got, present = tr.at(6 * 0.1)
+    assert got[0].tolist() == [1.0, 2.0, 0.5, 3.0] and present[0]
+
+
 def test_the_heading_is_interpolated_across_the_half_turn():
     tr = Traffic(ids=np.array([1]), static=np.array([False]), outline=np.zeros((1, 1, 2)),
                  states=np.array([[[0, 0, math.pi - 0.1, 1], [0, 0, -math.pi + 0.1, 1]]]),

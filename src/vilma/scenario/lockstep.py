@@ -34,6 +34,7 @@ from vilma.sim.simulator import KernelResult, PlantKernel
 from vilma.vehicle.actuators import clamp_command
 from vilma.vehicle.integrate import advance
 from vilma.vehicle.state import VX, VY, YAW, YAW_RATE, X, Y
+from vilma.world.idm import IdmArrays, idle, idm_step
 
 BLOCK = 256
 """Driver periods per compiled call (the sensors measure and the log grows once a block)."""
@@ -65,10 +66,12 @@ def compiled_ok(sim: Simulator, driver: Driver) -> bool:
 @njit(cache=True)
 def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, out_tick, n, cmd_mode, cmd, limits,
           dc, ds, pa, has_path, speed_c, speed_s, path_c, path_s, original_speed, stop_at_rest, rows, truth,
-          pose_period, vel_period):
+          pose_period, vel_period, traffic, body_offset):
     """Up to ``n`` driver periods; returns (periods run, sensor records written, arrived at rest).
 
     ``truth`` = ``[speed, yaw rate]`` of the latest velocity reading, as :class:`TruthEstimator` keeps it.
+    ``traffic`` (:class:`~vilma.world.idm.IdmArrays`) steps a period at each period's end, seeing the ego's box
+    centre ``body_offset`` [m] ahead of its reference point, as the runner's Python loop does.
     """
     j = 0
     for k in range(n):
@@ -103,6 +106,7 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
             cmd_mode[0] = mode
         else:
             r[15] = r[16] = r[17] = math.nan
+        idm_step(traffic, z[X] + body_offset * math.cos(z[YAW]), z[Y] + body_offset * math.sin(z[YAW]), z[VX])
         if stop_at_rest and ds.arrived and abs(z[VX]) < dc.rest_speed:
             return k + 1, j, True
     return n, j, False
@@ -117,10 +121,12 @@ def _catch_up(est: TruthEstimator, ds: np.record, truth: np.ndarray, stamp_ns: i
 
 
 def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, stop_at_rest: bool,
-                 on_block: Callable[[dict[str, Readings]], None] | None = None) -> bool:
+                 on_block: Callable[[dict[str, Readings]], None] | None = None,
+                 traffic: IdmArrays | None = None) -> bool:
     """Run up to ``periods`` driver periods compiled, appending a log row each; True if it stopped at rest.
 
-    ``on_block`` gets the sensor readings of each block (after its rows are in the log). The column
+    ``on_block`` gets the sensor readings of each block (after its rows are in the log). ``traffic``: reactive
+    traffic's arrays (:attr:`~vilma.world.reactive.ReactiveTraffic.arrays`), stepped each period. The column
     ``controller_us`` holds the wall time per period of the whole compiled loop (plant, driver and
     log): an upper bound of the driver's cost.
     """
@@ -129,6 +135,7 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     truth = np.array([est.speed, est.yaw_rate])
     pose_period, vel_period = _truth_periods(sim)
     rows = np.empty((BLOCK, len(COLUMNS)))
+    traffic, offset = idle() if traffic is None else traffic, sim.config.vehicle.body_offset
     done, k, stopped = 0, 0, False
 
     def block(p: PlantKernel) -> KernelResult:
@@ -137,7 +144,8 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
         wall = time.perf_counter()
         k, m, stopped = _loop(p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records,
                               min(BLOCK, periods - done), p.mode, p.cmd, p.limits, *args,
-                              driver.params.original_speed, stop_at_rest, rows, truth, pose_period, vel_period)
+                              driver.params.original_speed, stop_at_rest, rows, truth, pose_period, vel_period,
+                              traffic, offset)
         rows[:k, -1] = (time.perf_counter() - wall) / k * 1e6
         sent = np.flatnonzero(~np.isnan(rows[:k, 15]))
         commanded = p.tick + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None

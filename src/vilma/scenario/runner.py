@@ -49,8 +49,8 @@ def run(scenario: Scenario, realtime: float | None = None, compiled: bool = True
     """Drive ``scenario`` to its end and score it; ``realtime`` paces it to that many times real time.
 
     Unpaced runs that qualify (:func:`~vilma.scenario.lockstep.compiled_ok`) run compiled, unless
-    ``compiled`` is False; the drive is the same either way. Reactive traffic runs the Python loop: its IDM
-    steps in Python each driver period, which the compiled loop cannot call. The ``observers`` watch it as it
+    ``compiled`` is False; the drive is the same either way (reactive traffic too: its IDM steps in compiled
+    code each driver period, in either loop). The ``observers`` watch it as it
     goes (the run's folder, its recording, a live view: :class:`~vilma.scenario.result.RunObserver`); the runner
     writes no file itself. ``started`` is the :func:`time.perf_counter` reading the run's share of the
     command began at (``wall_time_s``; default: now).
@@ -166,8 +166,8 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
 
     remaining = scenario.duration - t_start
     periods = round(remaining / (period * sim.clock.step_s))
-    if realtime is None and compiled and reactive is None and compiled_ok(sim, driver):
-        run_compiled(sim, driver, log, periods, follows, on_block)
+    if realtime is None and compiled and compiled_ok(sim, driver):
+        run_compiled(sim, driver, log, periods, follows, on_block, None if reactive is None else reactive.arrays)
     elif realtime is None:
         for _ in range(periods):
             if finished():

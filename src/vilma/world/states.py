@@ -15,11 +15,16 @@ X, Y, YAW, V = range(4)
 @njit(cache=True)
 def states_at(states, present, static, dt, t, out, seen):
     """:meth:`Traffic.at <vilma.world.traffic.Traffic.at>` compiled: the states ``states`` (m, k, 4) at time
-    ``t`` [s] from time step 0 into ``out`` (m, 4), and which are present into ``seen`` (m,) bool."""
+    ``t`` [s] from time step 0 into ``out`` (m, 4), and which are present into ``seen`` (m,) bool.
+
+    A time within a billionth of a step of a time step is that step's (``t / dt`` rounds off by an ulp either
+    way): it reads that step alone, never the next, which reactive traffic fills only a period later."""
     k = states.shape[1]
     s = t / dt
+    if abs(s - round(s)) < 1e-9:
+        s = float(round(s))
     i = int(min(max(math.floor(s), 0.0), k - 1))
-    j = min(i + 1, k - 1)
+    j = min(i + 1, k - 1) if s > i else i
     f = min(max(s - i, 0.0), 1.0) if j > i else 0.0
     inside = 0 <= s <= k - 1
     for n in range(states.shape[0]):
