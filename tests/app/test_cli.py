@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import re
+import subprocess
 import sys
 
 import numpy as np
@@ -13,7 +14,7 @@ from vilma.app.cli import _parser, main
 from vilma.scenario.bundled import BUNDLED, names, summary
 from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory
-from vilma.trajectory.densify import MAX_POINTS
+from vilma.trajectory.points import MAX_POINTS
 
 CURVED = BUNDLED / "data" / "PositionLog_curved.txt"
 
@@ -181,3 +182,14 @@ def test_without_a_terminal_a_batch_prints_a_line_a_run(tmp_path, capsys):
 def test_quiet_up_prints_nothing(capsys):
     assert main(["up", "pi_ff_speed_5", "--duration", "1", "--speed", "50", "-q"]) == 0
     assert capsys.readouterr() == ("", "")
+
+
+def test_the_help_imports_neither_numba_nor_scipy_nor_matplotlib():
+    """``vilma --help`` builds every subcommand's parser without the heavy libraries (each costs 0.2-1 s)."""
+    code = ("import sys; from vilma.app.cli import main; import contextlib, io\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            "    try: main(['--help'])\n"
+            "    except SystemExit: pass\n"
+            "print(sorted(m for m in ('numba', 'scipy', 'matplotlib', 'numpy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -20,7 +20,7 @@ from vilma.scenario.drive_log import MAX_ROWS
 from vilma.scenario.fields import MAX_YAML_VALUES, load_yaml
 from vilma.scenario.spec import Bound
 from vilma.sensors import SensorSuite
-from vilma.trajectory.densify import MAX_POINTS
+from vilma.trajectory.points import MAX_POINTS
 from vilma.vehicle.params import preset, vilma
 
 FIVE_LINES = """\

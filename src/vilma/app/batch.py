@@ -82,9 +82,9 @@ def plan(files: Sequence[str], sets: Sequence[str]) -> list[Job]:
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,
             observers: Callable[[Scenario], Sequence[RunObserver]] = lambda _: (), record: bool = True,
-            overwrite: bool = False, started: float | None = None) -> list[RunResult]:
-    """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``)
-    into its own folder (:func:`out_dirs`); returns the results.
+            plots: bool = True, overwrite: bool = False, started: float | None = None) -> list[RunResult]:
+    """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``; the
+    plots if ``plots``) into its own folder (:func:`out_dirs`); returns the results.
 
     A folder that holds anything stops the batch before it runs, unless ``overwrite`` (then the earlier
     run's files go first). The ``observers`` of a scenario watch its run as it goes (see
@@ -102,8 +102,8 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             name = job.scenario.name + (f" {job.label}" if job.label else "")
             bar.update(task, description=Text(name))
             t0 = time.perf_counter()
-            r = record_run(job.scenario, out_dir, record=record, realtime=realtime, observers=observers(job.scenario),
-                           started=started)
+            r = record_run(job.scenario, out_dir, record=record, plots=plots, realtime=realtime,
+                           observers=observers(job.scenario), started=started)
             results.append(r)
             started = time.perf_counter()  # each run's share of the command starts where the last one's ended
             bar.advance(task)

@@ -82,7 +82,7 @@ def _run(args: argparse.Namespace) -> int:
     with live or contextlib.nullcontext():
         results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
                                 live.watch if live else lambda _: (), record=not args.no_record,
-                                overwrite=args.overwrite,
+                                plots=not args.no_plots, overwrite=args.overwrite,
                                 started=STARTED)
     if len(results) == 1:
         console.print(batch.scorecard_table(results[0]))
@@ -259,6 +259,7 @@ def _add_runs(sub) -> None:
     r.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
                    help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
     r.add_argument("--no-record", action="store_true", help="write no run.mcap (the other files as usual)")
+    r.add_argument("--no-plots", action="store_true", help="draw no plots (the other files as usual)")
     r.add_argument("--overwrite", action="store_true", help="replace the files of an earlier run in the --out folder "
                    "(without it, a folder that holds anything is refused)")
     r.set_defaults(func=_run)
@@ -359,7 +360,7 @@ def _add_recording_commands(sub) -> None:
 
 def _add_tools(sub) -> None:
     """``vilma trajectory`` and ``vilma scenarios``."""
-    from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
+    from vilma.trajectory.defaults import ALPHA, BETA, TOLERANCE
 
     t = sub.add_parser("trajectory", help="trajectory tools: info, smooth, densify, resample",
                        description="Read a trajectory (the original's x y pairs, CSV x,y[,speed] or GPX), "

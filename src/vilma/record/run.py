@@ -38,11 +38,12 @@ RUN_FILE = RECORDING
 """The recording's name in a run's output folder."""
 
 
-def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, realtime: float | None = None,
-               compiled: bool = True, observers: Sequence[RunObserver] = (), started: float | None = None) -> RunResult:
+def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, plots: bool = True,
+               realtime: float | None = None, compiled: bool = True, observers: Sequence[RunObserver] = (),
+               started: float | None = None) -> RunResult:
     """Run ``scenario`` (:func:`~vilma.scenario.runner.run`) writing its folder ``out_dir`` as it goes: the
-    timeseries, the recording ``run.mcap`` (unless ``record`` is False), ``scenario.yaml`` and the plots, then
-    ``metrics.json`` last. The other ``observers`` watch it too (a live view).
+    timeseries, the recording ``run.mcap`` (unless ``record`` is False), ``scenario.yaml`` and the plots (unless
+    ``plots`` is False), then ``metrics.json`` last. The other ``observers`` watch it too (a live view).
 
     Raises:
         SpecError: the scenario's files cannot be used.
@@ -50,7 +51,7 @@ def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, realti
     """
     mine: list[RunObserver] = [RunRecorder(out_dir / RUN_FILE, scenario)] if record else []
     try:
-        result = run(scenario, realtime, compiled, [*mine, RunFolder(out_dir), *observers], started)
+        result = run(scenario, realtime, compiled, [*mine, RunFolder(out_dir, plots), *observers], started)
     except Interrupted as e:
         raise Interrupted(e.t, out_dir) from None
     write_metrics(result, out_dir)  # last: a folder with metrics.json holds a whole run

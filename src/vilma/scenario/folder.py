@@ -58,11 +58,12 @@ def claim(dirs: Sequence[Path], overwrite: bool) -> None:
 
 
 class RunFolder(RunObserver):
-    """Writes a run's folder as it goes: ``timeseries.csv`` streamed, then ``scenario.yaml`` and the plots
-    (:func:`write_metrics` comes last, from whoever ran it: a folder with ``metrics.json`` holds a whole run)."""
+    """Writes a run's folder as it goes: ``timeseries.csv`` streamed, then ``scenario.yaml`` and the plots (unless
+    ``plots`` is False; :func:`write_metrics` comes last, from whoever ran it: a folder with ``metrics.json``
+    holds a whole run)."""
 
-    def __init__(self, out_dir: Path) -> None:
-        self.out_dir = out_dir
+    def __init__(self, out_dir: Path, plots: bool = True) -> None:
+        self.out_dir, self.plots = out_dir, plots
         self.series: TimeseriesWriter | None = None
 
     def started(self, sim: Simulator, log: DriveLog) -> None:
@@ -73,13 +74,14 @@ class RunFolder(RunObserver):
         self.series.add(readings)
 
     def finished(self, result: RunResult) -> None:
-        from vilma.scenario.report import plot_run  # matplotlib (a second to import) only once there is a plot
-
         self.series.close()
         write_atomic(self.out_dir / "scenario.yaml", to_yaml(result.scenario))
         if result.scenario.road is not None:
             write_atomic(self.out_dir / SOLUTION, solution(result))
-        plot_run(result, self.out_dir, speed_log(result.scenario))
+        if self.plots:
+            from vilma.scenario.report import plot_run  # matplotlib (a second to import) only once there is a plot
+
+            plot_run(result, self.out_dir, speed_log(result.scenario))
         result.out_dir = self.out_dir
 
     def failed(self, interrupted: bool) -> None:

@@ -60,10 +60,17 @@ from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
-from vilma.trajectory import Arrival, Trajectory, TrajectoryFileError, arrival_profile, densify, load_trajectory
+from vilma.trajectory import (
+    Arrival,
+    Trajectory,
+    TrajectoryFileError,
+    arrival_profile,
+    densify,
+    load_trajectory,
+    resample,
+    speed_profile,
+)
 from vilma.trajectory.course import spline_course
-from vilma.trajectory.densify import resample
-from vilma.trajectory.profile import speed_profile
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 
 if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from vilma.trajectory.densify import MAX_DENSIFY, MAX_POINTS
+from vilma.trajectory.points import MAX_DENSIFY, MAX_POINTS
 from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
 
 
@@ -47,7 +47,7 @@ class TaskSpec:
     at the lanelets' speed limits."""
     densify: int = 0
     """Apply Increase Point Count this many times (n -> 2n - 1 each), at most
-    :data:`~vilma.trajectory.densify.MAX_DENSIFY`."""
+    :data:`~vilma.trajectory.points.MAX_DENSIFY`."""
     smooth: SmoothSpec | None = None
     """Smooth the path as the paper (``true`` for the original's parameters)."""
     resample: float | None = None

@@ -17,8 +17,7 @@ import numpy as np
 from numba import njit
 from scipy.linalg import solve_banded
 
-ALPHA, BETA, TOLERANCE = 0.5, 0.1, 1e-6
-"""The original's weight_data, weight_smooth and tolerance."""
+from vilma.trajectory.defaults import ALPHA, BETA, TOLERANCE
 
 
 @njit(cache=True)

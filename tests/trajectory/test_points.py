@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from vilma.trajectory import Trajectory, densify, increase_point_count, resample
-from vilma.trajectory.densify import MAX_DENSIFY, MAX_POINTS
+from vilma.trajectory.points import MAX_DENSIFY, MAX_POINTS
 
 
 def test_generate_points_inserts_midpoints():

@@ -1,0 +1,70 @@
+"""What a user waits for: whole ``vilma`` commands against a plain-numpy script of the same drive; prints JSON.
+
+- ``anchor``: ``benchmarks/anchors/numpy_stanley.py``, the ``course_30kmh_stanley`` drive written by hand with
+  numpy and scipy (course, car, Stanley, PI, CSV), run as its own process.
+- ``run``: ``vilma run course_30kmh_stanley`` with its default files (timeseries, scorecard, plots, run.mcap),
+  caches warm; ``run_bare``: the same with ``--no-plots --no-record``; ``help``: ``vilma --help``.
+
+Each is run as a fresh process, interleaved, ``ROUNDS`` times (this machine's speed varies 2x); the figures are
+medians of wall seconds and CPU seconds (user + system of the process and its children), and the ratios to the
+anchor's wall time. Targets (issue 21): ``run`` <= 1.5x, ``run_bare`` <= 1.0x, ``help`` < 0.15 s.
+
+    python benchmarks/whole_command.py [ROUNDS]
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ANCHOR = Path(__file__).parent / "anchors" / "numpy_stanley.py"
+VILMA = [sys.executable, "-m", "vilma"]
+TARGETS = {"run": 1.5, "run_bare": 1.0}
+HELP_TARGET_S = 0.15
+
+
+def _timed(argv: list[str], cwd: str) -> tuple[float, float]:
+    """Wall and CPU seconds [s] of the process ``argv`` (and its children), which must succeed."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(argv, cwd=cwd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def main(rounds: int) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        cases = {
+            "anchor": [sys.executable, str(ANCHOR), os.path.join(tmp, "anchor.csv")],
+            "run": [*VILMA, "run", "course_30kmh_stanley", "--out", os.path.join(tmp, "run"), "--overwrite", "-q"],
+            "run_bare": [*VILMA, "run", "course_30kmh_stanley", "--out", os.path.join(tmp, "bare"), "--overwrite",
+                         "--no-plots", "--no-record", "-q"],
+            "help": [*VILMA, "--help"],
+        }
+        for argv in cases.values():  # warm the caches (numba's, the OS's) outside the timing
+            _timed(argv, tmp)
+        times: dict[str, list[tuple[float, float]]] = {k: [] for k in cases}
+        for _ in range(rounds):
+            for name, argv in cases.items():
+                times[name].append(_timed(argv, tmp))
+    wall = {k: statistics.median(w for w, _ in v) for k, v in times.items()}
+    cpu = {k: statistics.median(c for _, c in v) for k, v in times.items()}
+    out = {"benchmark": "whole_command", "rounds": rounds, "cpus": os.cpu_count(),
+           "wall_s": {k: round(v, 3) for k, v in wall.items()}, "cpu_s": {k: round(v, 3) for k, v in cpu.items()},
+           "ratio_to_anchor": {k: round(wall[k] / wall["anchor"], 2) for k in TARGETS},
+           "target_ratio": TARGETS, "help_target_s": HELP_TARGET_S,
+           "meets": {**{k: wall[k] / wall["anchor"] <= TARGETS[k] for k in TARGETS},
+                     "help": wall["help"] < HELP_TARGET_S}}
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 5)
