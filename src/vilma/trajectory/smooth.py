@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from scipy.linalg import solve_banded
 
 from vilma.trajectory.defaults import ALPHA, BETA, TOLERANCE
 
@@ -67,6 +66,8 @@ def smooth_banded(xy, alpha: float = ALPHA, beta: float = BETA) -> np.ndarray:
     rhs[0] += beta * p[0]
     rhs[-1] += beta * p[-1]
     out = p.copy()
+    from scipy.linalg import solve_banded  # 0.1 s to import: only for this solver
+
     out[1:-1] = solve_banded((1, 1), ab, rhs)
     return out
 

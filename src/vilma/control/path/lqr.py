@@ -26,7 +26,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-import scipy.linalg
 from numba import njit
 
 from vilma.control.checks import check_params
@@ -95,6 +94,8 @@ def lqr_gain(speed: float, period: float, wheelbase: float, q: np.ndarray, r: fl
     """The LQR gain ``K`` (4,) of the error model at ``speed`` > 0 [m/s] and ``period`` [s], weights ``q`` (4,)."""
     a = np.array([[1.0, period, 0.0, 0.0], [0.0, 0.0, speed, 0.0], [0.0, 0.0, 1.0, period], [0.0, 0.0, 0.0, 0.0]])
     b = np.array([[0.0], [0.0], [0.0], [speed / wheelbase]])
+    import scipy.linalg  # 0.1 s to import: only for the LQR's constants, not whenever the registry lists it
+
     x = scipy.linalg.solve_discrete_are(a, b, np.diag(q), np.array([[r]]))
     return np.linalg.solve(b.T @ x @ b + r, b.T @ x @ a)[0]
 
