@@ -11,7 +11,7 @@ from matplotlib.patches import Polygon
 
 from vilma.app.batch import find_scenario
 from vilma.scenario.drive_log import COLUMNS, DriveLog
-from vilma.scenario.report import figures, footprint, plot_run
+from vilma.scenario.report import DPI, figures, footprint, plot_run
 from vilma.scenario.result import RunResult
 from vilma.scenario.spec import load_scenario
 
@@ -80,9 +80,9 @@ def test_plot_run_writes_the_four_pngs(result, tmp_path):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_a_road_run_draws_the_lanelets_goal_and_traffic_beneath_the_car():
-    from tests.world.test_commonroad import TUTORIAL, _lanelets
-
+@pytest.fixture(scope="module")
+def road_result() -> RunResult:
+    """The CommonRoad tutorial driven in 2 s from its path's start to its end, the goal not reached."""
     sc = load_scenario(find_scenario("commonroad_tutorial"))
     path = sc.reference_path()
     rows = np.zeros((2, len(COLUMNS)))
@@ -90,7 +90,13 @@ def test_a_road_run_draws_the_lanelets_goal_and_traffic_beneath_the_car():
     rows[:, COLUMNS.index("x")], rows[:, COLUMNS.index("y")] = path.xy[[0, -1]].T
     log = DriveLog()
     log.extend(rows)
-    ax = figures(RunResult(sc, {"time_to_goal_s": None}, [], log, path, 0.0))["path.png"].axes[0]
+    return RunResult(sc, {"time_to_goal_s": None}, [], log, path, 0.0)
+
+
+def test_a_road_run_draws_the_lanelets_goal_and_traffic_beneath_the_car(road_result):
+    from tests.world.test_commonroad import TUTORIAL, _lanelets
+
+    ax = figures(road_result)["path.png"].axes[0]
     drawn = [line.get_xydata() for line in ax.get_lines() if line.get_linestyle() == "-" and line.get_zorder() < 1]
     for left, right in _lanelets(TUTORIAL).values():
         assert any(np.array_equal(d, left) for d in drawn) and any(np.array_equal(d, right) for d in drawn)
@@ -101,3 +107,35 @@ def test_a_road_run_draws_the_lanelets_goal_and_traffic_beneath_the_car():
     traffic = next(p for p in ax.patches if str(p.get_label()).startswith("traffic at"))
     assert traffic.get_label() == "traffic at 2.0 s"
     assert traffic.get_xy()[:4].mean(axis=0)[0] == pytest.approx(2.25 + 23.0 * 2.0, abs=1.0)
+
+
+def _png_size(data: bytes) -> tuple[int, int]:
+    """Width and height [px] of a PNG: its IHDR chunk's first two 4-byte big-endian fields (PNG spec 11.2.2)."""
+    assert data[12:16] == b"IHDR"
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def test_each_png_is_its_figure_at_the_plots_dpi(result, tmp_path):
+    plot_run(result, tmp_path)
+    for name, fig in figures(result).items():  # no margin trimmed or added: the size the figure was made
+        width, height = fig.get_size_inches()
+        assert _png_size((tmp_path / name).read_bytes()) == (round(width * DPI), round(height * DPI)), name
+    assert _png_size((tmp_path / "path.png").read_bytes()) == (770, 715)  # 7 x 6.5 in at 110 px/in
+
+
+@pytest.mark.parametrize("which", ["result", "road_result"])
+def test_every_label_title_and_legend_is_inside_the_image_and_apart(which, request):
+    """The fixed margins hold the tick labels, axis labels, the title and two-row legends (the obstacle course
+    and the road both have six entries on the path)."""
+    run = request.getfixturevalue(which)
+    for name, fig in figures(run, speed_log=(np.array([0.0, 5.0]), np.array([0.0, 8.0]))).items():
+        renderer = fig.canvas.get_renderer()
+        fig.canvas.draw()
+        page = fig.bbox
+        title = next(t for t in fig.texts if t.get_text() == fig.get_suptitle()).get_window_extent(renderer)
+        for ax in fig.axes:
+            box = ax.get_tightbbox(renderer)  # its ticks, tick labels, axis labels and legend
+            assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0 and box.y1 <= page.y1, name
+            legend = ax.get_legend()
+            if legend is not None:
+                assert not legend.get_window_extent(renderer).overlaps(title), f"{name}: a legend covers the title"

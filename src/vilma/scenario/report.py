@@ -6,12 +6,9 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon
 
@@ -24,77 +21,93 @@ if TYPE_CHECKING:
 
 MAX_POINTS = 20_000
 """Points drawn per line at most (every k-th sample of longer runs: a PNG cannot show more)."""
+DPI = 110
+"""Pixels per inch of the PNGs: a figure of 7 x 6.5 in is 770 x 715 px."""
+LEGEND_COLUMNS = 3
+"""Entries per row of a legend at most."""
+# The fixed margins [in] around the axes, sized for 10 pt tick labels of up to six characters and the axis labels,
+# the 12 pt title and the rows of 9 pt legends (laid out once: no layout engine, no tight bounding box, which
+# draw each figure two or three times).
+LEFT, RIGHT, RIGHT_TWIN, BOTTOM = 0.9, 0.2, 0.8, 0.55
+TITLE, LEGEND_ROW, GAP = 0.45, 0.2, 0.15
 
 
 def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """Write the plots (:data:`vilma.scenario.folder.PLOTS`) into ``out_dir``; ``speed_log`` (times [s], speeds
     [m/s]) is overlaid on the speed."""
-    figs = figures(result, speed_log)
-    try:
-        for name, fig in figs.items():
-            with atomic_path(out_dir / name) as tmp:
-                fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight")  # no margin left around the axes
-    finally:
-        for fig in figs.values():
-            plt.close(fig)
+    for name, fig in figures(result, speed_log).items():
+        with atomic_path(out_dir / name) as tmp:
+            # fast zlib: a third of the time of the default level for files a little larger
+            fig.savefig(tmp, dpi=DPI, format="png", pil_kwargs={"compress_level": 1})
 
 
 def figures(result: RunResult, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, Figure]:
-    """The plots of :func:`plot_run` by file name, not yet saved. Every legend stands above its axes, so that
-    it covers no curve."""
-    log, name = result.log, result.scenario.name
+    """The plots of :func:`plot_run` by file name, laid out, not yet drawn: matplotlib figures without pyplot
+    (no global state; each has its own Agg canvas). Every legend stands above its axes, so that it covers no
+    curve."""
+    log = result.log
     every = max(1, -(-len(log) // MAX_POINTS))
 
     def col(c: str) -> np.ndarray:
         return log.column(c)[::every]
 
-    t = col("t") - result.t_start
-    x, y = col("x"), col("y")
-    speed = np.hypot(col("vx"), col("vy"))
-    out = {}
+    t, speed = col("t") - result.t_start, np.hypot(col("vx"), col("vy"))
+    return {"path.png": _path_figure(result, col), "speed.png": _speed_figure(result, t, speed, col, speed_log),
+            "cross_track.png": _cross_track_figure(result, col), "effort.png": _effort_figure(result, t, speed, col)}
 
-    fig, ax = plt.subplots(figsize=(7, 6.5), layout="constrained")
+
+def _path_figure(result: RunResult, col) -> Figure:
+    """The car's path over the reference, the world and the road (x, y [m])."""
+    fig, (ax,) = _figure(7, 6.5, f"{result.scenario.name}: path")
     if result.path is not None:
         # wide and pale beneath the car's line, so that it shows where the car runs on it
         ax.plot(result.path.xy[:, 0], result.path.xy[:, 1], "-", color="tab:red", lw=4, alpha=0.35, zorder=2,
                 solid_capstyle="round", label="reference path")
-    ax.plot(x, y, "-", color="tab:blue", lw=1.2, zorder=3, label="car position")
+    ax.plot(col("x"), col("y"), "-", color="tab:blue", lw=1.2, zorder=3, label="car position")
     draw_world(ax, result.scenario.sim.world)
     if result.scenario.road is not None:
         from vilma.world.road_view import road_view  # the roads extra, which a road run has
 
         goal_t = result.metrics.get("time_to_goal_s")
-        draw_road(ax, road_view(result.scenario.road), goal_t if goal_t is not None else float(log.column("t")[-1]))
+        t_end = goal_t if goal_t is not None else float(result.log.column("t")[-1])
+        draw_road(ax, road_view(result.scenario.road), t_end)
     ax.set_aspect("equal", adjustable="datalim")  # fills the axes: no blank band between title and plot
     ax.set(xlabel="x [m] (east)", ylabel="y [m] (north)")
-    fig.suptitle(f"{name}: path")
     _legend(ax)
-    out["path.png"] = fig
+    return _layout(fig)
 
-    fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
+
+def _speed_figure(result: RunResult, t: np.ndarray, speed: np.ndarray, col,
+                  speed_log: tuple[np.ndarray, np.ndarray] | None) -> Figure:
+    """``speed`` [m/s] and the target over time ``t`` [s], and the recorded ``speed_log`` if any."""
+    fig, (ax,) = _figure(8, 4.5, f"{result.scenario.name}: speed")
     ax.plot(t, speed, "-", color="tab:blue", label="vilma speed")
     ax.plot(t, col("target_speed"), "k--", lw=1.0, label="target")
     if speed_log is not None:
         ax.plot(speed_log[0], speed_log[1], "r.-", ms=3, lw=0.8, label="original (log)")
     ax.set(xlabel="time since start [s]", ylabel="speed [m/s]")
-    fig.suptitle(f"{name}: speed")
     ax.grid(alpha=0.3)
     _legend(ax)
-    out["speed.png"] = fig
+    return _layout(fig)
 
-    fig, ax = plt.subplots(figsize=(8, 4), layout="constrained")
+
+def _cross_track_figure(result: RunResult, col) -> Figure:
+    """The cross-track error [m] along the path [m]."""
+    fig, (ax,) = _figure(8, 4, f"{result.scenario.name}: cross-track error")
     if result.path is not None:
-        proj = result.path.project_track(np.column_stack([x, y]))
+        proj = result.path.project_track(np.column_stack([col("x"), col("y")]))
         ax.plot(proj[:, 0], proj[:, 1], "b-")
         ax.set(xlabel="distance along the path [m]")
     else:
         ax.text(0.5, 0.5, "no path in this task", ha="center", transform=ax.transAxes)
-    ax.set(ylabel="cross-track error [m] (left +)", title=f"{name}: cross-track error")
+    ax.set(ylabel="cross-track error [m] (left +)")
     ax.grid(alpha=0.3)
-    out["cross_track.png"] = fig
+    return _layout(fig)
 
-    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True, layout="constrained")
-    fig.suptitle(f"{name}: steering, drive command and forces")
+
+def _effort_figure(result: RunResult, t: np.ndarray, speed: np.ndarray, col) -> Figure:
+    """Steering [deg], the drive command, the applied forces [N] and the drive power [kW] over time ``t`` [s]."""
+    fig, (a1, a2, a3) = _figure(8, 8.5, f"{result.scenario.name}: steering, drive command and forces", rows=3)
     a1.plot(t, np.degrees(col("steer")), "b-", label="applied")
     a1.plot(t, np.degrees(col("cmd_steer")), "k--", lw=0.8, label="commanded")
     a1.set(ylabel="steering [deg]")
@@ -113,8 +126,36 @@ def figures(result: RunResult, speed_log: tuple[np.ndarray, np.ndarray] | None =
     _legend(a3, a3.get_lines() + kw.get_lines())
     for a in (a1, a2, a3):
         a.grid(alpha=0.3)
-    out["effort.png"] = fig
-    return out
+    return _layout(fig, [a1, a2, a3], twin=True)
+
+
+def _figure(width: float, height: float, title: str, rows: int = 1) -> tuple[Figure, list[Axes]]:
+    """A ``width`` x ``height`` [in] figure on its own Agg canvas, titled, with ``rows`` axes stacked sharing x."""
+    fig = Figure(figsize=(width, height), dpi=DPI)
+    FigureCanvasAgg(fig)
+    fig.suptitle(title, y=1 - 0.1 / height, va="top")  # 0.1 in below the top edge
+    return fig, list(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
+
+
+def _layout(fig: Figure, stacked: list[Axes] | None = None, twin: bool = False) -> Figure:
+    """``fig`` with its ``stacked`` axes (default: its one) placed at the fixed margins, top to bottom, with room
+    above each for its legend's rows (``twin``: and on the right for a twin axis's labels)."""
+    width, height = fig.get_size_inches()
+    stacked = stacked or fig.axes
+    above = [(TITLE if i == 0 else GAP) + _legend_rows(ax) * LEGEND_ROW for i, ax in enumerate(stacked)]
+    h = (height - BOTTOM - sum(above)) / len(stacked)  # each axes' height [in]
+    w = width - LEFT - (RIGHT_TWIN if twin else RIGHT)
+    top = height
+    for ax, room in zip(stacked, above, strict=True):
+        top -= room + h
+        ax.set_position((LEFT / width, top / height, w / width, h / height))  # a twin follows its axes
+    return fig
+
+
+def _legend_rows(ax: Axes) -> int:
+    """The rows of ``ax``'s legend (0 without one)."""
+    legend = ax.get_legend()
+    return 0 if legend is None else -(-len(legend.texts) // LEGEND_COLUMNS)
 
 
 def draw_world(ax: Axes, world: World) -> None:
@@ -172,5 +213,5 @@ def _along(start, yaw: float, distance: float) -> tuple[float, float]:
 def _legend(ax: Axes, handles=None) -> None:
     """A legend in a row above ``ax`` (outside it: it covers no curve)."""
     handles = handles if handles is not None else ax.get_legend_handles_labels()[0]
-    ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.01), ncols=min(len(handles), 3),
+    ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.01), ncols=min(len(handles), LEGEND_COLUMNS),
               frameon=False, borderaxespad=0, fontsize=9)
