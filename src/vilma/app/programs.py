@@ -29,7 +29,7 @@ from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.road_scene import scenario_road
 from vilma.scenario.runner import initial_state, sim_config
 from vilma.scenario.spec import Scenario, to_yaml
-from vilma.sim import Simulator
+from vilma.sim import SimConfig, Simulator
 
 log = logging.getLogger(__name__)
 
@@ -96,13 +96,13 @@ def task_order(scenario: Scenario) -> DriverOrder:
 
 @contextlib.contextmanager
 def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, report: Callable[[str], None],
-          scenario: Scenario, sim: Simulator) -> Iterator[Callable[[], None] | None]:
+          scenario: Scenario, sim: SimConfig | None = None) -> Iterator[Callable[[], None] | None]:
     """While the block runs, car ``vilma``'s topics on ``bus`` (with the world sensors of ``scenario``: cameras,
-    laser; and a road's scene, road and traffic, where ``sim`` drives it) are recorded to the MCAP file ``record``
-    with the scenario attached (``scenario.yaml``, as ``vilma run``'s), and served to Foxglove on
-    127.0.0.1:``foxglove`` (each only if given); both are finished when it ends, however it ends. Yields the
-    recorder's once-a-second ``tick`` (None when not recording)."""
-    world_topics, road = scenario.sim.world_topics, scenario_road(scenario, sim.config)
+    laser; and a road's scene, road and traffic, where the simulator of ``sim`` drives it, default: as recorded)
+    are recorded to the MCAP file ``record`` with the scenario attached (``scenario.yaml``, as ``vilma run``'s),
+    and served to Foxglove on 127.0.0.1:``foxglove`` (each only if given); both are finished when it ends, however
+    it ends. Yields the recorder's once-a-second ``tick`` (None when not recording)."""
+    world_topics, road = scenario.sim.world_topics, scenario_road(scenario, sim)
     with contextlib.ExitStack() as stack:
         tick = None
         if record is not None:
@@ -130,7 +130,7 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
         driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
         sim_node = stack.enter_context(SimNode(sim, bus, start=start))
         stack.enter_context(serve_driver(driver, bus, "vilma", sim.clock.step_ns, scenario))
-        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma up", report, scenario, sim))
+        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma up", report, scenario, sim.config))
         stop = stack.enter_context(stop_on_signals())
         run_paced(sim, sim_node, speed, duration, stop, lambda: _line(sim, sim_node, driver, tick, report))
     return 0
@@ -159,7 +159,7 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
         start = initial_state(scenario, scenario.reference_path())
         sim.reset(start)
         node = stack.enter_context(SimNode(sim, bus, start=start))
-        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma sim", report, scenario, sim))
+        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma sim", report, scenario, sim.config))
         stop = stack.enter_context(stop_on_signals())
         if morse is not None:
             laser = scenario.sim.laser

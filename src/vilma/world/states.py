@@ -27,7 +27,7 @@ def states_at(states, present, static, dt, t, out, seen, ring=False):
     i = int(max(math.floor(s), 0.0)) if ring else int(min(max(math.floor(s), 0.0), k - 1))
     j = i + 1 if s > i and (ring or i < k - 1) else i
     f = min(max(s - i, 0.0), 1.0) if j > i else 0.0
-    inside = 0 <= s and (ring or s <= k - 1)
+    inside = s >= 0 and (ring or s <= k - 1)
     i, j = i % k, j % k
     for n in range(states.shape[0]):
         for c in range(4):
