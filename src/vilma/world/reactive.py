@@ -64,7 +64,8 @@ its readers (sensors, views, recordings) look at the present or a moment before.
 class ReactiveTraffic:
     """The scenario's traffic driven by IDM along the recorded paths: :attr:`traffic` holds the states at every
     driver period from sim time 0 (dt = ``period``), filled one period ahead by :meth:`step` (or by the compiled
-    closed loop, with :attr:`arrays`).
+    closed loop, with :attr:`arrays`): the simulator does both (:attr:`SimConfig.reactive
+    <vilma.sim.simulator.SimConfig.reactive>`).
 
     Args:
         recorded: the recorded traffic.
