@@ -191,3 +191,26 @@ def test_compiled_code_may_not_advance_a_car_with_actuator_dead_time():
     sim.command(ActuatorCommand(drive=1.0))
     with pytest.raises(RuntimeError, match="cannot be advanced by compiled code now"):
         sim.advance_compiled(10, _integrate)
+
+
+def test_reactive_traffic_steps_with_the_simulator_and_a_reset_restarts_it_at_its_recorded_start(tmp_path):
+    """``traffic: reactive``: the simulator drives the IDM traffic as it advances, however the advance is chunked,
+    and a reset puts each car back where the file has it at sim time 0, to drive the same again."""
+    from tests.scenario.test_reactive_traffic import CAR_SPEED, CAR_X, _scenario
+    from vilma.scenario.runner import initial_state, sim_config
+
+    sc = _scenario(tmp_path, "traffic: reactive")
+    start, file_start = initial_state(sc, None), sc.sim.traffic.at(sc.sim.traffic_t0)
+    with Simulator(sim_config(sc)) as sim:
+        traffic = sim.config.traffic
+        assert sim.config.reactive is not None and traffic is sim.config.reactive.traffic and traffic.ring
+        drives = []
+        for chunk in (3.0, 0.13):  # in one go, then in chunks that end between the traffic's periods
+            sim.reset(start)
+            assert np.array_equal(traffic.at(0.0)[0], file_start[0]) and traffic.at(0.0)[1].all()
+            while sim.clock.time_s < 3.0 - 1e-9:
+                sim.run_for(min(chunk, 3.0 - sim.clock.time_s))
+            drives.append(traffic.at(3.0)[0])
+        assert np.array_equal(drives[0], drives[1])
+        x = drives[0][0, 0]  # braking behind the ego (which no driver moves), not as recorded
+        assert CAR_X < x < CAR_X + CAR_SPEED * 3.0 - 1.0

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from vilma.world import reactive
 from vilma.world.reactive import IdmParams, ReactiveTraffic, idm_acceleration
 from vilma.world.traffic import Traffic
 
@@ -97,3 +98,18 @@ def test_idm_acceleration_is_the_papers_formula():
     assert idm_acceleration(p, np.array([v]), np.array([v0]), np.array([gap]), np.array([dv]))[0] == pytest.approx(
         want)
     assert idm_acceleration(p, np.array([0.0]), np.array([v0]), np.array([math.inf]), np.array([0.0]))[0] == p.a_max
+
+
+def test_an_open_ended_run_keeps_the_last_ring_seconds_and_drives_as_a_sized_one(monkeypatch):
+    monkeypatch.setattr(reactive, "RING", 1.0)
+    lane, periods = _lane(np.full(301, 15.0), standing_at=100.0), 1000  # 20 s: 20 laps of the ring
+    sized = ReactiveTraffic(lane, 0.0, PERIOD, periods, ego_length=LENGTH)
+    ring = ReactiveTraffic(lane, 0.0, PERIOD, None, ego_length=LENGTH)
+    assert ring.traffic.ring and ring.traffic.states.shape[1] == math.ceil(1.0 / PERIOD) + 2
+    for j in range(periods):
+        for rt in (sized, ring):
+            rt.step(*FAR, 0.0)
+        # the last second (and the period ahead), between the periods too, as the sensors and the views read it
+        for t in np.arange(max(j - 49, 0), j + 1.5, 0.5) * PERIOD:
+            for got, want in zip(ring.traffic.at(t), sized.traffic.at(t), strict=True):
+                assert np.array_equal(got, want)

@@ -27,9 +27,9 @@ from vilma.morse.components import LASER_RANGE
 from vilma.record.live import FoxgloveLive
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.road_scene import scenario_road
-from vilma.scenario.runner import initial_state
+from vilma.scenario.runner import initial_state, sim_config
 from vilma.scenario.spec import Scenario, to_yaml
-from vilma.sim import Simulator
+from vilma.sim import SimConfig, Simulator
 
 log = logging.getLogger(__name__)
 
@@ -96,13 +96,13 @@ def task_order(scenario: Scenario) -> DriverOrder:
 
 @contextlib.contextmanager
 def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, report: Callable[[str], None],
-          scenario: Scenario) -> Iterator[Callable[[], None] | None]:
+          scenario: Scenario, sim: SimConfig | None = None) -> Iterator[Callable[[], None] | None]:
     """While the block runs, car ``vilma``'s topics on ``bus`` (with the world sensors of ``scenario``: cameras,
-    laser; and a road's scene, road and traffic) are recorded to the MCAP file ``record`` with the scenario
-    attached (``scenario.yaml``, as ``vilma run``'s), and served to Foxglove on 127.0.0.1:``foxglove`` (each only
-    if given); both are finished when it ends, however it ends. Yields the recorder's once-a-second ``tick``
-    (None when not recording)."""
-    world_topics, road = scenario.sim.world_topics, scenario_road(scenario)
+    laser; and a road's scene, road and traffic, where the simulator of ``sim`` drives it, default: as recorded)
+    are recorded to the MCAP file ``record`` with the scenario attached (``scenario.yaml``, as ``vilma run``'s),
+    and served to Foxglove on 127.0.0.1:``foxglove`` (each only if given); both are finished when it ends, however
+    it ends. Yields the recorder's once-a-second ``tick`` (None when not recording)."""
+    world_topics, road = scenario.sim.world_topics, scenario_road(scenario, sim)
     with contextlib.ExitStack() as stack:
         tick = None
         if record is not None:
@@ -124,13 +124,13 @@ def up(scenario: Scenario, speed: float, duration: float, report: Callable[[str]
     """
     with contextlib.ExitStack() as stack:  # everything is closed however the run ends (Ctrl-C, an error)
         bus = stack.enter_context(LocalBus())
-        sim = stack.enter_context(Simulator(scenario.sim))
+        sim = stack.enter_context(Simulator(sim_config(scenario)))
         start = initial_state(scenario, scenario.reference_path())
         sim.reset(start)
         driver = Driver(sim.config.vehicle, scenario.driver, step=sim.config.step)
         sim_node = stack.enter_context(SimNode(sim, bus, start=start))
         stack.enter_context(serve_driver(driver, bus, "vilma", sim.clock.step_ns, scenario))
-        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma up", report, scenario))
+        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma up", report, scenario, sim.config))
         stop = stack.enter_context(stop_on_signals())
         run_paced(sim, sim_node, speed, duration, stop, lambda: _line(sim, sim_node, driver, tick, report))
     return 0
@@ -155,11 +155,11 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
     on ``bus`` is recorded to that MCAP file; with ``foxglove`` (a port), served live to Foxglove."""
     world = scenario.sim.world_topics
     with contextlib.ExitStack() as stack:  # everything is closed however the run ends (Ctrl-C, an error)
-        sim = stack.enter_context(Simulator(scenario.sim))
+        sim = stack.enter_context(Simulator(sim_config(scenario)))
         start = initial_state(scenario, scenario.reference_path())
         sim.reset(start)
         node = stack.enter_context(SimNode(sim, bus, start=start))
-        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma sim", report, scenario))
+        tick = stack.enter_context(_taps(bus, record, foxglove, "vilma sim", report, scenario, sim.config))
         stop = stack.enter_context(stop_on_signals())
         if morse is not None:
             laser = scenario.sim.laser

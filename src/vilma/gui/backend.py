@@ -25,7 +25,7 @@ from vilma.control.driver import Driver, DriverParams
 from vilma.core.closing import Closeable
 from vilma.core.messages import DriverOrder
 from vilma.scenario.fields import load_yaml
-from vilma.scenario.runner import initial_state
+from vilma.scenario.runner import initial_state, sim_config
 from vilma.scenario.spec import Scenario, parse_scenario
 from vilma.sim import Simulator
 from vilma.vehicle.params import VehicleParams, vilma
@@ -56,7 +56,7 @@ class Embedded(Closeable):
         self.speed, self.car = speed, car
         self.world_topics: tuple[str, ...] = self.scenario.sim.world_topics
         self.bus: Bus = LocalBus()
-        self.sim = Simulator(self.scenario.sim)
+        self.sim = Simulator(sim_config(self.scenario))
         self.start_state = initial_state(self.scenario, self.scenario.reference_path())
         self.sim.reset(self.start_state)
         self.driver_params = self.scenario.driver

@@ -69,7 +69,8 @@ class MainWindow(QMainWindow):
         self.camera_dock = CameraDock(self.bridge, world, parent=self)
         self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.camera_dock)
         self.camera_dock.setVisible(bool(self.camera_dock.topics))
-        self.plots = PlotWindow(self.bridge, self.table.model, plot_ms, road=scenario_road(backend.scenario))
+        self.plots = PlotWindow(self.bridge, self.table.model, plot_ms, road=scenario_road(
+            backend.scenario, backend.sim.config if backend.embedded else None))
         self.last_message = ""
         self.link = QLabel(self)
         self.statusBar().addPermanentWidget(self.link)

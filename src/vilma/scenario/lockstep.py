@@ -34,7 +34,7 @@ from vilma.sim.simulator import KernelResult, PlantKernel
 from vilma.vehicle.actuators import clamp_command
 from vilma.vehicle.integrate import advance
 from vilma.vehicle.state import VX, VY, YAW, YAW_RATE, X, Y
-from vilma.world.idm import IdmArrays, idle, idm_step
+from vilma.world.idm import idm_step
 
 BLOCK = 256
 """Driver periods per compiled call (the sensors measure and the log grows once a block)."""
@@ -51,16 +51,17 @@ def compiled_ok(sim: Simulator, driver: Driver) -> bool:
 
     The driver must steer by the exact pose, the pose and velocity sensors be noise-free and sample at
     driver period ends (their period a divisor or a multiple of the driver's), the actuators have no
-    dead time, and the watchdog not fire between two periods.
+    dead time, the watchdog not fire between two periods, and reactive traffic step at the driver period.
     """
     pose, vel = sim.config.sensors.pose, sim.config.sensors.velocity
     if driver.params.pose_source != "truth" or not sim.compiled_ok or pose is None or vel is None:
         return False
     if pose.position_noise or pose.yaw_noise or vel.linear_noise or vel.angular_noise:
         return False
-    p = driver.period_ticks
+    p, r = driver.period_ticks, sim.config.reactive
     wd = sim.clock.ticks_for(sim.config.watchdog_timeout)
-    return all(p % t == 0 or t % p == 0 for t in _truth_periods(sim)) and (wd == 0 or wd > p)
+    return all(p % t == 0 or t % p == 0 for t in _truth_periods(sim)) and (wd == 0 or wd > p) and \
+        (r is None or sim.clock.ticks_for(r.period) == p)
 
 
 @njit(cache=True)
@@ -71,7 +72,7 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
 
     ``truth`` = ``[speed, yaw rate]`` of the latest velocity reading, as :class:`TruthEstimator` keeps it.
     ``traffic`` (:class:`~vilma.world.idm.IdmArrays`) steps a period at each period's end, seeing the ego's box
-    centre ``body_offset`` [m] ahead of its reference point, as the runner's Python loop does.
+    centre ``body_offset`` [m] ahead of its reference point, as :meth:`Simulator.advance` does.
     """
     j = 0
     for k in range(n):
@@ -121,12 +122,11 @@ def _catch_up(est: TruthEstimator, ds: np.record, truth: np.ndarray, stamp_ns: i
 
 
 def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, stop_at_rest: bool,
-                 on_block: Callable[[dict[str, Readings]], None] | None = None,
-                 traffic: IdmArrays | None = None) -> bool:
+                 on_block: Callable[[dict[str, Readings]], None] | None = None) -> bool:
     """Run up to ``periods`` driver periods compiled, appending a log row each; True if it stopped at rest.
 
-    ``on_block`` gets the sensor readings of each block (after its rows are in the log). ``traffic``: reactive
-    traffic's arrays (:attr:`~vilma.world.reactive.ReactiveTraffic.arrays`), stepped each period. The column
+    ``on_block`` gets the sensor readings of each block (after its rows are in the log). The simulator's reactive
+    traffic (:attr:`PlantKernel.traffic <vilma.sim.simulator.PlantKernel.traffic>`) steps each period. The column
     ``controller_us`` holds the wall time per period of the whole compiled loop (plant, driver and
     log): an upper bound of the driver's cost.
     """
@@ -135,7 +135,7 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     truth = np.array([est.speed, est.yaw_rate])
     pose_period, vel_period = _truth_periods(sim)
     rows = np.empty((BLOCK, len(COLUMNS)))
-    traffic, offset = idle() if traffic is None else traffic, sim.config.vehicle.body_offset
+    offset = sim.config.vehicle.body_offset
     done, k, stopped = 0, 0, False
 
     def block(p: PlantKernel) -> KernelResult:
@@ -145,7 +145,7 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
         k, m, stopped = _loop(p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records,
                               min(BLOCK, periods - done), p.mode, p.cmd, p.limits, *args,
                               driver.params.original_speed, stop_at_rest, rows, truth, pose_period, vel_period,
-                              traffic, offset)
+                              p.traffic, offset)
         rows[:k, -1] = (time.perf_counter() - wall) / k * 1e6
         sent = np.flatnonzero(~np.isnan(rows[:k, 15]))
         commanded = p.tick + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None

@@ -13,7 +13,6 @@ import math
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from numba.core.event import TimingListener, install_listener
 
@@ -25,12 +24,9 @@ from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, scorecar
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
-from vilma.sim import Pacer, Simulator
+from vilma.sim import Pacer, SimConfig, Simulator
 from vilma.trajectory import Trajectory
-from vilma.vehicle.state import VX, YAW, VehicleState, X, Y
-
-if TYPE_CHECKING:  # the roads extra
-    from vilma.world.reactive import ReactiveTraffic
+from vilma.vehicle.state import VX, VehicleState
 
 
 def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
@@ -105,21 +101,11 @@ def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: 
     path = scenario.reference_path()
     driver = Driver(scenario.sim.vehicle, scenario.driver, step=scenario.sim.step)
     capacity = round(scenario.duration / driver.period) + 2  # a row a period, allocated once
-    reactive = _reactive(scenario, driver.period, capacity)
-    config = scenario.sim if reactive is None else dataclasses.replace(scenario.sim, traffic=reactive.traffic,
-                                                                        traffic_t0=0.0)
-    with Simulator(config) as sim:  # the 3D plant's renderers are freed however the run ends
+    with Simulator(sim_config(scenario, capacity)) as sim:  # the 3D plant's renderers are freed however it ends
         sim.reset(initial_state(scenario, path))
         log = DriveLog(capacity=capacity)
         for o in observers:
             o.started(sim, log)
-
-        def react() -> None:
-            if reactive is not None:  # the traffic's next period, seeing the ego's box where it is now
-                z, car = sim.plant, sim.config.vehicle
-                reactive.step(z[X] + car.body_offset * math.cos(z[YAW]),
-                              z[Y] + car.body_offset * math.sin(z[YAW]), z[VX])
-        react()
 
         def on_block(readings: dict[str, Readings]) -> None:
             for o in observers:
@@ -138,18 +124,16 @@ def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: 
             log.add((sim.time_ns * 1e-9, *z, st.target_speed, st.speed,
                      *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
                      *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
-            react()
             on_block(readings)
 
         try:
-            return _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled, loading, reactive)
+            return _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled, loading)
         except KeyboardInterrupt:
             raise Interrupted(sim.time_ns * 1e-9) from None
 
 
 def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, path: Trajectory | None, step,
-           on_block, realtime: float | None, compiled: bool, loading: _LoadTimer,
-           reactive: ReactiveTraffic | None) -> RunResult:
+           on_block, realtime: float | None, compiled: bool, loading: _LoadTimer) -> RunResult:
     """The loop of :func:`run`: start the task, step until it is done or time is up, score (against the traffic
     where it drove when it is ``reactive``)."""
     period = driver.period_ticks
@@ -167,7 +151,7 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
     remaining = scenario.duration - t_start
     periods = round(remaining / (period * sim.clock.step_s))
     if realtime is None and compiled and compiled_ok(sim, driver):
-        run_compiled(sim, driver, log, periods, follows, on_block, None if reactive is None else reactive.arrays)
+        run_compiled(sim, driver, log, periods, follows, on_block)
     elif realtime is None:
         for _ in range(periods):
             if finished():
@@ -177,8 +161,8 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
         Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(remaining, on_period=step,
                                                                          should_stop=finished)
     loop = time.perf_counter() - wall0 - (loading.seconds - load0)
-    if reactive is not None:
-        scenario = dataclasses.replace(scenario, road=reactive.task(scenario.road))
+    if sim.config.reactive is not None:
+        scenario = dataclasses.replace(scenario, road=sim.config.reactive.task(scenario.road))
     metrics = scorecard(log, scenario, path, t_start, broke_down=WATCHDOG_STOP if sim.watchdog_tripped else None)
     metrics.update(loop_wall_time_s=loop)
     if scenario.road is None:  # a road's collisions are the benchmark's (the scorecard's)
@@ -186,14 +170,17 @@ def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, pa
     return RunResult(scenario, metrics, expectation_failures(metrics, scenario), log, path, t_start)
 
 
-def _reactive(scenario: Scenario, period: float, periods: int) -> ReactiveTraffic | None:
-    """The road's traffic driven by IDM at the driver ``period`` [s] for ``periods``, if ``traffic: reactive``."""
+def sim_config(scenario: Scenario, periods: int | None = None) -> SimConfig:
+    """The simulator of ``scenario``: with ``traffic: reactive``, its road's traffic driven by IDM at the driver
+    period, for ``periods`` of them (None: open-ended, :class:`~vilma.world.reactive.ReactiveTraffic`)."""
     if scenario.traffic != "reactive":
-        return None
+        return scenario.sim
     from vilma.world.reactive import ReactiveTraffic  # the roads extra, there when the scenario is a road
 
-    road, car = scenario.road, scenario.sim.vehicle
-    return ReactiveTraffic(road.traffic, road.time_step * road.dt, period, periods, car.length)
+    road, sim = scenario.road, scenario.sim
+    period = Driver(sim.vehicle, scenario.driver, step=sim.step).period
+    reactive = ReactiveTraffic(road.traffic, road.time_step * road.dt, period, periods, sim.vehicle.length)
+    return dataclasses.replace(sim, traffic=reactive.traffic, traffic_t0=0.0, reactive=reactive)
 
 
 def start_task(driver: Driver, scenario: Scenario, path: Trajectory | None) -> Trajectory | None:

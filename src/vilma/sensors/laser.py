@@ -31,8 +31,8 @@ def _hit(ax, ay, bx, by, dx, dy):
 
 
 @njit(cache=True)
-def _scan(rows, z, t, states, present, static, dt, outline, radius, mount, bearings, min_range, max_range, noise,
-          out):
+def _scan(rows, z, t, states, present, static, dt, ring, outline, radius, mount, bearings, min_range, max_range,
+          noise, out):
     """The ranges [m] of every ray (inf: no hit within ``min_range .. max_range``) at the samples ``rows`` of
     ``z`` at obstacle times ``t`` [s] into ``out`` (n, rays); ``noise`` (n, rays) [m] is added to each hit."""
     m, p = outline.shape[0], outline.shape[1]
@@ -45,7 +45,7 @@ def _scan(rows, z, t, states, present, static, dt, outline, radius, mount, beari
         for r in range(bearings.shape[0]):
             dx[r], dy[r] = math.cos(z[i, YAW] + mount[2] + bearings[r]), math.sin(z[i, YAW] + mount[2] + bearings[r])
             out[k, r] = math.inf
-        states_at(states, present, static, dt, t[k], pose, seen)
+        states_at(states, present, static, dt, t[k], pose, seen, ring)
         reach = max_range + np.abs(noise[k]).max()
         for n in range(m):
             px, py = pose[n, X] - ox, pose[n, Y] - oy
@@ -95,8 +95,8 @@ class PlanarLaser:
         sc = self.scene
         ranges = np.empty((len(s), len(self._bearings)))
         noise = self._sigma * standard_normals(self.rng, len(s), len(self._bearings))
-        _scan(s.rows, s.z, sc.times(stamp_ns), sc.states, sc.present, sc.static, sc.dt, sc.outline, self._radius,
-              self._mount, self._bearings, *self._limits, noise, ranges)
+        _scan(s.rows, s.z, sc.times(stamp_ns), sc.states, sc.present, sc.static, sc.dt, sc.ring, sc.outline,
+              self._radius, self._mount, self._bearings, *self._limits, noise, ranges)
         out = []
         for t, r in zip(stamp_ns.tolist(), ranges, strict=True):
             hit = np.isfinite(r)

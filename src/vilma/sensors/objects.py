@@ -40,11 +40,11 @@ class ObjectsParams:
 
 
 @njit(cache=True)
-def _near(rows, z, t, states, present, static, dt, reach, out, keep):
+def _near(rows, z, t, states, present, static, dt, ring, reach, out, keep):
     """The obstacles' states at the samples ``rows`` of ``z`` at obstacle times ``t`` [s] into ``out`` (n, m, 4),
     and whether each is present within ``reach`` [m] of the car into ``keep`` (n, m)."""
     for k in range(rows.shape[0]):
-        states_at(states, present, static, dt, t[k], out[k], keep[k])
+        states_at(states, present, static, dt, t[k], out[k], keep[k], ring)
         for n in range(states.shape[0]):
             keep[k, n] &= math.hypot(out[k, n, X] - z[rows[k], CAR_X], out[k, n, Y] - z[rows[k], CAR_Y]) <= reach
 
@@ -66,8 +66,8 @@ class ObjectsSensor:
     def scan(self, s: Samples, stamp_ns: np.ndarray) -> list[Message]:
         sc, n, m = self.scene, len(s), len(self.scene.ids)
         states, keep = np.empty((n, m, 4)), np.empty((n, m), bool)
-        _near(s.rows, s.z, sc.times(stamp_ns), sc.states, sc.present, sc.static, sc.dt, self.params.range, states,
-              keep)
+        _near(s.rows, s.z, sc.times(stamp_ns), sc.states, sc.present, sc.static, sc.dt, sc.ring, self.params.range,
+              states, keep)
         # noise for every obstacle, seen or not: a sample's draws do not depend on which are near
         states[..., [X, Y, V]] += self._sigma * standard_normals(self.rng, n * m, 3).reshape(n, m, 3)
         ids = sc.ids.tolist()

@@ -21,8 +21,9 @@ if TYPE_CHECKING:  # the roads extra
 
 @dataclass(frozen=True, slots=True)
 class Scene:
-    """The obstacles a scene sensor sees (the arrays of :class:`~vilma.world.traffic.Traffic`, ``m`` of them),
-    and ``t0``: their time [s] from their time step 0 at sim time 0 (the planning problem's initial step)."""
+    """The obstacles a scene sensor sees (the arrays of :class:`~vilma.world.traffic.Traffic`, ``m`` of them, and
+    its ``ring``), and ``t0``: their time [s] from their time step 0 at sim time 0 (the planning problem's initial
+    step)."""
 
     ids: np.ndarray
     static: np.ndarray
@@ -31,6 +32,7 @@ class Scene:
     present: np.ndarray
     dt: float
     t0: float = 0.0
+    ring: bool = False
 
     @classmethod
     def of(cls, traffic: Traffic | None, t0: float = 0.0) -> Scene:
@@ -38,7 +40,8 @@ class Scene:
         if traffic is None:
             return cls(np.zeros(0, np.int64), np.zeros(0, bool), np.zeros((0, 1, 2)), np.zeros((0, 1, 4)),
                        np.zeros((0, 1), bool), 1.0)
-        return cls(traffic.ids, traffic.static, traffic.outline, traffic.states, traffic.present, traffic.dt, t0)
+        return cls(traffic.ids, traffic.static, traffic.outline, traffic.states, traffic.present, traffic.dt, t0,
+                   traffic.ring)
 
     @property
     def radius(self) -> np.ndarray:

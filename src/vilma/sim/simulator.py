@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -37,9 +38,11 @@ from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
 from vilma.vehicle.integrate import INTEGRATORS, advance, constrain, empty_records
 from vilma.vehicle.params import VehicleParams, plant_consts, vilma
-from vilma.vehicle.state import N3, NX, VehicleState
+from vilma.vehicle.state import N3, NX, VX, YAW, VehicleState, X, Y
+from vilma.world.idm import IdmArrays, idle
 
 if TYPE_CHECKING:  # the roads extra
+    from vilma.world.reactive import ReactiveTraffic
     from vilma.world.road_view import LaneletLines
     from vilma.world.traffic import Traffic
 
@@ -81,6 +84,9 @@ class SimConfig:
     """The obstacles of a CommonRoad scenario, which the flat-ground laser and the objects sensor see."""
     traffic_t0: float = 0.0
     """The traffic's time at sim time 0 [s] from its time step 0 (the planning problem's initial step)."""
+    reactive: ReactiveTraffic | None = field(default=None, compare=False, repr=False)
+    """Reactive traffic (its :attr:`~vilma.world.reactive.ReactiveTraffic.traffic` is then ``traffic``, from
+    ``traffic_t0`` 0): the simulator steps it at each of its periods, restarts it on :meth:`Simulator.reset`."""
     road: tuple[LaneletLines, ...] = field(default=(), compare=False, repr=False)
     """The lanelets of a CommonRoad scenario, which the 3D plant draws on its ground (and its traffic moves on)."""
 
@@ -157,6 +163,9 @@ class PlantKernel(NamedTuple):
     """``[steer, drive, brake, velocity limit]`` in force."""
     limits: np.ndarray
     """The car's command limits (:func:`~vilma.vehicle.actuators.command_limits`)."""
+    traffic: IdmArrays
+    """The reactive traffic's arrays (:attr:`SimConfig.reactive`; none: :func:`~vilma.world.idm.idle`), to step at
+    each of its period ends (:func:`~vilma.world.idm.idm_step`)."""
 
 
 class KernelResult(NamedTuple):
@@ -211,6 +220,7 @@ class Simulator(Closeable):
         self._dead_ticks = self.clock.ticks_for(c.vehicle.actuators.dead_time)
         self._watchdog_ticks = self.clock.ticks_for(c.watchdog_timeout)
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
         self.reset()
 
     # -- state -------------------------------------------------------------------------------------------
@@ -239,6 +249,14 @@ class Simulator(Closeable):
         self.watchdog_tripped = False
         self._captures = []
         self._warnings = WarningThrottle(log, clock=lambda: self.clock.time_s)  # a line per sim second at most
+        if c.reactive is not None:
+            c.reactive.reset()
+            self._react()
+
+    def _react(self) -> None:
+        """The reactive traffic's next period, seeing the ego's box centre where it is now."""
+        z, offset = self._z.tolist(), self.config.vehicle.body_offset
+        self.config.reactive.step(z[X] + offset * math.cos(z[YAW]), z[Y] + offset * math.sin(z[YAW]), z[VX])
 
     @property
     def state(self) -> VehicleState:
@@ -336,9 +354,13 @@ class Simulator(Closeable):
             if self._world_sensors:
                 periods = self._capture_periods
                 stop = min(stop, int(((self.clock.tick // periods + 1) * periods).min()))
+            if self._react_ticks:
+                stop = min(stop, (self.clock.tick // self._react_ticks + 1) * self._react_ticks)
             if stop > self.clock.tick:
                 self._run_chunk(stop - self.clock.tick, parts)
                 self._capture()
+                if self._react_ticks and self.clock.tick % self._react_ticks == 0:
+                    self._react()
             while self._pending and self._pending[0][0] <= self.clock.tick:
                 self._apply(self._pending.popleft()[1])
             if deadline is not None and self.clock.tick >= deadline:
@@ -381,9 +403,10 @@ class Simulator(Closeable):
     def advance_compiled(self, ticks: int, kernel: Callable[[PlantKernel], KernelResult]) -> dict[str, Readings]:
         """Let compiled code advance the plant up to ``ticks`` steps; returns the readings, as :meth:`advance`.
 
-        ``kernel`` gets the live plant and a copy of the command in force (:class:`PlantKernel`), runs
-        :func:`~vilma.vehicle.integrate.advance` on them, may change the command in place (clamped with
-        ``limits``), and says what it did (:class:`KernelResult`); its command stays in force.
+        ``kernel`` gets the live plant, a copy of the command in force and the reactive traffic (:class:`PlantKernel`),
+        runs :func:`~vilma.vehicle.integrate.advance` on them, steps the traffic at each of its period ends, may
+        change the command in place (clamped with ``limits``), and says what it did (:class:`KernelResult`); its
+        command stays in force.
 
         Raises:
             RuntimeError: not :attr:`compiled_ok`.
@@ -395,7 +418,8 @@ class Simulator(Closeable):
         t0 = self.clock.tick
         k = PlantKernel(self._model, self._integrator, self._z, self._consts, self.clock.step_s, self.clock.step_ns,
                         t0, self._periods, self._kernel_records, np.array([self._mode]), self._cmd.copy(),
-                        command_limits(self.config.vehicle))
+                        command_limits(self.config.vehicle),
+                        idle() if self.config.reactive is None else self.config.reactive.arrays)
         done = kernel(k)
         self.clock.tick = t0 + done.ticks
         self._mode, self._cmd = int(k.mode[0]), k.cmd

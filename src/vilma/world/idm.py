@@ -53,9 +53,10 @@ class IdmArrays(NamedTuple):
     v: np.ndarray
     """Each car's speed [m/s], (m,), updated in place."""
     states: np.ndarray
-    """The output: the states at each period, (m, n, 4) (:data:`~vilma.world.states.X` ..)."""
+    """The output: the states at each period, (m, n, 4) (:data:`~vilma.world.states.X` ..), period ``j`` at row
+    ``j % n`` (a ring: the last ``n`` periods)."""
     present: np.ndarray
-    """Which are on the road at each period, (m, n) bool."""
+    """Which are on the road at each period, (m, n) bool, as ``states``."""
     j: np.ndarray
     """``[the period the states are filled to]``."""
 
@@ -64,7 +65,7 @@ def idle() -> IdmArrays:
     """Arrays of no cars and no periods: the step does nothing (the closed loop without reactive traffic)."""
     e = np.zeros((0, 1))
     return IdmArrays(np.zeros(9), np.zeros(0), np.zeros(0, bool), np.zeros(0), e, e, e, e, e, np.zeros((0, 0, 4)),
-                     np.zeros(0), np.zeros(0), np.zeros((0, 0, 4)), np.zeros((0, 0), bool), np.zeros(1, np.int64))
+                     np.zeros(0), np.zeros(0), np.zeros((0, 1, 4)), np.zeros((0, 1), bool), np.zeros(1, np.int64))
 
 
 def chunk_bounds(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -88,10 +89,8 @@ def acceleration(c, v, v0, gap, dv):
 @njit(cache=True)
 def idm_step(a, ego_x, ego_y, ego_speed):
     """Fill the next period's states of ``a`` (:class:`IdmArrays`) from this one's, the ego's box centre at
-    ``ego_x, ego_y`` [m] moving at ``ego_speed`` [m/s] now; nothing once the output is full."""
+    ``ego_x, ego_y`` [m] moving at ``ego_speed`` [m/s] now (over the oldest one when the output is full)."""
     j, c = a.j[0], a.consts
-    if j + 1 >= a.states.shape[1]:
-        return
     dt, t = c[PERIOD], c[T0] + j * c[PERIOD]
     for i in range(len(a.s)):
         if not a.moving[i] or t < a.appear[i]:
@@ -108,17 +107,17 @@ def idm_step(a, ego_x, ego_y, ego_speed):
 
 @njit(cache=True)
 def place(a, j):
-    """Row ``j`` of the moving cars' states and presence from their arc positions and speeds."""
-    t = a.consts[T0] + j * a.consts[PERIOD]
+    """Period ``j``'s row of the moving cars' states and presence from their arc positions and speeds."""
+    t, row = a.consts[T0] + j * a.consts[PERIOD], j % a.states.shape[1]
     for i in range(len(a.s)):
         if not a.moving[i]:
             continue
-        s, st = a.s[i], a.states[i, j]
+        s, st = a.s[i], a.states[i, row]
         st[X], st[Y] = interp(s, a.arc[i], a.x[i]), interp(s, a.arc[i], a.y[i])
         st[YAW] = (interp(s, a.arc[i], a.yaw[i]) + math.pi) % (2 * math.pi) - math.pi
         st[V] = a.v[i]
         # on the road from its first recorded time until it has driven its whole path
-        a.present[i, j] = t >= a.appear[i] - 1e-9 and s < a.arc[i, -1] - 1e-6
+        a.present[i, row] = t >= a.appear[i] - 1e-9 and s < a.arc[i, -1] - 1e-6
 
 
 @njit(cache=True)
@@ -136,7 +135,7 @@ def interp(x, xp, fp):
 def _leader(a, i, j, ego_x, ego_y, ego_speed):
     """Car ``i``'s bumper gap [m] (inf: none) to, and the speed [m/s] of, the nearest body present at period ``j``
     (the other cars, the ego) ahead on its path within half a lane of it."""
-    best, lead_v, reach = np.inf, 0.0, a.consts[LANE_WIDTH] / 2
+    best, lead_v, reach, j = np.inf, 0.0, a.consts[LANE_WIDTH] / 2, j % a.states.shape[1]
     xs, ys, arc, bounds = a.x[i], a.y[i], a.arc[i], a.bounds[i]  # views taken once: the arguments stay small
     for n in range(len(a.s) + 1):
         ego = n == len(a.s)

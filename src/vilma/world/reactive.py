@@ -10,6 +10,7 @@ Integrated with the ballistic update (speed never below 0) at the driver period,
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -55,19 +56,26 @@ def _consts(p: IdmParams, ego_half: float, t0: float, period: float) -> np.ndarr
     return np.array([p.a_max, p.b, p.T, p.s0, p.delta, p.lane_width, ego_half, t0, period])
 
 
+RING = 60.0
+"""Sim time [s] the traffic of an open-ended run keeps (:attr:`Traffic.ring <vilma.world.traffic.Traffic.ring>`):
+its readers (sensors, views, recordings) look at the present or a moment before."""
+
+
 class ReactiveTraffic:
     """The scenario's traffic driven by IDM along the recorded paths: :attr:`traffic` holds the states at every
     driver period from sim time 0 (dt = ``period``), filled one period ahead by :meth:`step` (or by the compiled
-    closed loop, with :attr:`arrays`).
+    closed loop, with :attr:`arrays`): the simulator does both (:attr:`SimConfig.reactive
+    <vilma.sim.simulator.SimConfig.reactive>`).
 
     Args:
         recorded: the recorded traffic.
         t0: the recording's time at sim time 0 [s].
-        period: the driver period [s]; ``periods`` how many the run may last.
+        period: the driver period [s]; ``periods`` how many the run may last (None: open-ended; the traffic then
+            keeps the last :data:`RING` seconds, a ring).
         ego_length: the ego's length [m] (its box centre is the point :meth:`step` gets).
     """
 
-    def __init__(self, recorded: Traffic, t0: float, period: float, periods: int, ego_length: float,
+    def __init__(self, recorded: Traffic, t0: float, period: float, periods: int | None, ego_length: float,
                  params: IdmParams = IdmParams()) -> None:
         self.params, self.recorded, self.t0, self.period = params, recorded, t0, period
         m, k = recorded.present.shape
@@ -78,16 +86,23 @@ class ReactiveTraffic:
         idx = np.clip(np.arange(k)[None, :], first[:, None], last[:, None])
         x, y, yaw, speed = (np.take_along_axis(recorded.states[..., c], idx, axis=1) for c in (X, Y, YAW, V))
         arc = np.concatenate([np.zeros((m, 1)), np.cumsum(np.hypot(np.diff(x), np.diff(y)), axis=1)], axis=1)
-        states, present = np.zeros((m, periods + 2, 4)), np.zeros((m, periods + 2), bool)
+        rows = periods + 2 if periods is not None else math.ceil(RING / period) + 2
+        states, present = np.zeros((m, rows, 4)), np.zeros((m, rows), bool)
         states[:], present[:] = recorded.at(t0)[0][:, None], recorded.at(t0)[1][:, None]  # row 0; static ones stay
-        self.traffic = replace(recorded, states=states, present=present, dt=period)
+        self.traffic = replace(recorded, states=states, present=present, dt=period, ring=periods is None)
         half = (recorded.outline[..., 0].max(axis=1) - recorded.outline[..., 0].min(axis=1)) / 2
         self.arrays = IdmArrays(
             _consts(params, ego_length / 2, t0, period), half, moving, first * recorded.dt, x, y,
             np.unwrap(yaw, axis=1), speed, arc, chunk_bounds(x, y),
             np.zeros(m), speed[:, 0].copy(), states, present, np.zeros(1, np.int64))
         """What :func:`~vilma.world.idm.idm_step` works on (the ``traffic``'s states among them)."""
-        place(self.arrays, 0)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to sim time 0: each car at its recording's start, at its recorded speed there."""
+        a = self.arrays
+        a.s[:], a.v[:], a.j[0] = 0.0, a.speed[:, 0], 0
+        place(a, 0)
 
     def step(self, ego_x: float, ego_y: float, ego_speed: float) -> None:
         """Fill the next period's states from this one's, the ego's box centre at ``ego_x, ego_y`` [m] moving at

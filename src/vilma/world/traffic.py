@@ -41,11 +41,14 @@ class Traffic:
     """Whether each is on the road at each time step, (m, k) bool."""
     dt: float
     """The time step [s]."""
+    ring: bool = False
+    """Whether the states hold only the last ``k`` time steps, time step ``i`` at row ``i % k`` (reactive traffic
+    of an open-ended run, :class:`~vilma.world.reactive.ReactiveTraffic`)."""
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """The states (m, 4) at time ``t`` [s] from time step 0, interpolated, and which are present (m,)."""
         out, present = np.empty((len(self.ids), 4)), np.empty(len(self.ids), bool)
-        states_at(self.states, self.present, self.static, self.dt, float(t), out, present)
+        states_at(self.states, self.present, self.static, self.dt, float(t), out, present, self.ring)
         return out, present
 
     def polygons(self, step: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
