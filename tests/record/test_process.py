@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from vilma.app.batch import BUNDLED
+from vilma.bus.topics import SENSOR_TOPICS
 from vilma.core.messages import Pose
 from vilma.record import run as run_module
 from vilma.record.process import Joined, RecorderProcess
@@ -201,3 +202,42 @@ def test_a_killed_paced_run_keeps_its_run_mcap(tmp_path, processes):
     pose = back.readings("pose")
     assert np.all(np.diff(pose.stamp_ns) == 20_000_000) and pose.stamp_ns[-1] >= 3_000_000_000
     assert back.count("tf") == len(pose) and len(back.drive_log()) >= 100
+
+
+@pytest.mark.slow
+def test_a_run_recorded_here_holds_what_its_recording_process_writes(tmp_path):
+    """:class:`RecorderHere` (a short unpaced run's) and the recording process write the same messages."""
+    from vilma.scenario.runner import run
+
+    scenario = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml")
+    back = []
+    for here in (False, True):
+        path = tmp_path / f"here_{here}.mcap"
+        recorder = RunRecorder(path, scenario, here)
+        result = run(scenario, observers=[recorder])
+        recorder.close()
+        assert recorder.recorder.error is None
+        back.append(read_recording(path))
+    beside, here = back
+    timed = COLUMNS.index("controller_us")  # the controller's wall time a step: this machine's, not the drive's
+    same = np.delete(beside.drive_log(), timed, axis=1), np.delete(here.drive_log(), timed, axis=1)
+    assert np.array_equal(*same, equal_nan=True) and len(same[1]) == len(result.log)
+    assert beside.topics == here.topics
+    sensors = [t for t in here.topics if t in SENSOR_TOPICS]
+    assert len(sensors) >= 5  # pose, velocity, GPS, IMU, wheel speeds...
+    for name in sensors:
+        a, b = beside.readings(name), here.readings(name)
+        assert np.array_equal(a.stamp_ns, b.stamp_ns) and np.array_equal(a.values, b.values)
+
+
+@pytest.mark.parametrize("duration, where", [(run_module.HERE_MAX_S, "RecorderHere"),
+                                             (run_module.HERE_MAX_S + 1, "RecorderProcess")])
+def test_an_unpaced_run_records_here_up_to_its_limit_and_beside_beyond(tmp_path, monkeypatch, duration, where):
+    chosen = []
+    for name in ("RecorderHere", "RecorderProcess"):
+        real = getattr(run_module, name)
+        monkeypatch.setattr(run_module, name, lambda *a, _real=real, _name=name, **k: chosen.append(_name) or
+                            _real(*a, **k))
+    scenario = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml", {"duration": str(duration)})
+    run_module.record_run(scenario, tmp_path / "out", plots=False)
+    assert chosen == [where] and read_recording(tmp_path / "out" / "run.mcap").complete

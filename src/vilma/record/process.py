@@ -222,6 +222,64 @@ class RecorderProcess:
         self._mem.close()
 
 
+class RecorderHere:
+    """A :class:`~vilma.record.recorder.Recorder` of ``path`` in this process, with :class:`RecorderProcess`'s
+    calls: for a drive that runs unpaced, where a second interpreter's start (half a second, its imports) costs
+    more than the packing it would take off the loop."""
+
+    capacity = 1 << 62
+    """Bytes a call may take (no ring here)."""
+
+    def __init__(self, path: Path, **options: Any) -> None:
+        from vilma.record.recorder import Recorder
+
+        self._recorder = Recorder(path, **options)
+        self.error: str | None = self._recorder.error
+        self._open = True
+
+    @property
+    def ok(self) -> bool:
+        """Whether the recording is still going."""
+        self.error = self.error or self._recorder.error
+        return self.error is None and self._open
+
+    def call(self, fn: Callable[..., None], *args: Any) -> None:
+        """Do ``fn(recorder, *args)`` now (a :class:`Joined` reaches it as one array); nothing once stopped."""
+        if not self.ok:
+            return
+        try:
+            args = _join(args)
+            fn(self._recorder, *args)
+        except Exception as e:  # a bug must not lose what is written
+            self._recorder.on_error(f"recording stopped by {fn.__name__}: {e}; what was written is kept")
+            self.error = f"{fn.__name__}: {e}"
+            self.finish()
+
+    def room(self) -> int:
+        """Bytes a call may take now."""
+        return self.capacity
+
+    def finish(self) -> None:
+        """Finish the file."""
+        if self._open:
+            self._open = False
+            self._recorder.close()
+            self.error = self.error or self._recorder.error
+
+    close = finish
+
+
+def _join(obj: Any) -> Any:
+    """``obj`` with each :class:`Joined` in it (in tuples, lists and dicts) as its one array."""
+    if isinstance(obj, Joined):
+        return np.concatenate(obj.parts)
+    if isinstance(obj, tuple | list):
+        return type(obj)(_join(o) for o in obj)
+    if isinstance(obj, dict):
+        return {k: _join(v) for k, v in obj.items()}
+    return obj
+
+
 def _serve(mem_fd: int, calls_fd: int, replies_fd: int) -> None:
     """The child: make the recorder, then do the calls as they come until ``close`` or the end of the pipe."""
     from vilma.record.recorder import Recorder

@@ -6,8 +6,8 @@ the Python loop's periods, gathered ``BLOCK`` periods or ``HAND_OVER_S`` at a
 time, a sensor's joined as they are copied into shared memory) and the log's
 new rows; a recorder in a process of its own (:mod:`vilma.record.process`)
 packs and compresses them on another core, and finishes the file even if the
-run is killed. The 3D plant's camera images and laser
-scans are written as they come (:meth:`RunRecorder.add_captures`). ``run`` metadata and the
+run is killed (a short unpaced run packs them in its own process: :data:`HERE_MAX_S`). The 3D plant's camera
+images and laser scans are written as they come (:meth:`RunRecorder.add_captures`). ``run`` metadata and the
 ``scenario.yaml``, ``path.csv`` and ``metrics.json`` attachments let
 ``vilma report RUN.mcap`` score the run from the recording alone.
 """
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from vilma.core.messages import Message
-from vilma.record.process import Joined, RecorderProcess
+from vilma.record.process import Joined, RecorderHere, RecorderProcess
 from vilma.record.recorder import Recorder
 from vilma.record.road_scene import ROAD, TRAFFIC, TrafficFrames, road_scene, scenario_road
 from vilma.scenario.drive_log import DriveLog
@@ -36,6 +36,11 @@ from vilma.sim import Simulator
 
 RUN_FILE = RECORDING
 """The recording's name in a run's output folder."""
+HERE_MAX_S = 600.0
+"""An unpaced run that may last at most this [s of sim time] is recorded in the run's process
+(:class:`~vilma.record.process.RecorderHere`): a second interpreter starts in about 0.8 s, more than packing such a
+drive takes (``vilma run course_30kmh_stanley``: 1.5 s here against 2.4 s beside; a one-hour drive packs
+faster beside its loop: 3.2 s against 4.0 s). A paced run always records beside its loop, which keeps its pace."""
 
 
 def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, plots: bool = True,
@@ -49,7 +54,8 @@ def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, plots:
         SpecError: the scenario's files cannot be used.
         Interrupted: Ctrl-C; the files so far are kept, the recording finished.
     """
-    mine: list[RunObserver] = [RunRecorder(out_dir / RUN_FILE, scenario)] if record else []
+    here = realtime is None and scenario.duration <= HERE_MAX_S
+    mine: list[RunObserver] = [RunRecorder(out_dir / RUN_FILE, scenario, here)] if record else []
     try:
         result = run(scenario, realtime, compiled, [*mine, RunFolder(out_dir, plots), *observers], started)
     except Interrupted as e:
@@ -59,21 +65,23 @@ def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, plots:
 
 
 class RunRecorder(RunObserver):
-    """Records one run into ``path`` as it goes (see the module docstring); its process starts with the run."""
+    """Records one run into ``path`` as it goes (see the module docstring); its process starts with the run, or,
+    ``here``, it packs in this process (:class:`~vilma.record.process.RecorderHere`)."""
 
     BLOCK = 2048
     """Control periods gathered before they are handed over (41 s of sim time at 50 Hz)."""
     HAND_OVER_S = 0.5
     """Wall time between hand-overs at most [s] (a paced run's chunks still reach the disk every second)."""
 
-    def __init__(self, path: Path, scenario: Scenario) -> None:
-        self.path, self.scenario = path, scenario
-        self.recorder: RecorderProcess | None = None
+    def __init__(self, path: Path, scenario: Scenario, here: bool = False) -> None:
+        self.path, self.scenario, self.here = path, scenario, here
+        self.recorder: RecorderProcess | RecorderHere | None = None
 
     def started(self, sim: Simulator, log: DriveLog) -> None:
         self.log, s = log, self.scenario
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.recorder = RecorderProcess(self.path, source="vilma run", world_sensors=s.sim.world_sensors)
+        kind = RecorderHere if self.here else RecorderProcess
+        self.recorder = kind(self.path, source="vilma run", world_sensors=s.sim.world_sensors)
         self.recorder.call(Recorder.add_attachment, "scenario.yaml", "application/yaml", to_yaml(s).encode())
         self.recorder.call(Recorder.add_metadata, "scenario", {"name": s.name, "description": s.description})
         road = scenario_road(s, sim.config)  # its traffic where the sensors see it (reactive too)
