@@ -36,6 +36,10 @@ def _same(a, b) -> None:
     ("paper_fig11_speed_10", {"duration": "15"}),  # 10 ms driver period, pose at 20 ms, actuation delay
     ("paper_fig12_path", {"driver.original": "true", "duration": "20"}),  # the original's quirks and speed formula
     ("pi_ff_speed_5", {"task": "{go_to: [30, 5], speed: 4}", "plant": "kinematic"}),
+    ("course_30kmh_ekf", {}),  # steering by the EKF: the loop measures GPS, IMU and wheel speeds and fuses them
+    ("course_30kmh_ekf", {"duration": "30", "plant": "kinematic", "sensors.gps": "{rate_hz: 5, bias_sigma: 0.3}",
+                          "sensors.imu": "{rate_hz: 50, offset: [0.5, 0.2, 0.3]}",
+                          "sensors.wheel_speed": "{rate_hz: 25}"}),  # other rates, a GPS bias, IMU off the centre
 ])
 def test_compiled_and_python_loops_drive_alike(name, overrides, tmp_path):
     s = load_scenario(BUNDLED / f"{name}.yaml", overrides)
@@ -54,7 +58,10 @@ def test_runs_that_cannot_run_compiled():
         return compiled_ok(sim, Driver(s.sim.vehicle, s.driver, step=s.sim.step))
 
     assert ok(base)
-    assert not ok(load_scenario(BUNDLED / "course_30kmh_ekf.yaml"))  # the EKF runs in Python
+    ekf = load_scenario(BUNDLED / "course_30kmh_ekf.yaml")
+    assert ok(ekf)
+    assert not ok(load_scenario(BUNDLED / "course_30kmh_ekf.yaml", {"sensors.gps": "null"}))  # nothing to fuse
+    assert not ok(load_scenario(BUNDLED / "course_30kmh_ekf.yaml", {"driver.original_speed": "true"}))
     noisy = dataclasses.replace(base.sim.sensors, pose=PoseParams(position_noise=0.1))
     assert not ok(dataclasses.replace(base, sim=dataclasses.replace(base.sim, sensors=noisy)))
     dead = dataclasses.replace(base.sim.vehicle.actuators, dead_time=0.05)

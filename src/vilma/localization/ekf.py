@@ -22,7 +22,8 @@ Initialisation: heading is unobservable at rest, so it comes from the IMU's orie
 IMU reports an absolute yaw with small noise, as an AHRS does), position from the first GPS fix after
 an IMU sample, speed 0. Until then :meth:`Ekf.update` returns None; without an IMU it never starts.
 
-The filter runs compiled (numba): one call per :meth:`Ekf.update` merges the batches by stamp.
+The filter runs compiled (numba): one call of :func:`fuse` per :meth:`Ekf.update` merges the batches by stamp;
+the scenario runner's compiled loop calls it too, on the same arrays (:meth:`Ekf.kernel_args`).
 """
 
 from __future__ import annotations
@@ -281,9 +282,11 @@ def _advance(s, P, mem, t, wz, ax, c):
 
 
 @njit(cache=True)
-def _fuse(s, P, mem, imu_last, imu_t, imu, wheel_t, wheel, gps_t, gps, c):
+def fuse(s, P, mem, imu_last, imu_t, imu, wheel_t, wheel, gps_t, gps, c):
     """Process the readings of one batch in stamp order (IMU, then wheels, then GPS at equal stamps).
 
+    Advances state ``s``, covariance ``P``, memory ``mem`` and the latest IMU sample ``imu_last`` in place
+    (:meth:`Ekf.kernel_args`); ``imu_t``, ``wheel_t``, ``gps_t`` are stamps [ns], each (n,) ascending;
     ``imu`` (n, 10), ``wheel`` (n, 4) and ``gps`` (n, 6) are rows of :class:`~vilma.core.messages.Imu`,
     :class:`~vilma.core.messages.WheelSpeeds` and :class:`~vilma.core.messages.GpsFix` values.
     """
@@ -367,10 +370,24 @@ class Ekf:
 
     def update(self, readings: dict[str, Readings]) -> PoseEstimate | None:
         """Fuse one batch of readings by sensor name; the estimate at the newest stamp, or None before the start."""
-        _fuse(self._s, self._P, self._mem, self._imu, *_rows(readings, "imu", 10),
-              *_rows(readings, "wheel_speed", 4), *_rows(readings, "gps", 6), self._c)
+        fuse(self._s, self._P, self._mem, self._imu, *_rows(readings, "imu", 10),
+             *_rows(readings, "wheel_speed", 4), *_rows(readings, "gps", 6), self._c)
+        return self.refresh()
+
+    def kernel_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, _Consts]:
+        """``(s, P, mem, imu_last, c)`` of :func:`fuse`: the live arrays, for compiled code that fuses in place."""
+        return self._s, self._P, self._mem, self._imu, self._c
+
+    def refresh(self) -> PoseEstimate | None:
+        """The estimate from the arrays as they are now (after :func:`fuse` advanced them), None before the start."""
         if self._mem[_READY]:
             s, P = self._s.tolist(), self._P
             self.estimate = PoseEstimate(int(self._mem[_T]), s[X], s[Y], s[YAW], s[V], float(self._imu[_WZ]) - s[BIAS],
                                          math.sqrt(P[X, X]), math.sqrt(P[Y, Y]), math.sqrt(P[YAW, YAW]))
         return self.estimate
+
+
+@njit(cache=True)
+def pose_of(s, mem, imu_last):
+    """``(started, x, y, yaw, speed, yaw rate)`` of the arrays of :func:`fuse`, as :meth:`Ekf.refresh` reads them."""
+    return mem[_READY] != 0, s[X], s[Y], s[YAW], s[V], imu_last[_WZ] - s[BIAS]

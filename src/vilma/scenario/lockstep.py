@@ -9,9 +9,10 @@ each block, exactly as the simulator would have.
 
 It applies when the driver steers by the simulator's exact pose, as read by
 the noise-free ``pose`` and ``velocity`` sensors at least once a driver
-period, without actuator dead time; :func:`compiled_ok` says whether a run
-qualifies, and the runner falls back to the Python loop otherwise. Both
-loops give bit-identical drives (tested).
+period, or by the EKF (the loop measures and fuses its sensors each period:
+:mod:`vilma.scenario.lockstep_ekf`), without actuator dead time;
+:func:`compiled_ok` says whether a run qualifies, and the runner falls back to
+the Python loop otherwise. Both loops give bit-identical drives (tested).
 """
 
 from __future__ import annotations
@@ -26,8 +27,9 @@ from numba import njit
 from vilma.control.driver import MANUAL, Driver, driver_step, target_speed
 from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
-from vilma.localization import TruthEstimator
+from vilma.localization import Ekf, TruthEstimator
 from vilma.scenario.drive_log import COLUMNS, DriveLog
+from vilma.scenario.lockstep_ekf import block_inputs, ekf_ok, ekf_period
 from vilma.sensors import Readings
 from vilma.sim import Simulator
 from vilma.sim.simulator import KernelResult, PlantKernel
@@ -41,64 +43,66 @@ BLOCK = 256
 
 
 def _truth_periods(sim: Simulator) -> tuple[int, int]:
-    """Sample periods [ticks] of the pose and velocity sensors."""
+    """Sample periods [ticks] of the pose and velocity sensors (1 for one that is not there)."""
     s = sim.config.sensors
-    return tuple(sim.clock.period_ticks(r, "sensor") for r in (s.pose.rate_hz, s.velocity.rate_hz))
+    return tuple(1 if p is None else sim.clock.period_ticks(p.rate_hz, "sensor") for p in (s.pose, s.velocity))
 
 
 def compiled_ok(sim: Simulator, driver: Driver) -> bool:
     """Whether :func:`run_compiled` reproduces the Python loop for this simulator and driver.
 
-    The driver must steer by the exact pose, the pose and velocity sensors be noise-free and sample at
-    driver period ends (their period a divisor or a multiple of the driver's), the actuators have no
+    The driver must steer either by the exact pose, the pose and velocity sensors noise-free and sampling at
+    driver period ends (their period a divisor or a multiple of the driver's), or by the EKF with the IMU,
+    wheel speeds and GPS on the car and its speed (not the original's formula); the actuators have no
     dead time, the watchdog not fire between two periods, and reactive traffic step at the driver period.
     """
+    p, r = driver.period_ticks, sim.config.reactive
+    wd = sim.clock.ticks_for(sim.config.watchdog_timeout)
+    return sim.compiled_ok and _source_ok(sim, driver) and (wd == 0 or wd > p) and \
+        (r is None or sim.clock.ticks_for(r.period) == p)
+
+
+def _source_ok(sim: Simulator, driver: Driver) -> bool:
+    """Whether the loop reads the pose as the driver's estimator does (:func:`compiled_ok`)."""
+    if driver.params.pose_source == "ekf":
+        return ekf_ok(sim) and not driver.params.original_speed
     pose, vel = sim.config.sensors.pose, sim.config.sensors.velocity
-    if driver.params.pose_source != "truth" or not sim.compiled_ok or pose is None or vel is None:
+    if driver.params.pose_source != "truth" or pose is None or vel is None:
         return False
     if pose.position_noise or pose.yaw_noise or vel.linear_noise or vel.angular_noise:
         return False
-    p, r = driver.period_ticks, sim.config.reactive
-    wd = sim.clock.ticks_for(sim.config.watchdog_timeout)
-    return all(p % t == 0 or t % p == 0 for t in _truth_periods(sim)) and (wd == 0 or wd > p) and \
-        (r is None or sim.clock.ticks_for(r.period) == p)
+    p = driver.period_ticks
+    return all(p % t == 0 or t % p == 0 for t in _truth_periods(sim))
 
 
 @njit(cache=True)
 def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, out_tick, n, cmd_mode, cmd, limits,
           dc, ds, pa, has_path, speed_c, speed_s, path_c, path_s, original_speed, stop_at_rest, rows, truth,
-          pose_period, vel_period, traffic, body_offset):
+          pose_period, vel_period, traffic, body_offset, ekf):
     """Up to ``n`` driver periods; returns (periods run, sensor records written, arrived at rest).
 
-    ``truth`` = ``[speed, yaw rate]`` of the latest velocity reading, as :class:`TruthEstimator` keeps it.
+    The driver steers by the exact pose (``ekf`` None: ``truth`` = ``[speed, yaw rate]`` of the latest velocity
+    reading, as :class:`TruthEstimator` keeps it) or by the EKF (``ekf``: :class:`~.lockstep_ekf.EkfLoop`).
     ``traffic`` (:class:`~vilma.world.idm.IdmArrays`) steps a period at each period's end, seeing the ego's box
     centre ``body_offset`` [m] ahead of its reference point, as :meth:`Simulator.advance` does.
     """
     j = 0
     for k in range(n):
-        j += advance(model, integrator, z, cmd_mode[0], cmd, pc, dt, dc.period_ticks, tick, periods, out_z[j:],
-                     out_dx[j:], out_tick[j:])
+        m = advance(model, integrator, z, cmd_mode[0], cmd, pc, dt, dc.period_ticks, tick, periods, out_z[j:],
+                    out_dx[j:], out_tick[j:])
         tick += dc.period_ticks
-        # what TruthEstimator makes of the pose and velocity sensors (they sample at period ends only)
-        velocity_read = tick % vel_period == 0
-        if velocity_read:
-            truth[0], truth[1] = z[VX], z[YAW_RATE]
-        if tick % pose_period == 0:
-            ds.has_pose, ds.x, ds.y, ds.yaw = True, z[X], z[Y], wrap(z[YAW])
-            ds.pose_speed, ds.yaw_rate = truth[0], truth[1]
-        if ds.has_pose:
-            if original_speed and velocity_read:  # sqrt(vx^2 + vy^2 + wz^2), world frame, as the original
-                c, s = math.cos(z[YAW]), math.sin(z[YAW])
-                wx, wy = z[VX] * c - z[VY] * s, z[VX] * s + z[VY] * c
-                ds.measured = math.sqrt(wx * wx + wy * wy + z[YAW_RATE] ** 2)
-            else:
-                ds.measured = ds.pose_speed
+        if ekf is None:
+            _read_truth(z, tick, ds, truth, pose_period, vel_period, original_speed)
+        else:
+            ekf_period(ekf, out_z[j:j + m], out_dx[j:j + m], out_tick[j:j + m], tick - dc.period_ticks, tick, ds)
+        j += m
         sent = driver_step(dc, ds, pa, has_path, speed_c, speed_s, path_c, path_s)
         r = rows[k]
         r[0] = (tick * step_ns) * 1e-9
         r[1:10] = z
         r[10] = target_speed(ds, pa) if ds.mode != MANUAL else 0.0
-        r[11], r[12], r[13], r[14] = ds.measured, ds.x, ds.y, ds.yaw
+        r[11] = ds.measured
+        r[12], r[13], r[14] = (ds.x, ds.y, ds.yaw) if ds.has_pose else (math.nan, math.nan, math.nan)
         if sent:
             mode = ds.command_mode
             cmd[0], cmd[1], cmd[2], cmd[3] = ds.steer, ds.drive, ds.brake, ds.velocity_limit
@@ -111,6 +115,24 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
         if stop_at_rest and ds.arrived and abs(z[VX]) < dc.rest_speed:
             return k + 1, j, True
     return n, j, False
+
+
+@njit(cache=True)
+def _read_truth(z, tick, ds, truth, pose_period, vel_period, original_speed):
+    """What :class:`TruthEstimator` makes of the pose and velocity sensors (they sample at period ends only)."""
+    velocity_read = tick % vel_period == 0
+    if velocity_read:
+        truth[0], truth[1] = z[VX], z[YAW_RATE]
+    if tick % pose_period == 0:
+        ds.has_pose, ds.x, ds.y, ds.yaw = True, z[X], z[Y], wrap(z[YAW])
+        ds.pose_speed, ds.yaw_rate = truth[0], truth[1]
+    if ds.has_pose:
+        if original_speed and velocity_read:  # sqrt(vx^2 + vy^2 + wz^2), world frame, as the original
+            c, s = math.cos(z[YAW]), math.sin(z[YAW])
+            wx, wy = z[VX] * c - z[VY] * s, z[VX] * s + z[VY] * c
+            ds.measured = math.sqrt(wx * wx + wy * wy + z[YAW_RATE] ** 2)
+        else:
+            ds.measured = ds.pose_speed
 
 
 def _catch_up(est: TruthEstimator, ds: np.record, truth: np.ndarray, stamp_ns: int) -> None:
@@ -132,7 +154,8 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     """
     args = driver.step_args()
     est = driver.estimator
-    truth = np.array([est.speed, est.yaw_rate])
+    ekf = isinstance(est, Ekf)
+    truth = np.zeros(2) if ekf else np.array([est.speed, est.yaw_rate])
     pose_period, vel_period = _truth_periods(sim)
     rows = np.empty((BLOCK, len(COLUMNS)))
     offset = sim.config.vehicle.body_offset
@@ -141,11 +164,11 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     def block(p: PlantKernel) -> KernelResult:
         """Up to a block of periods from where the simulator is; leaves their rows in ``rows[:k]``."""
         nonlocal k, stopped
-        wall = time.perf_counter()
+        wall, n = time.perf_counter(), min(BLOCK, periods - done)
+        e = block_inputs(sim, est, p.tick, n * driver.period_ticks) if ekf else None
         k, m, stopped = _loop(p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records,
-                              min(BLOCK, periods - done), p.mode, p.cmd, p.limits, *args,
-                              driver.params.original_speed, stop_at_rest, rows, truth, pose_period, vel_period,
-                              p.traffic, offset)
+                              n, p.mode, p.cmd, p.limits, *args, driver.params.original_speed, stop_at_rest, rows,
+                              truth, pose_period, vel_period, p.traffic, offset, e)
         rows[:k, -1] = (time.perf_counter() - wall) / k * 1e6
         sent = np.flatnonzero(~np.isnan(rows[:k, 15]))
         commanded = p.tick + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None
@@ -154,8 +177,12 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     while done < periods and not stopped:
         t0 = sim.clock.tick
         readings = sim.advance_compiled(BLOCK * driver.period_ticks, block)
-        driver.stamp_ns = sim.clock.step_ns * sim.clock.tick
-        _catch_up(est, driver.state, truth, sim.clock.step_ns * (t0 // pose_period * pose_period))
+        if ekf:
+            if est.refresh() is not None:  # the estimate and the driver's stamp as Driver.update leaves them
+                driver.stamp_ns = est.estimate.stamp_ns
+        else:
+            driver.stamp_ns = sim.clock.step_ns * sim.clock.tick
+            _catch_up(est, driver.state, truth, sim.clock.step_ns * (t0 // pose_period * pose_period))
         log.extend(rows[:k])
         if on_block is not None:
             on_block(readings)
