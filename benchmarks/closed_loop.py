@@ -3,6 +3,9 @@
 - ``closed_loop``: the bundled ``course_30kmh_stanley`` scenario (dynamic plant, all sensors at default
   rates, pi_ff + stanley, scorecard) run by :func:`vilma.scenario.runner.run`, lockstep, one process:
   simulated seconds per wall second, median of 5 runs (files not written). Target (issue 4): >= 1000x.
+- ``ekf_drive``: the bundled ``course_30kmh_ekf`` scenario (the driver steers by the EKF fusing GPS, IMU and
+  wheel speeds) the same way, compiled, beside the same drive in the runner's Python loop (``compiled=False``)
+  measured in the same run. Target (issue 21): >= 1000x.
 - ``simulator_alone_python_api_20ms_periods``: the simulator alone, advanced from Python in the same 20 ms
   periods (what the closed loop cost before it was compiled); ``benchmarks/sim_speed.py`` has the rest.
 - ``one_hour_drive``: peak resident memory of a process that runs a one-hour drive (a speed task on a
@@ -28,18 +31,25 @@ from vilma.sim import Simulator
 REPEATS = 5
 
 
-def _closed_loop() -> dict:
-    scenario = load_scenario(BUNDLED / "course_30kmh_stanley.yaml")
-    run(scenario)  # compile / load the numba caches outside the timing
+def _closed_loop(name: str = "course_30kmh_stanley", compiled: bool = True) -> dict:
+    scenario = load_scenario(BUNDLED / f"{name}.yaml")
+    run(scenario, compiled=compiled)  # compile / load the numba caches outside the timing
     rates, us = [], []
     for _ in range(REPEATS):
         t0 = time.perf_counter()
-        r = run(scenario)
+        r = run(scenario, compiled=compiled)
         rates.append(r.metrics["sim_time_s"] / (time.perf_counter() - t0))
         us.append(r.metrics["controller_time_per_step_us"])
     return {"scenario": scenario.name, "sim_seconds": r.metrics["sim_time_s"],
             "real_time_factor": round(statistics.median(rates), 1),
             "controller_time_per_step_us": round(statistics.median(us), 1)}
+
+
+def _ekf_drive() -> dict:
+    compiled, python = _closed_loop("course_30kmh_ekf"), _closed_loop("course_30kmh_ekf", compiled=False)
+    return {**compiled, "target_real_time_factor": 1000,
+            "python_loop_real_time_factor": python["real_time_factor"],
+            "speedup_over_python_loop": round(compiled["real_time_factor"] / python["real_time_factor"], 1)}
 
 
 def _simulator_only() -> float:
@@ -74,7 +84,7 @@ def main() -> None:
         return
     import tempfile
 
-    out = {"benchmark": "closed_loop", "closed_loop": _closed_loop(),
+    out = {"benchmark": "closed_loop", "closed_loop": _closed_loop(), "ekf_drive": _ekf_drive(),
            "simulator_alone_python_api_20ms_periods": {"real_time_factor": _simulator_only()}}
     with tempfile.TemporaryDirectory() as d:
         hour = subprocess.run([sys.executable, __file__, "--one-hour", f"{d}/hour.yaml"], capture_output=True,
