@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import os
 import subprocess
 import sys
@@ -36,3 +37,23 @@ def test_the_first_run_on_a_cold_cache_says_it_compiles(monkeypatch, tmp_path):
     monkeypatch.setattr(batch, "numba_cache_cold", lambda: False)
     batch.run_all(jobs, tmp_path / "warm", None, console, record=False)
     assert console.export_text().count(batch.COMPILING) == 1
+
+
+def test_a_compiling_first_run_shows_what_numba_compiles_and_drops_the_line_after_it():
+    from numba import njit
+    from numba.core.event import install_listener
+    from rich.progress import Progress
+
+    def vilma_kernel_for_the_test(x):  # named as a module of vilma's below
+        return x + 1
+
+    vilma_kernel_for_the_test.__module__ = "vilma.test_kernels"  # numba's own functions are not counted
+    bar = Progress(console=Console(file=io.StringIO(), force_terminal=True, width=200), redirect_stdout=False,
+                   redirect_stderr=False)  # numba sets colorama up on its first compile, on what stdout is then
+    compiling = batch._Compiling(bar)
+    with bar, install_listener("numba:compile", compiling):
+        assert njit(vilma_kernel_for_the_test)(1) == 2  # compiled here: not cached
+        (line,) = bar.tasks
+        assert compiling.done == 1 and "vilma_kernel_for_the_test" in str(line.description)
+        compiling.finished()
+        assert not bar.tasks

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
+from numba.core.event import Listener, install_listener
 from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
@@ -93,11 +94,14 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
     """
     dirs = out_dirs(jobs, out)
     claim(dirs, overwrite)
-    if jobs and numba_cache_cold():
+    cold = bool(jobs) and numba_cache_cold()
+    if cold:
         console.print(COMPILING, highlight=False)
     results = []
-    with Progress(console=console, transient=True, disable=len(jobs) < 2 or not console.is_terminal) as bar:
-        task = bar.add_task("running", total=len(jobs))
+    bar = Progress(console=console, transient=True, disable=(len(jobs) < 2 and not cold) or not console.is_terminal)
+    compiling = _Compiling(bar if cold else None)
+    with bar, install_listener("numba:compile", compiling):
+        task = bar.add_task("running", total=len(jobs), visible=len(jobs) > 1)
         for i, (job, out_dir) in enumerate(zip(jobs, dirs, strict=True), 1):
             name = job.scenario.name + (f" {job.label}" if job.label else "")
             bar.update(task, description=Text(name))
@@ -105,6 +109,7 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             r = record_run(job.scenario, out_dir, record=record, plots=plots, realtime=realtime,
                            observers=observers(job.scenario), started=started)
             results.append(r)
+            compiling.finished()
             started = time.perf_counter()  # each run's share of the command starts where the last one's ended
             bar.advance(task)
             if not console.is_terminal:  # a log or a pipe: a line a run instead of the bar
@@ -134,6 +139,38 @@ def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S-%f")
         return [Path("runs") / f"{n}-{stamp}" for n in unique]
     return [out / n for n in unique]
+
+
+class _Compiling(Listener):
+    """A progress line of numba's compilations of vilma's functions while the first run compiles (numba's event
+    API): how many are done, which now; nothing without a ``bar``."""
+
+    def __init__(self, bar: Progress | None) -> None:
+        self.bar, self.done, self.task = bar, 0, None
+
+    def on_start(self, event) -> None:
+        name = _vilmas(event)
+        if self.bar is None or name is None:
+            return
+        if self.task is None:
+            self.task = self.bar.add_task("", total=None)
+        self.bar.update(self.task, description=Text(f"compiling, once: {self.done} of vilma's functions done, "
+                                                    f"now {name}"))
+
+    def on_end(self, event) -> None:
+        self.done += _vilmas(event) is not None
+
+    def finished(self) -> None:
+        """The first run is over: no more line."""
+        if self.task is not None:
+            self.bar.remove_task(self.task)
+        self.bar = self.task = None
+
+
+def _vilmas(event) -> str | None:
+    """The name of the function a ``numba:compile`` event compiles, if it is vilma's (not numba's own)."""
+    fn = getattr(event.data.get("dispatcher"), "py_func", None)
+    return fn.__qualname__ if getattr(fn, "__module__", "").startswith("vilma.") else None
 
 
 def numba_cache_cold() -> bool:
