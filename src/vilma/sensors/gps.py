@@ -38,8 +38,8 @@ class GpsParams:
 
 
 @njit(cache=True)
-def _measure(rows, z, noise, offset, sigma, bias, phi, step_sigma, ecef0, axes):
-    out = np.empty((rows.shape[0], 6))
+def measure_into(rows, z, noise, offset, sigma, bias, phi, step_sigma, ecef0, axes, out):
+    """Fixes of the rows ``rows`` of ``z`` with ``noise`` (n, 6: white, then the bias's) into ``out`` (n, 6)."""
     for k in range(rows.shape[0]):
         i = rows[k]
         c, s = math.cos(z[i, YAW]), math.sin(z[i, YAW])
@@ -70,8 +70,8 @@ class GpsSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         b = self.bias
-        out = _measure(s.rows, s.z, standard_normals(self.rng, len(s), 6), self._offset, self._sigma, b.b, b.phi,
-                       b.step_sigma, self.frame.ecef0, self.frame.axes)
+        out = measure_into(s.rows, s.z, standard_normals(self.rng, len(s), 6), self._offset, self._sigma, b.b, b.phi,
+                           b.step_sigma, self.frame.ecef0, self.frame.axes, np.empty((len(s), 6)))
         if s.extra is not None:  # the 3D plant's climb (altitude to well under a millimetre within kilometres)
             h = s.extra[s.rows, HEIGHT]
             out[:, 2] += h

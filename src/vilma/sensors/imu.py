@@ -50,7 +50,7 @@ class ImuParams:
 
 
 @njit(cache=True)
-def _planar(rows, z, dx, offset):
+def planar(rows, z, dx, offset):
     """Ideal ``fx, fy, fz, wx, wy, wz, roll, pitch, yaw`` of the planar plant (module docstring)."""
     out = np.zeros((rows.shape[0], 9))
     rx, ry = offset[0], offset[1]
@@ -66,8 +66,8 @@ def _planar(rows, z, dx, offset):
 
 
 @njit(cache=True)
-def _measure(ideal, noise, sigma_a, sigma_w, sigma_yaw, bias_a, bias_w, phi, step_a, step_w):
-    out = np.zeros((ideal.shape[0], 10))
+def measure_into(ideal, noise, sigma_a, sigma_w, sigma_yaw, bias_a, bias_w, phi, step_a, step_w, out):
+    """Readings of the ``ideal`` values (n, 9) with ``noise`` (n, 13) into ``out`` (n, 10); advances the biases."""
     for k in range(ideal.shape[0]):
         ba = gauss_markov_step(bias_a, phi, step_a, noise[k, 6:9])
         bw = gauss_markov_step(bias_w, phi, step_w, noise[k, 9:12])
@@ -104,12 +104,12 @@ class ImuSensor:
     def measure(self, s: Samples) -> np.ndarray:
         p, a, g = self.params, self.accel_bias, self.gyro_bias
         if s.extra is None:
-            ideal = _planar(s.rows, s.z, s.dx, self._offset)
+            ideal = planar(s.rows, s.z, s.dx, self._offset)
         else:  # the 3D plant's accelerometer and gyro sit at the offset already
             ideal = np.empty((len(s), 9))
             e = s.extra[s.rows]
             ideal[:, 0:3], ideal[:, 3:6], ideal[:, 6], ideal[:, 7] = e[:, FX:FZ + 1], e[:, WX:WZ + 1], e[:, ROLL], \
                 e[:, PITCH]
             ideal[:, 8] = s.z[s.rows, YAW]
-        return _measure(ideal, standard_normals(self.rng, len(s), 13), p.accel_noise, p.gyro_noise,
-                        p.orientation_noise, a.b, g.b, a.phi, a.step_sigma, g.step_sigma)
+        return measure_into(ideal, standard_normals(self.rng, len(s), 13), p.accel_noise, p.gyro_noise,
+                            p.orientation_noise, a.b, g.b, a.phi, a.step_sigma, g.step_sigma, np.empty((len(s), 10)))

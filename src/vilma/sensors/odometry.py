@@ -39,9 +39,9 @@ class OdometryParams:
 
 
 @njit(cache=True)
-def _integrate(rear, noise, sigma, scale, radius, track, period, state):
-    """Dead-reckon over rows of true rear wheel speeds; ``state`` = (x, y, yaw, speed, rate), updated in place."""
-    out = np.empty((rear.shape[0], 5))
+def integrate_into(rear, noise, sigma, scale, radius, track, period, state, out):
+    """Dead-reckon over rows of true rear wheel speeds into ``out`` (n, 5); ``state`` = (x, y, yaw, speed, rate),
+    updated in place."""
     for i in range(rear.shape[0]):
         wl = rear[i, 0] * scale[0] + sigma * noise[i, 0]
         wr = rear[i, 1] * scale[1] + sigma * noise[i, 1]
@@ -80,5 +80,5 @@ class OdometrySensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         v = self.vehicle
-        return _integrate(self._rear(s.rows, s.z), standard_normals(self.rng, len(s), 2), self.params.wheel_noise,
-                          self.scale, v.wheel_radius, v.track, self.period, self.state)
+        return integrate_into(self._rear(s.rows, s.z), standard_normals(self.rng, len(s), 2), self.params.wheel_noise,
+                              self.scale, v.wheel_radius, v.track, self.period, self.state, np.empty((len(s), 5)))

@@ -27,8 +27,8 @@ class PoseParams:
 
 
 @njit(cache=True)
-def _measure(rows, z, noise, sigma_xy, sigma_yaw):
-    out = np.zeros((rows.shape[0], 6))
+def measure_into(rows, z, noise, sigma_xy, sigma_yaw, out):
+    """x, y and yaw of the rows ``rows`` of ``z`` with ``noise`` (n, 3) into ``out`` (n, 6), zero elsewhere."""
     for k in range(rows.shape[0]):
         i = rows[k]
         out[k, 0] = z[i, X] + sigma_xy * noise[k, 0]
@@ -52,7 +52,8 @@ class PoseSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p = self.params
-        out = _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.position_noise, p.yaw_noise)
+        out = measure_into(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.position_noise, p.yaw_noise,
+                           np.zeros((len(s), 6)))
         if s.extra is not None:
             out[:, 2:5] = s.extra[s.rows, HEIGHT:PITCH + 1]  # height, roll, pitch: adjacent
         return out

@@ -27,8 +27,8 @@ class VelocityParams:
 
 
 @njit(cache=True)
-def _measure(rows, z, noise, sigma_v, sigma_w):
-    out = np.zeros((rows.shape[0], 9))
+def measure_into(rows, z, noise, sigma_v, sigma_w, out):
+    """The planar velocities of the rows ``rows`` of ``z`` with ``noise`` (n, 3) into ``out`` (n, 9), zero elsewhere."""
     for k in range(rows.shape[0]):
         i = rows[k]
         vx = z[i, VX] + sigma_v * noise[k, 0]
@@ -54,7 +54,8 @@ class VelocitySensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p = self.params
-        out = _measure(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.linear_noise, p.angular_noise)
+        out = measure_into(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.linear_noise, p.angular_noise,
+                           np.zeros((len(s), 9)))
         if s.extra is not None:  # vertical motion, roll and pitch rates; body vz to first order in the angles
             e = s.extra[s.rows]
             out[:, 5] = e[:, VZ]

@@ -52,6 +52,16 @@ def wheel_speeds(rows, z, lf, track, radius):
     return out
 
 
+@njit(cache=True)
+def measure_into(rows, z, noise, sigma, lf, track, radius, out):
+    """The wheel speeds of :func:`wheel_speeds` with ``sigma`` times ``noise`` (n, 4) added, into ``out`` (n, 4)."""
+    true = wheel_speeds(rows, z, lf, track, radius)
+    for k in range(rows.shape[0]):
+        for j in range(4):
+            out[k, j] = true[k, j] + noise[k, j] * sigma
+    return out
+
+
 class WheelSpeedSensor:
     """Angular speeds of FL, FR, RL, RR [rad/s], positive rolling forward."""
 
@@ -66,5 +76,5 @@ class WheelSpeedSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         v = self.vehicle
-        return wheel_speeds(s.rows, s.z, v.cg_to_front, v.track, v.wheel_radius) + standard_normals(
-            self.rng, len(s), 4) * self.params.noise
+        return measure_into(s.rows, s.z, standard_normals(self.rng, len(s), 4), self.params.noise, v.cg_to_front,
+                            v.track, v.wheel_radius, np.empty((len(s), 4)))
