@@ -30,6 +30,7 @@ from vilma.plant3d.capture import WorldSensor
 from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
 from vilma.sensors import Readings, Samples, SensorSuite, build_sensors
+from vilma.sensors.bank import SensorBank
 from vilma.sensors.base import rows_of, sensor_rng
 from vilma.sensors.laser import PlanarLaser
 from vilma.sensors.objects import ObjectsParams, ObjectsSensor
@@ -217,6 +218,7 @@ class Simulator(Closeable):
         self._periods = np.array(  # sample periods [ticks]: the sensors', then the scene sensors'
             [self.clock.period_ticks(s.rate_hz, f"sensor '{s.name}'") for s in [*self.sensors, *self._scene]],
             dtype=np.int64)
+        self._bank = SensorBank(self.sensors, self._periods[:len(self.sensors)]) if self._plant3d is None else None
         self._dead_ticks = self.clock.ticks_for(c.vehicle.actuators.dead_time)
         self._watchdog_ticks = self.clock.ticks_for(c.watchdog_timeout)
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -238,6 +240,8 @@ class Simulator(Closeable):
             self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), self._z[NX:], self._consts)
         for sensor in self.sensors:
             sensor.reset(self._z.copy(), sensor_rng(c.seed, sensor.name))
+        if self._bank is not None:
+            self._bank.reset()
         for scene in self._scene:
             scene.reset(sensor_rng(c.seed, scene.name))
         self._mode = MODE_IDS[ActuatorCommand().longitudinal]
@@ -343,7 +347,7 @@ class Simulator(Closeable):
     def advance(self, ticks: int) -> dict[str, Readings]:
         """Advance ``ticks`` physics steps; returns the readings made, by sensor name."""
         end = self.clock.tick + ticks
-        parts: dict[str, list[Readings]] = {s.name: [] for s in self.sensors}
+        chunks: list[dict[str, Readings]] = []
         while self.clock.tick < end:
             stop = end
             if self._pending:
@@ -357,7 +361,7 @@ class Simulator(Closeable):
             if self._react_ticks:
                 stop = min(stop, (self.clock.tick // self._react_ticks + 1) * self._react_ticks)
             if stop > self.clock.tick:
-                self._run_chunk(stop - self.clock.tick, parts)
+                chunks.append(self._run_chunk(stop - self.clock.tick))
                 self._capture()
                 if self._react_ticks and self.clock.tick % self._react_ticks == 0:
                     self._react()
@@ -367,6 +371,11 @@ class Simulator(Closeable):
                 self.watchdog_tripped = True
                 log.warning("watchdog: no command for %.3f s while autonomous at t=%.3f s; stopping the car",
                             self.config.watchdog_timeout, self.clock.time_s)
+        return chunks[0] if len(chunks) == 1 else self._joined(chunks)
+
+    def _joined(self, chunks: list[dict[str, Readings]]) -> dict[str, Readings]:
+        """The readings of consecutive chunks, joined by sensor."""
+        parts = {s.name: [c[s.name] for c in chunks if s.name in c] for s in self.sensors}
         return {name: Readings.concat(p) for name, p in parts.items() if p}
 
     def _capture(self) -> None:
@@ -376,7 +385,7 @@ class Simulator(Closeable):
             if tick % period == 0:
                 self._captures.extend(sensor.capture(self.clock.time_ns).items())
 
-    def _run_chunk(self, n: int, parts: dict[str, list[Readings]]) -> None:
+    def _run_chunk(self, n: int) -> dict[str, Readings]:
         t0, periods = self.clock.tick, self._periods
         capacity = min(n, int(np.sum(n // periods + 1))) if len(periods) else 0
         out_z, out_dx, out_tick = empty_records(capacity)
@@ -390,7 +399,7 @@ class Simulator(Closeable):
             m = advance(self._model, self._integrator, self._z, mode, self._cmd, self._consts, self.clock.step_s, n,
                         t0, periods, out_z, out_dx, out_tick)
         self.clock.tick = t0 + n
-        self._measure(t0, n, out_tick[:m], out_z, out_dx, parts, extra)
+        return self._measure(t0, n, out_tick[:m], out_z, out_dx, extra)
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
 
@@ -426,16 +435,19 @@ class Simulator(Closeable):
         if done.commanded_tick is not None:
             self._autonomous, self._last_command_tick = True, done.commanded_tick
         out_z, out_dx, out_tick = k.records
-        parts: dict[str, list[Readings]] = {s.name: [] for s in self.sensors}
-        self._measure(t0, done.ticks, out_tick[:done.records], out_z, out_dx, parts)
-        return {name: Readings.concat(p) for name, p in parts.items() if p}
+        return self._measure(t0, done.ticks, out_tick[:done.records], out_z, out_dx)
 
     def _measure(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
-                 parts: dict[str, list[Readings]], extra: np.ndarray | None = None) -> None:
+                 extra: np.ndarray | None = None) -> dict[str, Readings]:
         """The sensors' readings of the steps ``t0 + 1 .. t0 + n`` from the plant recorded at ``ticks`` (with
-        the 3D plant's ``extra``)."""
-        step_ns, scans = self.clock.step_ns, []
-        for sensor, period in zip([*self.sensors, *self._scene], self._periods.tolist(), strict=True):
+        the 3D plant's ``extra``), by sensor name; the scene sensors' go to the captures."""
+        step_ns, scans, readings = self.clock.step_ns, [], {}
+        if self._bank is not None:  # the planar plant: every sensor in one compiled call
+            readings = self._bank.measure(t0, n, ticks, out_z, out_dx, step_ns)
+            todo = zip(self._scene, self._periods[len(self.sensors):].tolist(), strict=True)
+        else:
+            todo = zip([*self.sensors, *self._scene], self._periods.tolist(), strict=True)
+        for sensor, period in todo:
             first, count = (t0 // period + 1) * period, (t0 + n) // period - t0 // period
             if count:
                 s = Samples(rows_of(ticks, period, count), out_z, out_dx, extra)
@@ -443,6 +455,7 @@ class Simulator(Closeable):
                 if sensor in self._scene:
                     scans += [(sensor.topic, msg) for msg in sensor.scan(s, stamps)]
                 else:
-                    parts[sensor.name].append(Readings(sensor.name, sensor.message, stamps, sensor.measure(s)))
+                    readings[sensor.name] = Readings(sensor.name, sensor.message, stamps, sensor.measure(s))
         if scans:  # after the 3D plant's captures of the steps before (it stops at theirs)
             self._captures += sorted(scans, key=lambda c: c[1].stamp_ns)
+        return readings

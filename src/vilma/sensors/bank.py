@@ -1,0 +1,192 @@
+"""The sensors of a suite on the planar plant, measured together in one compiled call a chunk.
+
+A chunk of 20 ms holds one or two samples of each sensor: measured one by one in Python, the calls cost far
+more than the numbers. Here one compiled call fills every sensor's readings into preallocated blocks, and the
+readings handed out are views of them. A block is filled once and never rewritten (a full one is replaced, not
+reused), so readings stay valid however long they are kept.
+
+The noise of each sensor is drawn ahead from its own generator in blocks: the same numbers in the same order as
+its :meth:`measure` takes them (a generator's draws do not depend on how they are split), so readings are
+bit-identical to the sensors' own, however the run is chunked.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from vilma.sensors.actuator_state import ActuatorStateSensor
+from vilma.sensors.base import Readings, Sensor, rows_of
+from vilma.sensors.gps import GpsSensor
+from vilma.sensors.gps import measure_into as gps_into
+from vilma.sensors.imu import ImuSensor, planar
+from vilma.sensors.imu import measure_into as imu_into
+from vilma.sensors.odometry import OdometrySensor, integrate_into
+from vilma.sensors.pose import PoseSensor
+from vilma.sensors.pose import measure_into as pose_into
+from vilma.sensors.velocity import VelocitySensor
+from vilma.sensors.velocity import measure_into as velocity_into
+from vilma.sensors.wheel_speed import WheelSpeedSensor, wheel_speeds
+from vilma.sensors.wheel_speed import measure_into as wheel_into
+from vilma.vehicle.state import BRAKE, STEER
+
+KINDS = (PoseSensor, VelocitySensor, GpsSensor, ImuSensor, WheelSpeedSensor, OdometrySensor, ActuatorStateSensor)
+"""The sensors a bank measures, in the order of its slots."""
+POSE, VELOCITY, GPS, IMU, WHEEL_SPEED, ODOMETRY, ACTUATORS = range(len(KINDS))
+NORMALS = (3, 3, 6, 13, 4, 2, 0)
+"""Standard normals each kind draws a sample."""
+WIDTHS = (6, 9, 6, 10, 4, 5, 3)
+"""Values of each kind's reading."""
+MAX_NORMALS, MAX_WIDTH = max(NORMALS), max(WIDTHS)
+ENDLESS = 2**62
+"""The noise rows a sensor without noise holds."""
+BLOCK = 512
+"""Samples a block of readings or of noise holds (more if one chunk needs more)."""
+PERIOD, COUNT, USED, HELD, FILLED = range(5)
+"""Rows of a bank's book: each slot's sample period [ticks] (0: no sensor), samples in the chunk, noise rows used
+and held, block rows filled."""
+
+
+@njit(cache=True)
+def counts_fit(t0, n, book, noise, outs):
+    """Set each slot's count to its samples in the steps ``t0 + 1 .. t0 + n``; whether its noise and block hold them."""
+    fit = True
+    for s in range(book.shape[1]):
+        p = book[PERIOD, s]
+        c = (t0 + n) // p - t0 // p if p else 0
+        book[COUNT, s] = c
+        if book[USED, s] + c > book[HELD, s] or book[FILLED, s] + c > outs.shape[1] // MAX_WIDTH:
+            fit = False
+    return fit
+
+
+@njit(cache=True)
+def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par, vec, axes):
+    """Fill each slot's next readings (as many as :func:`counts_fit` counted) from the plant recorded at ``ticks``.
+
+    Slot ``s`` takes its normals (rows of ``NORMALS[s]``) from ``noise[s]`` and writes its readings (rows of
+    ``WIDTHS[s]``) into ``outs[s]`` and ``stamps[s]`` from the rows its book says; ``par[s]`` holds its scalars,
+    ``vec`` the vectors and states of :meth:`SensorBank.reset`, ``axes`` the GPS's ENU axes.
+    """
+    for s in range(book.shape[1]):
+        c, p, u, a, d, n, q = book[COUNT, s], book[PERIOD, s], book[USED, s], book[FILLED, s], NORMALS[s], WIDTHS[s], \
+            par[s]
+        if c == 0:
+            continue
+        rows, first = rows_of(ticks, p, c), (t0 // p + 1) * p
+        for k in range(c):
+            stamps[s, a + k] = (first + k * p) * step_ns
+        w, out = noise[s, u * d:(u + c) * d].reshape((c, d)), outs[s, a * n:(a + c) * n].reshape((c, n))
+        if s == POSE:
+            pose_into(rows, z, w, q[0], q[1], out)
+        elif s == VELOCITY:
+            velocity_into(rows, z, w, q[0], q[1], out)
+        elif s == GPS:
+            gps_into(rows, z, w, vec[0, :3], vec[1, :3], vec[2, :3], q[0], q[1], vec[3, :3], axes, out)
+        elif s == IMU:
+            imu_into(planar(rows, z, dx, vec[4, :3]), w, q[0], q[1], q[2], vec[5, :3], vec[6, :3], q[3], q[4], q[5],
+                     out)
+        elif s == WHEEL_SPEED:
+            wheel_into(rows, z, w, q[0], q[1], q[2], q[3], out)
+        elif s == ODOMETRY:
+            rear = wheel_speeds(rows, z, q[1], q[2], q[3])[:, 2:]
+            integrate_into(rear, w, q[0], vec[7, :2], q[3], q[2], q[4], vec[8, :5], out)
+        else:
+            for k in range(c):
+                out[k, :] = z[rows[k], STEER:BRAKE + 1]
+        book[USED, s], book[FILLED, s] = u + c, a + c
+
+
+class SensorBank:
+    """The readings of ``sensors`` (at most one of each of :data:`KINDS`; sample ``periods`` in ticks, in the same
+    order) from a planar plant's records, in one compiled call.
+
+    Its arrays are what compiled code takes: ``book`` (:data:`PERIOD` ...), ``noise``, ``outs``, ``stamps``, ``par``,
+    ``vec`` and ``axes`` (see :func:`measure_all`).
+    """
+
+    def __init__(self, sensors: list[Sensor], periods: np.ndarray) -> None:
+        self._sensors: list = [None] * len(KINDS)
+        self.book = np.zeros((5, len(KINDS)), dtype=np.int64)
+        for sensor, period in zip(sensors, periods.tolist(), strict=True):
+            slot = KINDS.index(type(sensor))
+            self._sensors[slot], self.book[PERIOD, slot] = sensor, period
+        self._names = [(KINDS.index(type(s)), s.name, s.message) for s in sensors]
+        self.par, self.vec = np.zeros((len(KINDS), 6)), np.zeros((9, 5))
+        self._new_blocks(BLOCK)
+
+    def reset(self) -> None:
+        """Take the sensors' generators and states anew (after their :meth:`~vilma.sensors.base.Sensor.reset`); the
+        bank's ``vec`` rows become the sensors' drifting states, so both advance together."""
+        self.noise, self.book[USED] = np.zeros((len(KINDS), 0)), 0
+        self.book[HELD] = [0 if d else ENDLESS for d in NORMALS]
+        pose, velocity, gps, imu, wheel, odometry, _ = self._sensors
+        q, v = self.par, self.vec
+        if pose is not None:
+            q[POSE, :2] = pose.params.position_noise, pose.params.yaw_noise
+        if velocity is not None:
+            q[VELOCITY, :2] = velocity.params.linear_noise, velocity.params.angular_noise
+        self.axes = gps.frame.axes if gps is not None else np.eye(3)
+        if gps is not None:
+            q[GPS, :2] = gps.bias.phi, gps.bias.step_sigma
+            h, up = gps.params.horizontal_noise, gps.params.vertical_noise
+            v[0, :3], v[1, :3], v[3, :3] = gps.params.offset, (h, h, up), gps.frame.ecef0
+            v[2, :3], gps.bias.b = gps.bias.b, v[2, :3]
+        if imu is not None:
+            p, a, w = imu.params, imu.accel_bias, imu.gyro_bias
+            q[IMU, :6] = p.accel_noise, p.gyro_noise, p.orientation_noise, a.phi, a.step_sigma, w.step_sigma
+            v[4, :3] = p.offset
+            v[5, :3], v[6, :3], a.b, w.b = a.b, w.b, v[5, :3], v[6, :3]
+        for sensor, slot in ((wheel, WHEEL_SPEED), (odometry, ODOMETRY)):
+            if sensor is not None:
+                sigma = sensor.params.noise if slot == WHEEL_SPEED else sensor.params.wheel_noise
+                q[slot, :4] = sigma, sensor.vehicle.cg_to_front, sensor.vehicle.track, sensor.vehicle.wheel_radius
+        if odometry is not None:
+            q[ODOMETRY, 4] = odometry.period
+            v[7, :2], v[8, :5], odometry.scale, odometry.state = odometry.scale, odometry.state, v[7, :2], v[8, :5]
+
+    def measure(self, t0: int, n: int, ticks: np.ndarray, z: np.ndarray, dx: np.ndarray,
+                step_ns: int) -> dict[str, Readings]:
+        """The readings of the steps ``t0 + 1 .. t0 + n`` from the plant ``z``, ``dx`` recorded at ``ticks``
+        (:func:`~vilma.vehicle.integrate.advance`), by sensor name (see :meth:`readings`)."""
+        if not counts_fit(t0, n, self.book, self.noise, self.outs):
+            self.make_room()
+        measure_all(t0, ticks, z, dx, step_ns, self.book, self.noise, self.outs, self.stamps, self.par, self.vec,
+                    self.axes)
+        return self.readings()
+
+    def readings(self) -> dict[str, Readings]:
+        """The readings :func:`measure_all` made last, by sensor name; sensors with none are left out."""
+        counts, filled = self.book[COUNT].tolist(), self.book[FILLED].tolist()
+        out = {}
+        for slot, name, message in self._names:
+            if c := counts[slot]:
+                b = filled[slot]
+                out[name] = Readings(name, message, self._stamp_rows[slot][b - c:b], self._views[slot][b - c:b])
+        return out
+
+    def make_room(self) -> None:
+        """Draw more noise for the slots short of it and start new blocks, for the samples :func:`counts_fit`
+        counted."""
+        b = self.book
+        need = max(BLOCK, *b[COUNT].tolist())
+        rests, fresh = [], []
+        for slot, (u, held, c) in enumerate(zip(b[USED].tolist(), b[HELD].tolist(), b[COUNT].tolist(), strict=True)):
+            d, sensor = NORMALS[slot], self._sensors[slot]
+            short = d and sensor is not None and u + c > held
+            rests.append(self.noise[slot, u * d:held * d])
+            fresh.append(sensor.rng.standard_normal(need * d) if short else rests[-1][:0])
+        rows = max(BLOCK, *((len(r) + len(f)) // max(d, 1) for r, f, d in zip(rests, fresh, NORMALS, strict=True)))
+        self.noise = np.zeros((len(KINDS), rows * MAX_NORMALS))
+        for slot, (rest, new) in enumerate(zip(rests, fresh, strict=True)):
+            self.noise[slot, :len(rest) + len(new)] = np.concatenate([rest, new])
+            b[HELD, slot] = (len(rest) + len(new)) // NORMALS[slot] if NORMALS[slot] else ENDLESS
+        b[USED] = 0
+        if (b[FILLED] + b[COUNT] > self.outs.shape[1] // MAX_WIDTH).any():
+            self._new_blocks(need)
+
+    def _new_blocks(self, rows: int) -> None:
+        self.outs, self.stamps = np.zeros((len(KINDS), rows * max(WIDTHS))), np.zeros((len(KINDS), rows), np.int64)
+        self._views = [self.outs[s, :rows * w].reshape(rows, w) for s, w in enumerate(WIDTHS)]
+        self._stamp_rows = list(self.stamps)
+        self.book[FILLED] = 0
