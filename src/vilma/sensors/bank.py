@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from vilma.sensors.actuator_state import ActuatorStateSensor
-from vilma.sensors.base import Readings, Sensor, rows_of
+from vilma.sensors.base import Readings, Sensor
 from vilma.sensors.gps import GpsSensor
 from vilma.sensors.gps import measure_into as gps_into
 from vilma.sensors.imu import ImuSensor, planar
@@ -68,32 +68,37 @@ def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par, vec, 
     ``WIDTHS[s]``) into ``outs[s]`` and ``stamps[s]`` from the rows its book says; ``par[s]`` holds its scalars,
     ``vec`` the vectors and states of :meth:`SensorBank.reset`, ``axes`` the GPS's ENU axes.
     """
+    rows = np.empty(ticks.shape[0], dtype=np.int64)  # this slot's rows of the records
     for s in range(book.shape[1]):
-        c, p, u, a, d, n, q = book[COUNT, s], book[PERIOD, s], book[USED, s], book[FILLED, s], NORMALS[s], WIDTHS[s], \
-            par[s]
+        c, p, u, a, d, q = book[COUNT, s], book[PERIOD, s], book[USED, s], book[FILLED, s], NORMALS[s], par[s]
         if c == 0:
             continue
-        rows, first = rows_of(ticks, p, c), (t0 // p + 1) * p
+        first, j = (t0 // p + 1) * p, 0
+        for i in range(ticks.shape[0]):
+            if ticks[i] % p == 0:
+                rows[j], j = i, j + 1
+        r = rows[:c]
         for k in range(c):
             stamps[s, a + k] = (first + k * p) * step_ns
-        w, out = noise[s, u * d:(u + c) * d].reshape((c, d)), outs[s, a * n:(a + c) * n].reshape((c, n))
+        w, width = noise[s, u * d:(u + c) * d].reshape((c, d)), WIDTHS[s]
+        out = outs[s, a * width:(a + c) * width].reshape((c, width))
         if s == POSE:
-            pose_into(rows, z, w, q[0], q[1], out)
+            pose_into(r, z, w, q[0], q[1], out)
         elif s == VELOCITY:
-            velocity_into(rows, z, w, q[0], q[1], out)
+            velocity_into(r, z, w, q[0], q[1], out)
         elif s == GPS:
-            gps_into(rows, z, w, vec[0, :3], vec[1, :3], vec[2, :3], q[0], q[1], vec[3, :3], axes, out)
+            gps_into(r, z, w, vec[0, :3], vec[1, :3], vec[2, :3], q[0], q[1], vec[3, :3], axes, out)
         elif s == IMU:
-            imu_into(planar(rows, z, dx, vec[4, :3]), w, q[0], q[1], q[2], vec[5, :3], vec[6, :3], q[3], q[4], q[5],
+            imu_into(planar(r, z, dx, vec[4, :3]), w, q[0], q[1], q[2], vec[5, :3], vec[6, :3], q[3], q[4], q[5],
                      out)
         elif s == WHEEL_SPEED:
-            wheel_into(rows, z, w, q[0], q[1], q[2], q[3], out)
+            wheel_into(r, z, w, q[0], q[1], q[2], q[3], out)
         elif s == ODOMETRY:
-            rear = wheel_speeds(rows, z, q[1], q[2], q[3])[:, 2:]
+            rear = wheel_speeds(r, z, q[1], q[2], q[3])[:, 2:]
             integrate_into(rear, w, q[0], vec[7, :2], q[3], q[2], q[4], vec[8, :5], out)
         else:
             for k in range(c):
-                out[k, :] = z[rows[k], STEER:BRAKE + 1]
+                out[k, :] = z[r[k], STEER:BRAKE + 1]
         book[USED, s], book[FILLED, s] = u + c, a + c
 
 
@@ -106,12 +111,11 @@ class SensorBank:
     """
 
     def __init__(self, sensors: list[Sensor], periods: np.ndarray) -> None:
-        self._sensors: list = [None] * len(KINDS)
+        self._sensors, self._slots = sensors, [KINDS.index(type(s)) for s in sensors]
+        self._by_slot: list = [None] * len(KINDS)
         self.book = np.zeros((5, len(KINDS)), dtype=np.int64)
-        for sensor, period in zip(sensors, periods.tolist(), strict=True):
-            slot = KINDS.index(type(sensor))
-            self._sensors[slot], self.book[PERIOD, slot] = sensor, period
-        self._names = [(KINDS.index(type(s)), s.name, s.message) for s in sensors]
+        for slot, sensor, period in zip(self._slots, sensors, periods.tolist(), strict=True):
+            self._by_slot[slot], self.book[PERIOD, slot] = sensor, period
         self.par, self.vec = np.zeros((len(KINDS), 6)), np.zeros((9, 5))
         self._new_blocks(BLOCK)
 
@@ -120,7 +124,7 @@ class SensorBank:
         bank's ``vec`` rows become the sensors' drifting states, so both advance together."""
         self.noise, self.book[USED] = np.zeros((len(KINDS), 0)), 0
         self.book[HELD] = [0 if d else ENDLESS for d in NORMALS]
-        pose, velocity, gps, imu, wheel, odometry, _ = self._sensors
+        pose, velocity, gps, imu, wheel, odometry, _ = self._by_slot
         q, v = self.par, self.vec
         if pose is not None:
             q[POSE, :2] = pose.params.position_noise, pose.params.yaw_noise
@@ -157,12 +161,12 @@ class SensorBank:
 
     def readings(self) -> dict[str, Readings]:
         """The readings :func:`measure_all` made last, by sensor name; sensors with none are left out."""
-        counts, filled = self.book[COUNT].tolist(), self.book[FILLED].tolist()
+        _, counts, _, _, filled = self.book.tolist()
         out = {}
-        for slot, name, message in self._names:
+        for slot, name, message, stamps, values in self._blocks:
             if c := counts[slot]:
                 b = filled[slot]
-                out[name] = Readings(name, message, self._stamp_rows[slot][b - c:b], self._views[slot][b - c:b])
+                out[name] = Readings(name, message, stamps[b - c:b], values[b - c:b])
         return out
 
     def make_room(self) -> None:
@@ -172,7 +176,7 @@ class SensorBank:
         need = max(BLOCK, *b[COUNT].tolist())
         rests, fresh = [], []
         for slot, (u, held, c) in enumerate(zip(b[USED].tolist(), b[HELD].tolist(), b[COUNT].tolist(), strict=True)):
-            d, sensor = NORMALS[slot], self._sensors[slot]
+            d, sensor = NORMALS[slot], self._by_slot[slot]
             short = d and sensor is not None and u + c > held
             rests.append(self.noise[slot, u * d:held * d])
             fresh.append(sensor.rng.standard_normal(need * d) if short else rests[-1][:0])
@@ -187,6 +191,7 @@ class SensorBank:
 
     def _new_blocks(self, rows: int) -> None:
         self.outs, self.stamps = np.zeros((len(KINDS), rows * max(WIDTHS))), np.zeros((len(KINDS), rows), np.int64)
-        self._views = [self.outs[s, :rows * w].reshape(rows, w) for s, w in enumerate(WIDTHS)]
-        self._stamp_rows = list(self.stamps)
+        self._blocks = [(s, sensor.name, sensor.message, self.stamps[s],
+                         self.outs[s, :rows * WIDTHS[s]].reshape(rows, -1))
+                        for s, sensor in zip(self._slots, self._sensors, strict=True)]
         self.book[FILLED] = 0

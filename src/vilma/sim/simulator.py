@@ -29,15 +29,16 @@ from vilma.plant3d.camera import CameraParams
 from vilma.plant3d.capture import WorldSensor
 from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
-from vilma.sensors import Readings, Samples, SensorSuite, build_sensors
+from vilma.sensors import Readings, Samples, Sensor, SensorSuite, build_sensors
 from vilma.sensors.bank import SensorBank
 from vilma.sensors.base import rows_of, sensor_rng
 from vilma.sensors.laser import PlanarLaser
 from vilma.sensors.objects import ObjectsParams, ObjectsSensor
 from vilma.sensors.scene import Scene, SceneSensor
+from vilma.sim.frame import run_frame
 from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
-from vilma.vehicle.integrate import INTEGRATORS, advance, constrain, empty_records
+from vilma.vehicle.integrate import INTEGRATORS, constrain, empty_records
 from vilma.vehicle.params import VehicleParams, plant_consts, vilma
 from vilma.vehicle.state import N3, NX, VX, YAW, VehicleState, X, Y
 from vilma.world.idm import IdmArrays, idle
@@ -190,6 +191,7 @@ class Simulator(Closeable):
         self.config = c = config or SimConfig()
         self.clock = Clock(seconds_to_ns(c.step))
         self._consts = plant_consts(c.vehicle)
+        self._consts_array = np.array(self._consts)  # crosses into compiled code far cheaper (sim/frame.py)
         self._plant3d = None
         self._world_sensors: list[WorldSensor] = []
         if c.model == MUJOCO:
@@ -222,6 +224,7 @@ class Simulator(Closeable):
         self._dead_ticks = self.clock.ticks_for(c.vehicle.actuators.dead_time)
         self._watchdog_ticks = self.clock.ticks_for(c.watchdog_timeout)
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._records, self._records_steps = empty_records(0), 0  # kept: the frames' records, for up to that many steps
         self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
         self.reset()
 
@@ -387,19 +390,28 @@ class Simulator(Closeable):
 
     def _run_chunk(self, n: int) -> dict[str, Readings]:
         t0, periods = self.clock.tick, self._periods
-        capacity = min(n, int(np.sum(n // periods + 1))) if len(periods) else 0
-        out_z, out_dx, out_tick = empty_records(capacity)
+        if n > self._records_steps:  # the records a chunk needs grow with its steps
+            self._records = empty_records(min(n, int(np.sum(n // periods + 1))) if len(periods) else 0)
+            self._records_steps = n
+        out_z, out_dx, out_tick = self._records
         mode = STOP if self.watchdog_tripped else self._mode
-        extra = None
         if self._plant3d is not None:
-            extra = np.empty((capacity, N3))
+            extra = np.empty((len(out_tick), N3))
             m = self._plant3d.advance(self._z, mode, self._cmd, self.clock.step_s, n, t0, periods, out_z, out_dx,
                                       out_tick, extra)
-        else:
-            m = advance(self._model, self._integrator, self._z, mode, self._cmd, self._consts, self.clock.step_s, n,
-                        t0, periods, out_z, out_dx, out_tick)
+            self.clock.tick = t0 + n
+            return self._measure_each(t0, n, out_tick[:m], out_z, out_dx, extra, self.sensors)
+        m, bank = -1, self._bank
+        while m < 0:  # again after the bank made room
+            m = run_frame(self._model, self._integrator, self._z, mode, self._cmd, self._consts_array,
+                          self.clock.step_s, n, t0, periods, out_z, out_dx, out_tick, self.clock.step_ns, bank.book,
+                          bank.noise, bank.outs, bank.stamps, bank.par, bank.vec, bank.axes)
+            if m < 0:
+                bank.make_room()
         self.clock.tick = t0 + n
-        return self._measure(t0, n, out_tick[:m], out_z, out_dx, extra)
+        if self._scene:
+            self._measure_each(t0, n, out_tick[:m], out_z, out_dx, None, ())
+        return bank.readings()
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
 
@@ -435,19 +447,20 @@ class Simulator(Closeable):
         if done.commanded_tick is not None:
             self._autonomous, self._last_command_tick = True, done.commanded_tick
         out_z, out_dx, out_tick = k.records
-        return self._measure(t0, done.ticks, out_tick[:done.records], out_z, out_dx)
+        ticks = out_tick[:done.records]
+        readings = self._bank.measure(t0, done.ticks, ticks, out_z, out_dx, self.clock.step_ns)
+        if self._scene:
+            self._measure_each(t0, done.ticks, ticks, out_z, out_dx, None, ())
+        return readings
 
-    def _measure(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
-                 extra: np.ndarray | None = None) -> dict[str, Readings]:
-        """The sensors' readings of the steps ``t0 + 1 .. t0 + n`` from the plant recorded at ``ticks`` (with
-        the 3D plant's ``extra``), by sensor name; the scene sensors' go to the captures."""
+    def _measure_each(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
+                      extra: np.ndarray | None, sensors: list[Sensor] | tuple[()]) -> dict[str, Readings]:
+        """The readings of ``sensors`` (all or none of :attr:`sensors`) of the steps ``t0 + 1 .. t0 + n``, one
+        sensor at a time, from the plant recorded at ``ticks`` (with the 3D plant's ``extra``), by sensor name;
+        the scene sensors' go to the captures."""
         step_ns, scans, readings = self.clock.step_ns, [], {}
-        if self._bank is not None:  # the planar plant: every sensor in one compiled call
-            readings = self._bank.measure(t0, n, ticks, out_z, out_dx, step_ns)
-            todo = zip(self._scene, self._periods[len(self.sensors):].tolist(), strict=True)
-        else:
-            todo = zip([*self.sensors, *self._scene], self._periods.tolist(), strict=True)
-        for sensor, period in todo:
+        periods = self._periods[len(self.sensors) - len(sensors):].tolist()
+        for sensor, period in zip([*sensors, *self._scene], periods, strict=True):
             first, count = (t0 // period + 1) * period, (t0 + n) // period - t0 // period
             if count:
                 s = Samples(rows_of(ticks, period, count), out_z, out_dx, extra)
