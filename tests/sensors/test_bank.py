@@ -1,0 +1,101 @@
+"""The sensor bank against the definition of each sensor's readings: the sensor's own ``measure``."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vilma.sensors import Samples, SensorSuite, build_sensors
+from vilma.sensors.bank import BLOCK, MAX_NORMALS, SensorBank
+from vilma.sensors.base import rows_of, sensor_rng
+from vilma.sensors.gps import GpsParams
+from vilma.sensors.imu import ImuParams
+from vilma.sensors.pose import PoseParams
+from vilma.sensors.velocity import VelocityParams
+from vilma.vehicle.params import vilma
+from vilma.vehicle.state import NX, NZ
+
+STEP_NS = 10_000_000
+NOISY = SensorSuite(pose=PoseParams(position_noise=0.1, yaw_noise=0.01),
+                    velocity=VelocityParams(rate_hz=25.0, linear_noise=0.1, angular_noise=0.01),
+                    gps=GpsParams(rate_hz=1.0, bias_sigma=0.3, offset=(0.5, 0.2, 1.5)),
+                    imu=ImuParams(offset=(0.3, -0.1, 0.2)))
+"""Every sensor, each with noise (GPS and IMU with drifting biases), at rates from 1 to 100 Hz."""
+PERIODS = np.array([5, 4, 100, 1, 2, 2, 2], dtype=np.int64)  # ticks of 10 ms: 20, 25, 1, 100, 50, 50, 50 Hz
+
+
+def _plant(steps, seed=0):
+    """A made-up plant record for ticks 1 .. steps: any numbers will do, the bank must read them as the sensors do."""
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(steps, NZ)) * 3.0, rng.normal(size=(steps, NX)), np.arange(1, steps + 1, dtype=np.int64)
+
+
+def _sensors(seed=4):
+    sensors = build_sensors(NOISY, vilma())
+    z0 = _plant(1, seed=1)[0][0]
+    for s in sensors:
+        s.reset(z0, sensor_rng(seed, s.name))
+    return sensors
+
+
+def _own(steps):
+    """Each sensor's readings of ticks 1 .. steps by its own ``measure``, in one batch: (stamps, values) by name."""
+    z, dx, ticks = _plant(steps)
+    out = {}
+    for sensor, period in zip(_sensors(), PERIODS.tolist(), strict=True):
+        count = steps // period
+        stamps = np.arange(period, (count + 1) * period, period, dtype=np.int64) * STEP_NS
+        out[sensor.name] = stamps, sensor.measure(Samples(rows_of(ticks, period, count), z, dx))
+    return out
+
+
+def _banked(chunks):
+    """The bank's readings of ticks 1 .. sum(chunks), measured chunk by chunk: lists of Readings by name."""
+    z, dx, ticks = _plant(sum(chunks))
+    bank, t0, got = SensorBank(_sensors(), PERIODS), 0, {}
+    bank.reset()
+    for n in chunks:
+        rows = slice(t0, t0 + n)  # the records of this chunk alone, as the simulator hands them over
+        for name, r in bank.measure(t0, n, ticks[rows], z[rows], dx[rows], STEP_NS).items():
+            got.setdefault(name, []).append(r)
+        t0 += n
+    return got
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.one_of(st.integers(1, 7), st.integers(BLOCK - 3, 3 * BLOCK)), min_size=1, max_size=12))
+def test_the_bank_reads_bit_for_bit_what_each_sensor_measures_however_the_run_is_chunked(chunks):
+    own, got = _own(sum(chunks)), _banked(chunks)
+    assert set(got) == {name for name, (stamps, _) in own.items() if len(stamps)}
+    for name, parts in got.items():
+        stamps, values = own[name]
+        np.testing.assert_array_equal(np.concatenate([r.stamp_ns for r in parts]), stamps)
+        np.testing.assert_array_equal(np.concatenate([r.values for r in parts]), values)
+
+
+def test_readings_handed_out_stay_as_they_were_while_the_bank_goes_on():
+    steps = 4 * BLOCK  # the IMU fills a block every BLOCK steps: new blocks and fresh noise come meanwhile
+    z, dx, ticks = _plant(steps)
+    bank = SensorBank(_sensors(), PERIODS)
+    bank.reset()
+    kept = [(r, r.stamp_ns.copy(), r.values.copy()) for r in bank.measure(0, 2, ticks[:2], z[:2], dx[:2],
+                                                                        STEP_NS).values()]
+    for t0 in range(2, steps, 2):
+        bank.measure(t0, 2, ticks[t0:t0 + 2], z[t0:t0 + 2], dx[t0:t0 + 2], STEP_NS)
+    for r, stamps, values in kept:
+        np.testing.assert_array_equal(r.stamp_ns, stamps)
+        np.testing.assert_array_equal(r.values, values)
+
+
+def test_noise_drawn_ahead_stays_within_two_blocks_with_sensors_a_hundred_times_apart():
+    """A 1 Hz GPS uses its noise a hundred times slower than a 100 Hz IMU: the streams are refilled one by one, so
+    what is held ahead does not pile up."""
+    steps = 60 * BLOCK
+    z, dx, ticks = _plant(2)
+    bank = SensorBank(_sensors(), PERIODS)
+    bank.reset()
+    largest = 0
+    for t0 in range(0, steps, 2):
+        ticks[:] = t0 + 1, t0 + 2
+        bank.measure(t0, 2, ticks, z, dx, STEP_NS)
+        largest = max(largest, bank.noise.shape[1] // MAX_NORMALS)
+    assert largest <= 2 * BLOCK
