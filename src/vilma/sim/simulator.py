@@ -365,7 +365,8 @@ class Simulator(Closeable):
                 stop = min(stop, (self.clock.tick // self._react_ticks + 1) * self._react_ticks)
             if stop > self.clock.tick:
                 chunks.append(self._run_chunk(stop - self.clock.tick))
-                self._capture()
+                if self._world_sensors:
+                    self._capture()
                 if self._react_ticks and self.clock.tick % self._react_ticks == 0:
                     self._react()
             while self._pending and self._pending[0][0] <= self.clock.tick:
