@@ -2,15 +2,14 @@
 
 The simulator measures its sensors once a block, after the compiled loop has run; a driver that steers by
 the EKF needs their readings every period. So the loop measures these three itself, with the sensors' own
-compiled kernels on copies of their noise state (the block's normal draws taken ahead from a copy of each
-sensor's generator, its biases copied): its readings are the very numbers the simulator measures after the
-block, and it fuses them with :func:`~vilma.localization.ekf.fuse` on the estimator's live arrays, as
-:meth:`Ekf.update <vilma.localization.ekf.Ekf.update>` does in the Python loop.
+compiled kernels on copies of their noise state (the normal draws each sensor takes next,
+:meth:`~vilma.sim.simulator.Simulator.normals_ahead`, its biases copied): its readings are the very numbers
+the simulator measures after the block, and it fuses them with :func:`~vilma.localization.ekf.fuse` on the
+estimator's live arrays, as :meth:`Ekf.update <vilma.localization.ekf.Ekf.update>` does in the Python loop.
 """
 
 from __future__ import annotations
 
-import copy
 from typing import NamedTuple
 
 import numpy as np
@@ -19,16 +18,12 @@ from numba import njit
 from vilma.localization.ekf import Ekf, fuse, pose_of
 from vilma.sensors.base import rows_of
 from vilma.sensors.gps import GpsSensor
-from vilma.sensors.gps import _measure as gps_measure
+from vilma.sensors.gps import measure_into as gps_measure
 from vilma.sensors.imu import ImuSensor
-from vilma.sensors.imu import _measure as imu_measure
-from vilma.sensors.imu import _planar as imu_ideal
-from vilma.sensors.noise import standard_normals
+from vilma.sensors.imu import measure_into as imu_measure
+from vilma.sensors.imu import planar as imu_ideal
 from vilma.sensors.wheel_speed import WheelSpeedSensor, wheel_speeds
 from vilma.sim import Simulator
-
-IMU_NORMALS, GPS_NORMALS, WHEEL_NORMALS = 13, 6, 4
-"""Standard normal draws per sample of each sensor (as its ``measure`` takes them)."""
 
 
 class EkfLoop(NamedTuple):
@@ -78,10 +73,10 @@ def ekf_ok(sim: Simulator) -> bool:
     return _sensors(sim) is not None
 
 
-def _normals(sensor, period: int, t0: int, ticks: int, dims: int) -> np.ndarray:
-    """The draws ``sensor`` will take for its samples in ticks ``t0 + 1 .. t0 + ticks``, from a copy of its
-    generator (the simulator takes the same ones when it measures the block)."""
-    return standard_normals(copy.deepcopy(sensor.rng), (t0 + ticks) // period - t0 // period, dims)
+def _normals(sim: Simulator, sensor, period: int, t0: int, ticks: int) -> np.ndarray:
+    """The draws ``sensor`` will take for its samples in ticks ``t0 + 1 .. t0 + ticks`` (the simulator takes the
+    same ones when it measures the block)."""
+    return sim.normals_ahead(sensor, (t0 + ticks) // period - t0 // period)
 
 
 def block_inputs(sim: Simulator, est: Ekf, t0: int, ticks: int) -> EkfLoop:
@@ -91,12 +86,12 @@ def block_inputs(sim: Simulator, est: Ekf, t0: int, ticks: int) -> EkfLoop:
     i, v, g = imu.params, wheel.vehicle, gps.params
     return EkfLoop(
         *est.kernel_args(), t0, sim.clock.step_ns, periods,
-        _normals(imu, int(periods[0]), t0, ticks, IMU_NORMALS), np.array(i.offset, dtype=float),
+        _normals(sim, imu, int(periods[0]), t0, ticks), np.array(i.offset, dtype=float),
         np.array([i.accel_noise, i.gyro_noise, i.orientation_noise]), imu.accel_bias.b.copy(),
         imu.gyro_bias.b.copy(), np.array([imu.accel_bias.phi, imu.accel_bias.step_sigma, imu.gyro_bias.step_sigma]),
-        _normals(wheel, int(periods[1]), t0, ticks, WHEEL_NORMALS),
+        _normals(sim, wheel, int(periods[1]), t0, ticks),
         np.array([v.cg_to_front, v.track, v.wheel_radius, wheel.params.noise]),
-        _normals(gps, int(periods[2]), t0, ticks, GPS_NORMALS), np.array(g.offset, dtype=float),
+        _normals(sim, gps, int(periods[2]), t0, ticks), np.array(g.offset, dtype=float),
         np.array([g.horizontal_noise, g.horizontal_noise, g.vertical_noise]), gps.bias.b.copy(),
         np.array([gps.bias.phi, gps.bias.step_sigma]), gps.frame.ecef0, gps.frame.axes)
 
@@ -117,13 +112,13 @@ def ekf_period(e, z, dx, ticks, t0, t1, ds):
     rows, imu_t, k = _samples(e, 0, ticks, t0, t1)
     noise, b = e.imu_noise, e.imu_bias_step
     imu = imu_measure(imu_ideal(rows, z, dx, e.imu_offset), e.imu_normals[k:k + len(rows)], noise[0], noise[1],
-                      noise[2], e.accel_bias, e.gyro_bias, b[0], b[1], b[2])
+                      noise[2], e.accel_bias, e.gyro_bias, b[0], b[1], b[2], np.empty((len(rows), 10)))
     rows, wheel_t, k = _samples(e, 1, ticks, t0, t1)
     lf, track, radius, sigma = e.wheel_geometry
     wheel = wheel_speeds(rows, z, lf, track, radius) + e.wheel_normals[k:k + len(rows)] * sigma
     rows, gps_t, k = _samples(e, 2, ticks, t0, t1)
     gps = gps_measure(rows, z, e.gps_normals[k:k + len(rows)], e.gps_offset, e.gps_sigma, e.gps_bias,
-                      e.gps_bias_step[0], e.gps_bias_step[1], e.ecef0, e.axes)
+                      e.gps_bias_step[0], e.gps_bias_step[1], e.ecef0, e.axes, np.empty((len(rows), 6)))
     fuse(e.s, e.P, e.mem, e.imu_last, imu_t, imu, wheel_t, wheel, gps_t, gps, e.c)
     started, x, y, yaw, speed, yaw_rate = pose_of(e.s, e.mem, e.imu_last)
     if started:

@@ -12,6 +12,8 @@ bit-identical to the sensors' own, however the run is chunked.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from numba import njit
 
@@ -168,6 +170,15 @@ class SensorBank:
                 b = filled[slot]
                 out[name] = Readings(name, message, stamps[b - c:b], values[b - c:b])
         return out
+
+    def normals_ahead(self, sensor: Sensor, count: int) -> np.ndarray:
+        """The standard normals ``sensor`` takes for its next ``count`` samples, (count, normals a sample), left for
+        it to take: those drawn ahead, then the next ones of a copy of its generator."""
+        slot = KINDS.index(type(sensor))
+        d, used, held = NORMALS[slot], int(self.book[USED, slot]), int(self.book[HELD, slot])
+        ahead = self.noise[slot, used * d:min(held, used + count) * d]
+        more = copy.deepcopy(sensor.rng).standard_normal(count * d - len(ahead))
+        return np.concatenate([ahead, more]).reshape(count, d)
 
     def make_room(self) -> None:
         """Draw more noise for the slots short of it and start new blocks, for the samples :func:`counts_fit`

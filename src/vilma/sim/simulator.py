@@ -454,6 +454,11 @@ class Simulator(Closeable):
             self._measure_each(t0, done.ticks, ticks, out_z, out_dx, None, ())
         return readings
 
+    def normals_ahead(self, sensor: Sensor, count: int) -> np.ndarray:
+        """The standard normals ``sensor`` (one of :attr:`sensors`) takes for its next ``count`` samples, left for
+        it (compiled code measuring as the simulator will: :mod:`vilma.scenario.lockstep_ekf`); planar plant only."""
+        return self._bank.normals_ahead(sensor, count)
+
     def _measure_each(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
                       extra: np.ndarray | None, sensors: list[Sensor] | tuple[()]) -> dict[str, Readings]:
         """The readings of ``sensors`` (all or none of :attr:`sensors`) of the steps ``t0 + 1 .. t0 + n``, one
