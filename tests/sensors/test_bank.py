@@ -99,3 +99,20 @@ def test_noise_drawn_ahead_stays_within_two_blocks_with_sensors_a_hundred_times_
         bank.measure(t0, 2, ticks, z, dx, STEP_NS)
         largest = max(largest, bank.noise.shape[1] // MAX_NORMALS)
     assert largest <= 2 * BLOCK
+
+
+def test_the_normals_ahead_are_those_a_sensor_takes_next_and_stay_its_own():
+    steps = 40  # the IMU has taken 40 rows of its 13 normals a sample; ask past what is drawn ahead
+    z, dx, ticks = _plant(steps + 2 * BLOCK)
+    sensors = _sensors()
+    bank = SensorBank(sensors, PERIODS)
+    bank.reset()
+    bank.measure(0, steps, ticks[:steps], z[:steps], dx[:steps], STEP_NS)
+    imu = next(s for s in sensors if s.name == "imu")
+    twin = next(s for s in _sensors() if s.name == "imu")
+    ahead = bank.normals_ahead(imu, 2 * BLOCK)
+    np.testing.assert_array_equal(ahead, twin.rng.standard_normal((steps + 2 * BLOCK, 13))[steps:])
+    rest = slice(steps, steps + 2 * BLOCK)
+    later = bank.measure(steps, 2 * BLOCK, ticks[rest], z[rest], dx[rest], STEP_NS)
+    own = _own(steps + 2 * BLOCK)["imu"][1][steps:]
+    np.testing.assert_array_equal(later["imu"].values, own)
