@@ -20,16 +20,10 @@ from vilma.core.geometry import quaternion_from_euler
 from vilma.record.live import FoxgloveLive
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture
 def live():
     bus = LocalBus()
-    server = FoxgloveLive(bus, port=_free_port())
+    server = FoxgloveLive(bus, port=0)
     yield bus, server
     server.close()
 
@@ -107,7 +101,7 @@ def test_up_serves_foxglove_and_run_needs_realtime():
 
     lines: list[str] = []
     assert programs.up(load_scenario(BUNDLED / "course_30kmh_stanley.yaml"), 50.0, 0.5, lines.append,
-                       foxglove=_free_port()) == 0
+                       foxglove=0) == 0
     assert lines[0].startswith("Foxglove: open connection ws://127.0.0.1:")
     with pytest.raises(ValueError, match="--realtime"):
         foxglove_observer(0, None, print)
@@ -116,7 +110,7 @@ def test_up_serves_foxglove_and_run_needs_realtime():
 
 def test_world_sensors_are_served_in_foxglove_schemas():
     bus = LocalBus()
-    server = FoxgloveLive(bus, port=_free_port(), world_topics=WORLD_TOPICS)
+    server = FoxgloveLive(bus, port=0, world_topics=WORLD_TOPICS)
     keys = [f"vilma/vilma/{n}" for n in WORLD_TOPICS]
     got: dict[int, dict] = {}
     try:
@@ -155,7 +149,7 @@ def test_world_sensors_are_served_in_foxglove_schemas():
 
 
 def test_a_live_server_in_a_with_block_stops_listening_even_when_the_block_raises():
-    with pytest.raises(RuntimeError, match="boom"), FoxgloveLive(LocalBus(), port=_free_port()) as live:
+    with pytest.raises(RuntimeError, match="boom"), FoxgloveLive(LocalBus(), port=0) as live:
         assert isinstance(live, FoxgloveLive)
         socket.create_connection(("127.0.0.1", live.port), timeout=5).close()  # it listens
         raise RuntimeError("boom")
@@ -166,7 +160,7 @@ def test_a_live_server_in_a_with_block_stops_listening_even_when_the_block_raise
 def test_a_live_run_view_in_a_with_block_stops_listening_even_when_the_block_raises():
     from vilma.app.record import foxglove_observer
 
-    with pytest.raises(RuntimeError, match="boom"), foxglove_observer(_free_port(), 1.0, print) as live:
+    with pytest.raises(RuntimeError, match="boom"), foxglove_observer(0, 1.0, print) as live:
         socket.create_connection(("127.0.0.1", live.server.port), timeout=5).close()  # it listens
         raise RuntimeError("boom")
     with pytest.raises(ConnectionRefusedError):

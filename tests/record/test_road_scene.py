@@ -87,7 +87,7 @@ def test_the_traffic_is_recorded_a_file_step_as_boxes_where_the_file_has_them(re
 def test_a_foxglove_client_gets_the_road_and_the_moving_traffic():
     from websockets.sync.client import connect
 
-    from tests.record.test_live import _free_port, _json_until
+    from tests.record.test_live import _json_until
     from vilma.bus.local import LocalBus
     from vilma.bus.topics import topic
     from vilma.core.messages import SimStatus
@@ -97,7 +97,7 @@ def test_a_foxglove_client_gets_the_road_and_the_moving_traffic():
     task = load_scenario(find_scenario("commonroad_tutorial")).road
     _, _, states = _obstacle(TUTORIAL, "dynamicObstacle")
     bus = LocalBus()
-    server = FoxgloveLive(bus, port=_free_port(), road=road_view(task))
+    server = FoxgloveLive(bus, port=0, road=road_view(task))
     try:
         with connect(f"ws://127.0.0.1:{server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
             channels = {}
@@ -198,13 +198,12 @@ def reactive_live(tmp_path_factory):
     recording and of a Foxglove client, by topic."""
     from websockets.sync.client import connect
 
-    from tests.record.test_live import _free_port
     from tests.scenario.test_reactive_traffic import _scenario
     from vilma.app.record import foxglove_observer
 
     sc = dataclasses.replace(_scenario(tmp_path_factory.mktemp("s"), "traffic: reactive"), duration=6.0)
     out, results = tmp_path_factory.mktemp("run"), []
-    with foxglove_observer(_free_port(), 2.0, print) as live, connect(
+    with foxglove_observer(0, 2.0, print) as live, connect(
             f"ws://127.0.0.1:{live.server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
         run = threading.Thread(target=lambda: results.append(record_run(sc, out, realtime=2.0,
                                                                         observers=live.watch(sc))))
