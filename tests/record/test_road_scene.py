@@ -8,6 +8,7 @@ import json
 import math
 import struct
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -168,31 +169,36 @@ def test_up_records_the_traffic_a_file_step_where_the_file_has_it(tmp_path):
 
 def _live_scenes(ws, run: threading.Thread) -> dict[str, list]:
     """The scene updates (log time, JSON) by topic a Foxglove client gets while ``run`` goes; it subscribes to
-    the road and the traffic once they are advertised."""
+    the road and the traffic once they are advertised, and again (new ids) while a topic has sent nothing for a
+    second (a subscription the server refused or lost: its answers are kept under ``status``)."""
     channels: dict[str, dict] = {}
     got: dict[str, list] = {}
-    subscribed = False  # once, as a Foxglove client does (later advertisements are the sensors' channels)
+    names: dict[int, str] = {}  # subscription id -> topic
+    asked = -math.inf  # when the last subscription was sent (monotonic s)
     while True:
         try:
             frame = ws.recv(timeout=0.5)
         except TimeoutError:
-            if run.is_alive():
-                continue
-            return got
+            frame = None
+            if not run.is_alive():
+                return got
         if isinstance(frame, str):
             msg = json.loads(frame)
-            if msg.get("op") == "status":  # the server's word on something it refused: kept for the message
+            if msg.get("op") == "status":
                 got.setdefault("status", []).append(msg)
             if msg.get("op") == "advertise":
                 channels.update({c["topic"]: c for c in msg["channels"]})
-                if not subscribed and {"vilma/vilma/road", "vilma/vilma/traffic"} <= set(channels):
-                    subscribed = True
-                    ws.send(json.dumps({"op": "subscribe", "subscriptions": [
-                        {"id": i, "channelId": channels[t]["id"]}
-                        for i, t in enumerate(("vilma/vilma/road", "vilma/vilma/traffic"))]}))
         elif isinstance(frame, bytes) and frame[0] == 0x01:
             sub, log_time = struct.unpack_from("<IQ", frame, 1)
-            got.setdefault(("road", "traffic")[sub], []).append((log_time, json.loads(frame[13:])))
+            got.setdefault(names[sub], []).append((log_time, json.loads(frame[13:])))
+        missing = [t for t in ("road", "traffic") if t not in got]
+        if missing and {f"vilma/vilma/{t}" for t in missing} <= set(channels) and time.monotonic() - asked > 1.0:
+            subs = []
+            for t in missing:
+                names[len(names)] = t
+                subs.append({"id": len(names) - 1, "channelId": channels[f"vilma/vilma/{t}"]["id"]})
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+            asked = time.monotonic()
 
 
 @pytest.fixture(scope="module")
