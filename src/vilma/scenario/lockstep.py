@@ -143,6 +143,64 @@ def _catch_up(est: TruthEstimator, ds: np.record, truth: np.ndarray, stamp_ns: i
                                     float(ds.yaw_rate), 0.0, 0.0, 0.0)
 
 
+class CompiledDrive:
+    """One car's drive in the compiled loop, a block of driver periods at a time (:func:`run_compiled`; a fleet
+    interleaves the blocks of many cars: :mod:`vilma.scenario.fleet`).
+
+    :meth:`start` gives the arguments of :func:`_loop` for the next block; whoever calls it with them hands its
+    return value to :meth:`end`, which appends the block's rows to ``log`` and gives ``on_block`` its readings.
+    """
+
+    def __init__(self, sim: Simulator, driver: Driver, log: DriveLog, periods: int, stop_at_rest: bool,
+                 on_block: Callable[[dict[str, Readings]], None] | None = None) -> None:
+        self.sim, self.driver, self.log, self.periods, self.stop_at_rest = sim, driver, log, periods, stop_at_rest
+        self.on_block = on_block
+        est = driver.estimator
+        self.ekf = isinstance(est, Ekf)
+        self.truth = np.zeros(2) if self.ekf else np.array([est.speed, est.yaw_rate])
+        self.truth_periods = _truth_periods(sim)
+        self.rows = np.empty((BLOCK, len(COLUMNS)))
+        self.done, self.stopped = 0, False
+        self._kernel: PlantKernel | None = None
+
+    @property
+    def running(self) -> bool:
+        """Whether periods are left and the car has not stopped at rest."""
+        return self.done < self.periods and not self.stopped
+
+    def start(self) -> tuple:
+        """The arguments of :func:`_loop` for up to a block of periods from where the simulator is."""
+        sim, driver = self.sim, self.driver
+        self._kernel = p = sim.kernel_start(BLOCK * driver.period_ticks)
+        n = min(BLOCK, self.periods - self.done)
+        e = block_inputs(sim, driver.estimator, p.tick, n * driver.period_ticks) if self.ekf else None
+        return (p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records, n, p.mode,
+                p.cmd, p.limits, *driver.step_args(), driver.params.original_speed, self.stop_at_rest, self.rows,
+                self.truth, *self.truth_periods, p.traffic, sim.config.vehicle.body_offset, e)
+
+    def end(self, ran: tuple[int, int, bool], wall: float) -> None:
+        """Take the block :func:`_loop` ran: ``ran`` its return value, ``wall`` [s] the wall time it took."""
+        k, m, self.stopped = ran
+        sim, driver, p, rows = self.sim, self.driver, self._kernel, self.rows
+        rows[:k, -1] = wall / k * 1e6
+        sent = np.flatnonzero(~np.isnan(rows[:k, 15]))
+        commanded = p.tick + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None
+        readings = sim.kernel_end(p, KernelResult(k * driver.period_ticks, m, commanded))
+        est = driver.estimator
+        if self.ekf:
+            if est.refresh() is not None:  # the estimate and the driver's stamp as Driver.update leaves them
+                driver.stamp_ns = est.estimate.stamp_ns
+        else:
+            driver.stamp_ns = sim.clock.step_ns * sim.clock.tick
+            pose_period = self.truth_periods[0]
+            _catch_up(est, driver.state, self.truth, sim.clock.step_ns * (p.tick // pose_period * pose_period))
+        self.log.extend(rows[:k])
+        if self.on_block is not None:
+            self.on_block(readings)
+        self.done += k
+        self._kernel = None
+
+
 def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, stop_at_rest: bool,
                  on_block: Callable[[dict[str, Readings]], None] | None = None) -> bool:
     """Run up to ``periods`` driver periods compiled, appending a log row each; True if it stopped at rest.
@@ -152,39 +210,10 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     ``controller_us`` holds the wall time per period of the whole compiled loop (plant, driver and
     log): an upper bound of the driver's cost.
     """
-    args = driver.step_args()
-    est = driver.estimator
-    ekf = isinstance(est, Ekf)
-    truth = np.zeros(2) if ekf else np.array([est.speed, est.yaw_rate])
-    pose_period, vel_period = _truth_periods(sim)
-    rows = np.empty((BLOCK, len(COLUMNS)))
-    offset = sim.config.vehicle.body_offset
-    done, k, stopped = 0, 0, False
-
-    def block(p: PlantKernel) -> KernelResult:
-        """Up to a block of periods from where the simulator is; leaves their rows in ``rows[:k]``."""
-        nonlocal k, stopped
-        wall, n = time.perf_counter(), min(BLOCK, periods - done)
-        e = block_inputs(sim, est, p.tick, n * driver.period_ticks) if ekf else None
-        k, m, stopped = _loop(p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records,
-                              n, p.mode, p.cmd, p.limits, *args, driver.params.original_speed, stop_at_rest, rows,
-                              truth, pose_period, vel_period, p.traffic, offset, e)
-        rows[:k, -1] = (time.perf_counter() - wall) / k * 1e6
-        sent = np.flatnonzero(~np.isnan(rows[:k, 15]))
-        commanded = p.tick + driver.period_ticks * int(sent[-1] + 1) if len(sent) else None
-        return KernelResult(k * driver.period_ticks, m, commanded)
-
-    while done < periods and not stopped:
-        t0 = sim.clock.tick
-        readings = sim.advance_compiled(BLOCK * driver.period_ticks, block)
-        if ekf:
-            if est.refresh() is not None:  # the estimate and the driver's stamp as Driver.update leaves them
-                driver.stamp_ns = est.estimate.stamp_ns
-        else:
-            driver.stamp_ns = sim.clock.step_ns * sim.clock.tick
-            _catch_up(est, driver.state, truth, sim.clock.step_ns * (t0 // pose_period * pose_period))
-        log.extend(rows[:k])
-        if on_block is not None:
-            on_block(readings)
-        done += k
-    return stopped
+    drive = CompiledDrive(sim, driver, log, periods, stop_at_rest, on_block)
+    while drive.running:
+        args = drive.start()
+        wall = time.perf_counter()
+        ran = _loop(*args)
+        drive.end(ran, time.perf_counter() - wall)
+    return drive.stopped

@@ -433,16 +433,29 @@ class Simulator(Closeable):
         Raises:
             RuntimeError: not :attr:`compiled_ok`.
         """
+        k = self.kernel_start(ticks)
+        return self.kernel_end(k, kernel(k))
+
+    def kernel_start(self, ticks: int) -> PlantKernel:
+        """What compiled code advancing the plant up to ``ticks`` steps works on: :meth:`advance_compiled` in two
+        halves, for a caller that advances many simulators in one compiled call (:mod:`vilma.scenario.fleet`);
+        :meth:`kernel_end` must follow before anything else is asked of the simulator.
+
+        Raises:
+            RuntimeError: not :attr:`compiled_ok`.
+        """
         if not self.compiled_ok:
             raise RuntimeError("this simulator cannot be advanced by compiled code now (see compiled_ok)")
         if self._kernel_records is None or len(self._kernel_records[2]) < ticks:
             self._kernel_records = empty_records(ticks)  # kept: one allocation for the blocks of a run
-        t0 = self.clock.tick
-        k = PlantKernel(self._model, self._integrator, self._z, self._consts, self.clock.step_s, self.clock.step_ns,
-                        t0, self._periods, self._kernel_records, np.array([self._mode]), self._cmd.copy(),
-                        command_limits(self.config.vehicle),
-                        idle() if self.config.reactive is None else self.config.reactive.arrays)
-        done = kernel(k)
+        return PlantKernel(self._model, self._integrator, self._z, self._consts, self.clock.step_s, self.clock.step_ns,
+                           self.clock.tick, self._periods, self._kernel_records, np.array([self._mode]),
+                           self._cmd.copy(), command_limits(self.config.vehicle),
+                           idle() if self.config.reactive is None else self.config.reactive.arrays)
+
+    def kernel_end(self, k: PlantKernel, done: KernelResult) -> dict[str, Readings]:
+        """Take what compiled code did to the plant of :meth:`kernel_start`'s ``k``; returns the readings."""
+        t0 = k.tick
         self.clock.tick = t0 + done.ticks
         self._mode, self._cmd = int(k.mode[0]), k.cmd
         if done.commanded_tick is not None:
