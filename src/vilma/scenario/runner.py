@@ -8,10 +8,11 @@ the machine allows; ``realtime`` paces it with :class:`~vilma.sim.Pacer`.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from numba.core.event import TimingListener, install_listener
@@ -56,18 +57,36 @@ def run(scenario: Scenario, realtime: float | None = None, compiled: bool = True
         Interrupted: Ctrl-C; the observers were told (:meth:`~vilma.scenario.result.RunObserver.failed`).
     """
     started = time.perf_counter() if started is None else started
-    loading = _LoadTimer()
-    with install_listener("numba:compiler_lock", loading):
-        try:
-            result = _run(scenario, realtime, compiled, observers, loading)
-        except BaseException as e:
-            for o in observers:
-                o.failed(isinstance(e, KeyboardInterrupt))
-            raise
+    loading = LoadTimer()
+    with install_listener("numba:compiler_lock", loading), failing(observers):
+        car = Car(scenario, scenario.reference_path(), observers)
+        with Simulator(car.config) as sim:  # the 3D plant's renderers are freed however it ends
+            try:
+                result = car.drive(sim, realtime, compiled, loading)
+            except KeyboardInterrupt:
+                raise Interrupted(sim.time_ns * 1e-9) from None
+    return finish(result, observers, lambda: time.perf_counter() - started, loading.seconds)
+
+
+@contextlib.contextmanager
+def failing(observers: Sequence[RunObserver]) -> Iterator[None]:
+    """Tell the ``observers`` when what runs inside fails (:meth:`~vilma.scenario.result.RunObserver.failed`)."""
+    try:
+        yield
+    except BaseException as e:
+        for o in observers:
+            o.failed(isinstance(e, KeyboardInterrupt))
+        raise
+
+
+def finish(result: RunResult, observers: Sequence[RunObserver], wall: Callable[[], float],
+           load: float) -> RunResult:
+    """Add the timing keys (``wall()`` [s] the run's share of the command so far, ``load`` [s] of loading compiled
+    code) and hand the result to the ``observers``; returns it."""
     m = result.metrics
 
     def clock_out() -> None:
-        m.update(timing(m["sim_time_s"], time.perf_counter() - started, m["loop_wall_time_s"], loading.seconds))
+        m.update(timing(m["sim_time_s"], wall(), m["loop_wall_time_s"], load))
 
     clock_out()  # the observers see the time so far
     try:
@@ -88,7 +107,7 @@ class Interrupted(KeyboardInterrupt):
         self.t = t
 
 
-class _LoadTimer(TimingListener):
+class LoadTimer(TimingListener):
     """Wall time [s] spent loading (or compiling) numba code: under numba's compiler lock (numba's event API)."""
 
     @property
@@ -96,78 +115,103 @@ class _LoadTimer(TimingListener):
         return self.duration if self.done else 0.0
 
 
-def _run(scenario: Scenario, realtime: float | None, compiled: bool, observers: Sequence[RunObserver],
-         loading: _LoadTimer) -> RunResult:
-    path = scenario.reference_path()
-    driver = Driver(scenario.sim.vehicle, scenario.driver, step=scenario.sim.step)
-    capacity = round(scenario.duration / driver.period) + 2  # a row a period, allocated once
-    with Simulator(sim_config(scenario, capacity)) as sim:  # the 3D plant's renderers are freed however it ends
-        sim.reset(initial_state(scenario, path))
-        log = DriveLog(capacity=capacity)
-        for o in observers:
-            o.started(sim, log)
+class Car:
+    """One scenario's run: its self-driver and simulator settings, then (:meth:`start`) its simulator, log and first
+    readings, its task given; the loop that drives it, and the scorecard.
 
-        def on_block(readings: dict[str, Readings]) -> None:
-            for o in observers:
-                o.add(readings)
-            captures = sim.take_captures()  # camera images, laser scans, object lists: handed on, never kept
-            for o in observers if captures else ():
-                o.add_captures(captures)
+    ``path`` is the scenario's :meth:`~vilma.scenario.spec.Scenario.reference_path` (cars of one scenario share
+    it).
+    """
 
-        def step(readings: dict[str, Readings]) -> None:
-            t0 = time.perf_counter()
-            cmd = driver.update(readings)
-            spent = (time.perf_counter() - t0) * 1e6
-            if cmd is not None:
-                sim.command(cmd)
-            z, st, est = sim.plant, driver.status, driver.estimator.estimate
-            log.add((sim.time_ns * 1e-9, *z, st.target_speed, st.speed,
-                     *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
-                     *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
-            on_block(readings)
+    def __init__(self, scenario: Scenario, path: Trajectory | None, observers: Sequence[RunObserver] = ()) -> None:
+        self.scenario, self.path, self.observers = scenario, path, observers
+        self.driver = Driver(scenario.sim.vehicle, scenario.driver, step=scenario.sim.step)
+        self.capacity = round(scenario.duration / self.driver.period) + 2  # a row a period, allocated once
+        self.config = sim_config(scenario, self.capacity)
+        """The simulator's settings: the caller opens the :class:`Simulator`."""
+        self.periods, self.t_start = 0, 0.0
 
-        try:
-            return _drive(scenario, sim, driver, log, path, step, on_block, realtime, compiled, loading)
-        except KeyboardInterrupt:
-            raise Interrupted(sim.time_ns * 1e-9) from None
+    def start(self, sim: Simulator) -> None:
+        """Put the car at its start on ``sim`` (opened with :attr:`config`) with a new log; the observers start."""
+        self.sim = sim
+        sim.reset(initial_state(self.scenario, self.path))
+        self.log = DriveLog(capacity=self.capacity)
+        for o in self.observers:
+            o.started(sim, self.log)
 
+    def begin(self) -> None:
+        """Take the first readings (the estimator starts) and give the driver its task; :attr:`periods` are then
+        left to drive."""
+        s, sim, period = self.scenario, self.sim, self.driver.period_ticks
+        self.step(sim.advance(period))
+        task = start_task(self.driver, s, self.path)
+        self.t_start = sim.time_ns * 1e-9
+        if task is not None:
+            self.path = task
+        self.periods = round((s.duration - self.t_start) / (period * sim.clock.step_s))
 
-def _drive(scenario: Scenario, sim: Simulator, driver: Driver, log: DriveLog, path: Trajectory | None, step,
-           on_block, realtime: float | None, compiled: bool, loading: _LoadTimer) -> RunResult:
-    """The loop of :func:`run`: start the task, step until it is done or time is up, score (against the traffic
-    where it drove when it is ``reactive``)."""
-    period = driver.period_ticks
-    wall0, load0 = time.perf_counter(), loading.seconds
-    step(sim.advance(period))  # the first readings: the estimator starts
-    task = start_task(driver, scenario, path)
-    t_start = sim.time_ns * 1e-9
-    if task is not None:
-        path = task
-    follows = scenario.task.kind != "speed"
+    @property
+    def follows(self) -> bool:
+        """Whether the task ends at rest at the end of a path (not a speed task)."""
+        return self.scenario.task.kind != "speed"
 
-    def finished() -> bool:
-        return follows and driver.status.arrived and abs(sim.plant[VX]) < scenario.driver.rest_speed
+    def on_block(self, readings: dict[str, Readings]) -> None:
+        """Hand a block's readings and the 3D plant's captures to the observers."""
+        for o in self.observers:
+            o.add(readings)
+        captures = self.sim.take_captures()  # camera images, laser scans, object lists: handed on, never kept
+        for o in self.observers if captures else ():
+            o.add_captures(captures)
 
-    remaining = scenario.duration - t_start
-    periods = round(remaining / (period * sim.clock.step_s))
-    if realtime is None and compiled and compiled_ok(sim, driver):
-        run_compiled(sim, driver, log, periods, follows, on_block)
-    elif realtime is None:
-        for _ in range(periods):
-            if finished():
-                break
-            step(sim.advance(period))
-    else:
-        Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(remaining, on_period=step,
-                                                                         should_stop=finished)
-    loop = time.perf_counter() - wall0 - (loading.seconds - load0)
-    if sim.config.reactive is not None:
-        scenario = dataclasses.replace(scenario, road=sim.config.reactive.task(scenario.road))
-    metrics = scorecard(log, scenario, path, t_start, broke_down=WATCHDOG_STOP if sim.watchdog_tripped else None)
-    metrics.update(loop_wall_time_s=loop)
-    if scenario.road is None:  # a road's collisions are the benchmark's (the scorecard's)
-        metrics["collisions"] = sim.collisions[0]
-    return RunResult(scenario, metrics, expectation_failures(metrics, scenario), log, path, t_start)
+    def step(self, readings: dict[str, Readings]) -> None:
+        """One driver period in Python: the driver takes the readings, its command goes to the car, a log row."""
+        sim, driver = self.sim, self.driver
+        t0 = time.perf_counter()
+        cmd = driver.update(readings)
+        spent = (time.perf_counter() - t0) * 1e6
+        if cmd is not None:
+            sim.command(cmd)
+        z, st, est = sim.plant, driver.status, driver.estimator.estimate
+        self.log.add((sim.time_ns * 1e-9, *z, st.target_speed, st.speed,
+                      *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
+                      *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
+        self.on_block(readings)
+
+    def finished(self) -> bool:
+        """Whether the task is done: arrived at the end of its path, at rest."""
+        return self.follows and self.driver.status.arrived and abs(self.sim.plant[VX]) < self.scenario.driver.rest_speed
+
+    def drive(self, sim: Simulator, realtime: float | None, compiled: bool, loading: LoadTimer) -> RunResult:
+        """The loop of :func:`run` on ``sim``: start, step until the task is done or time is up, score."""
+        self.start(sim)
+        wall0, load0 = time.perf_counter(), loading.seconds
+        self.begin()
+        driver, period = self.driver, self.driver.period_ticks
+        if realtime is None and compiled and compiled_ok(sim, driver):
+            run_compiled(sim, driver, self.log, self.periods, self.follows, self.on_block)
+        elif realtime is None:
+            for _ in range(self.periods):
+                if self.finished():
+                    break
+                self.step(sim.advance(period))
+        else:
+            Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(
+                self.scenario.duration - self.t_start, on_period=self.step, should_stop=self.finished)
+        return self.score(time.perf_counter() - wall0 - (loading.seconds - load0))
+
+    def score(self, loop: float) -> RunResult:
+        """The result: the scorecard (against the traffic where it drove when it is ``reactive``) with ``loop`` [s]
+        the loop's wall time."""
+        scenario, sim = self.scenario, self.sim
+        if sim.config.reactive is not None:
+            scenario = dataclasses.replace(scenario, road=sim.config.reactive.task(scenario.road))
+        metrics = scorecard(self.log, scenario, self.path, self.t_start,
+                            broke_down=WATCHDOG_STOP if sim.watchdog_tripped else None)
+        metrics.update(loop_wall_time_s=loop)
+        if scenario.road is None:  # a road's collisions are the benchmark's (the scorecard's)
+            metrics["collisions"] = sim.collisions[0]
+        return RunResult(scenario, metrics, expectation_failures(metrics, scenario), self.log, self.path,
+                         self.t_start)
 
 
 def sim_config(scenario: Scenario, periods: int | None = None) -> SimConfig:
