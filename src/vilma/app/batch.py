@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -21,7 +22,7 @@ from vilma.record.run import record_run
 from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the demo and the tests find them
 from vilma.scenario.bundled import find_scenario as find_scenario
 from vilma.scenario.fields import SpecError
-from vilma.scenario.folder import claim
+from vilma.scenario.folder import RunFolder, claim, write_metrics
 from vilma.scenario.lockstep import _loop
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario, load_scenario
@@ -79,6 +80,39 @@ def plan(files: Sequence[str], sets: Sequence[str]) -> list[Job]:
         for overrides in parse_sets(sets):
             jobs.append(Job(load_scenario(f, overrides), tuple(overrides.items())))
     return jobs
+
+
+def as_cars(jobs: Sequence[Job], cars: int) -> list[Job]:
+    """Each job as ``cars`` cars: its scenario with the seeds ``seed``, ``seed + 1`` ... (``seed=`` in the label)."""
+    if len(jobs) * cars > MAX_RUNS:
+        raise SpecError(f"--cars: {len(jobs) * cars:.3g} cars in all, more than {MAX_RUNS}; ask for fewer")
+    out = []
+    for job in jobs:
+        sim = job.scenario.sim
+        for k in range(cars):
+            seed = sim.seed + k
+            out.append(Job(dataclasses.replace(job.scenario, sim=dataclasses.replace(sim, seed=seed)),
+                           (*((key, v) for key, v in job.overrides if key != "seed"), ("seed", str(seed)))))
+    return out
+
+
+def run_cars(jobs: list[Job], out: Path | None, console: Console, overwrite: bool = False) -> list[RunResult]:
+    """Run the jobs side by side in the compiled loop (:func:`~vilma.scenario.fleet.run_fleet`), each writing its
+    folder (:func:`out_dirs`) without plots or recording: ``timeseries.csv``, ``scenario.yaml``, ``metrics.json``."""
+    from vilma.scenario.fleet import run_fleet
+
+    dirs = out_dirs(jobs, out)
+    claim(dirs, overwrite)
+    if jobs and numba_cache_cold():
+        console.print(COMPILING, highlight=False)
+    bar = Progress(console=console, transient=True, disable=not console.is_terminal)
+    with bar:
+        task = bar.add_task(f"{len(jobs)} cars", total=len(jobs))
+        results = run_fleet([j.scenario for j in jobs], lambda i, _: (RunFolder(dirs[i], plots=False),),
+                            lambda done: bar.update(task, completed=done))
+    for r, d in zip(results, dirs, strict=True):
+        write_metrics(r, d)
+    return results
 
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,

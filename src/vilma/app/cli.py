@@ -12,6 +12,8 @@ import time
 from pathlib import Path
 
 from vilma.app.options import (
+    MAX_CARS,
+    cars,
     count,
     duration,
     non_negative,
@@ -74,16 +76,21 @@ def _run(args: argparse.Namespace) -> int:
 
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
     console = _console(args)
-    live = None
-    if args.foxglove is not None:
-        from vilma.app.record import foxglove_observer
+    if args.cars is not None:
+        if args.realtime is not None or args.foxglove is not None:
+            raise ValueError("--cars drives the cars as fast as it can: drop --realtime and --foxglove")
+        jobs = batch.as_cars(jobs, args.cars)
+        results = batch.run_cars(jobs, Path(args.out) if args.out else None, console, args.overwrite)
+    else:
+        live = None
+        if args.foxglove is not None:
+            from vilma.app.record import foxglove_observer
 
-        live = foxglove_observer(args.foxglove, args.realtime, console.print)
-    with live or contextlib.nullcontext():
-        results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
-                                live.watch if live else lambda _: (), record=not args.no_record,
-                                plots=not args.no_plots, overwrite=args.overwrite,
-                                started=STARTED)
+            live = foxglove_observer(args.foxglove, args.realtime, console.print)
+        with live or contextlib.nullcontext():
+            results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
+                                    live.watch if live else lambda _: (), record=not args.no_record,
+                                    plots=not args.no_plots, overwrite=args.overwrite, started=STARTED)
     if len(results) == 1:
         console.print(batch.scorecard_table(results[0]))
     console.print(batch.summary_table(jobs, results))
@@ -260,6 +267,9 @@ def _add_runs(sub) -> None:
                    help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
     r.add_argument("--no-record", action="store_true", help="write no run.mcap (the other files as usual)")
     r.add_argument("--no-plots", action="store_true", help="draw no plots (the other files as usual)")
+    r.add_argument("--cars", type=cars, default=None, metavar="N",
+                   help="drive N cars of each run side by side in the compiled loop, with the seeds seed, seed+1 ... "
+                        f"(at most {MAX_CARS}); each writes its folder without plots or run.mcap")
     r.add_argument("--overwrite", action="store_true", help="replace the files of an earlier run in the --out folder "
                    "(without it, a folder that holds anything is refused)")
     r.set_defaults(func=_run)

@@ -57,6 +57,15 @@ def count(text: str) -> int:
     return _number(text, lambda v: v >= 1, "a whole number >= 1", int)
 
 
+MAX_CARS = 100_000
+"""Cars one ``vilma run --cars`` may drive per run."""
+
+
+def cars(text: str) -> int:
+    """A number of cars, 1 .. :data:`MAX_CARS`."""
+    return _number(text, lambda v: 1 <= v <= MAX_CARS, f"a whole number of cars, 1-{MAX_CARS}", int)
+
+
 def port(text: str) -> int:
     """A TCP port, 1-65535."""
     return _number(text, lambda v: 1 <= v <= 65535, "a TCP port, 1-65535", int)

@@ -182,11 +182,16 @@ class Car:
         return self.follows and self.driver.status.arrived and abs(self.sim.plant[VX]) < self.scenario.driver.rest_speed
 
     def drive(self, sim: Simulator, realtime: float | None, compiled: bool, loading: LoadTimer) -> RunResult:
-        """The loop of :func:`run` on ``sim``: start, step until the task is done or time is up, score."""
+        """The run of :func:`run` on ``sim``: start, step until the task is done or time is up, score."""
         self.start(sim)
         wall0, load0 = time.perf_counter(), loading.seconds
         self.begin()
-        driver, period = self.driver, self.driver.period_ticks
+        self.loop(realtime, compiled)
+        return self.score(time.perf_counter() - wall0 - (loading.seconds - load0))
+
+    def loop(self, realtime: float | None, compiled: bool) -> None:
+        """After :meth:`begin`: step until the task is done or time is up, compiled if it may (see :func:`run`)."""
+        sim, driver, period = self.sim, self.driver, self.driver.period_ticks
         if realtime is None and compiled and compiled_ok(sim, driver):
             run_compiled(sim, driver, self.log, self.periods, self.follows, self.on_block)
         elif realtime is None:
@@ -197,7 +202,6 @@ class Car:
         else:
             Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(
                 self.scenario.duration - self.t_start, on_period=self.step, should_stop=self.finished)
-        return self.score(time.perf_counter() - wall0 - (loading.seconds - load0))
 
     def score(self, loop: float) -> RunResult:
         """The result: the scorecard (against the traffic where it drove when it is ``reactive``) with ``loop`` [s]
