@@ -16,7 +16,8 @@
   plant (every default sensor) over the anchor, the median of the ratios of runs made in turns (anchor, plant,
   anchor, plant ...: this machine's speed varies 2x). Target (issue 21): at least 0.9 at 20 ms.
 
-Each figure is the median of ``REPEAT`` runs (``PAIRS`` pairs against the anchor). Usage: ``python benchmarks/plant3d.py``.
+Each figure is the median of ``REPEAT`` runs (``PAIRS`` pairs against the anchor). Usage:
+``python benchmarks/plant3d.py``.
 """
 
 from __future__ import annotations

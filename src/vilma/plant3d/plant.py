@@ -11,10 +11,10 @@ import numpy as np
 from vilma.plant3d.car_model import CORNERS, TIMESTEP, car_xml
 from vilma.plant3d.road import TrafficMover, road_xml, traffic_xml
 from vilma.plant3d.world import World
-from vilma.vehicle.actuators import actuator_step, targets
+from vilma.vehicle.actuators import actuate
 from vilma.vehicle.models.common import V_SIGN
 from vilma.vehicle.params import VehicleParams, plant_consts
-from vilma.vehicle.state import N3, NX, VehicleState
+from vilma.vehicle.state import NX, VehicleState
 
 if TYPE_CHECKING:  # the roads extra
     from vilma.world.road_view import LaneletLines
@@ -73,7 +73,7 @@ class MujocoPlant:
         self._steer_q = np.array([m.joint(f"steer_{c}").qposadr[0] for c in ("fl", "fr")])
         self._k_drag = 0.5 * params.air_density * params.drag_area
         self._f_roll = params.rolling_resistance * params.mass * 9.81
-        self._consts = plant_consts(params)
+        self._consts = np.array(plant_consts(params))  # crosses into compiled code far cheaper than the tuple
         self.reset()
 
     def reset(self, state: VehicleState = VehicleState()) -> None:
@@ -150,9 +150,8 @@ class MujocoPlant:
         j = 0
         periods = periods.tolist()
         for i in range(1, n + 1):
-            steer, drive, brake = targets(mode, cmd, x, u, self._consts)
-            actuator_step(u, steer, drive, brake, self._consts, dt)
-            self.step(u[0], u[1], u[2], dt)
+            actuate(mode, cmd, x, u, self._consts, dt)
+            self.step(*u.tolist(), dt)
             x = self.planar_state()
             if any((tick + i) % p == 0 for p in periods):
                 out_z[j, :NX], out_z[j, NX:] = x, u
@@ -164,17 +163,13 @@ class MujocoPlant:
         z[:NX], z[NX:] = x, u
         return j
 
-    def extras(self) -> np.ndarray:
+    def extras(self) -> tuple[float, ...]:
         """What only the 3D plant has, in the layout of :data:`vilma.vehicle.state.N3` (height above rest, roll,
         pitch, vertical velocity, body angular velocity, specific force at the IMU)."""
         d = self.data
-        out = np.empty(N3)
-        out[0:3] = self.attitude()
-        out[0] -= self.params.suspension.cg_height
-        out[3] = d.qvel[2]
-        out[4:7] = d.sensordata[self._gyro:self._gyro + 3]
-        out[7:10] = d.sensordata[self._accel:self._accel + 3]
-        return out
+        z, roll, pitch = self.attitude()
+        return (z - self.params.suspension.cg_height, roll, pitch, float(d.qvel[2]),
+                *d.sensordata[self._gyro:self._gyro + 3].tolist(), *d.sensordata[self._accel:self._accel + 3].tolist())
 
     def derivative(self, state: tuple[float, ...] | None = None) -> tuple[float, float, float, float, float, float]:
         """Time derivative of :meth:`planar_state` now (as the planar models' ``derivative``); ``state``: the
@@ -202,7 +197,7 @@ class MujocoPlant:
     def attitude(self) -> tuple[float, float, float]:
         """``(z [m] of the centre of mass, roll, pitch [rad])`` (ZYX Euler angles, roll about body x, pitch
         about body y: positive nose down)."""
-        w, x, y, z = self.data.qpos[3:7]
+        w, x, y, z = self.data.qpos[3:7].tolist()  # floats: numpy scalars are slow to compute with
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
         return float(self.data.qpos[2]), roll, pitch

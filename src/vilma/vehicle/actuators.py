@@ -18,7 +18,7 @@ from numba import njit
 
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.vehicle.models.common import V_SIGN
-from vilma.vehicle.params import VehicleParams
+from vilma.vehicle.params import PlantConsts, VehicleParams
 from vilma.vehicle.state import VX, VY
 
 FORCE, ACCEL, POWER, STOP = 0, 1, 2, 3
@@ -132,3 +132,20 @@ def actuator_step(u, steer, drive, brake, p, dt):
     u[0] += min(max(d, -limit), limit)
     u[1] += lag_gain(p.tau_drive, dt) * (drive - u[1])
     u[2] += lag_gain(p.tau_brake, dt) * (max(brake, 0.0) - u[2])
+
+
+@njit(cache=True)
+def consts_of(a):
+    """The :class:`~vilma.vehicle.params.PlantConsts` whose fields are the array ``a``, in order."""
+    return PlantConsts(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12], a[13], a[14],
+                       a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27],
+                       a[28], a[29])
+
+
+@njit(cache=True)
+def actuate(mode, cmd, x, u, consts, dt):
+    """:func:`targets` then :func:`actuator_step` (``u`` in place), the constants as an array (:func:`consts_of`):
+    one call from Python for the two, and their arguments cross cheaply (:mod:`vilma.sim.frame`)."""
+    p = consts_of(consts)
+    steer, drive, brake = targets(mode, cmd, x, u, p)
+    actuator_step(u, steer, drive, brake, p, dt)
