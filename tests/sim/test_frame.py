@@ -4,7 +4,7 @@ import dataclasses
 
 import numpy as np
 
-from vilma.sim.frame import consts_of
+from vilma.vehicle.actuators import consts_of
 from vilma.vehicle.params import plant_consts, vilma
 
 

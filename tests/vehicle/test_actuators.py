@@ -3,14 +3,14 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import STEP, drive, physics_only
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sim import Simulator
-from vilma.vehicle.actuators import CommandError, validate_command
-from vilma.vehicle.params import ActuatorParams, vilma
+from vilma.vehicle.actuators import MODE_IDS, CommandError, actuate, actuator_step, targets, validate_command
+from vilma.vehicle.params import ActuatorParams, plant_consts, vilma
 from vilma.vehicle.state import BRAKE, DRIVE, STEER, VX, VehicleState
 
 P = vilma()
@@ -105,3 +105,14 @@ def test_original_velocity_amount_cuts_the_engine_and_brakes():
     # above velocityAmount: engine force 0 and applyBraking(30) on each wheel
     assert z[-1, VX] == pytest.approx(10.0, abs=0.3)
     assert z[:, BRAKE].max() > 0.5 * 4 * 30 * P.brake_unit_force
+
+
+@settings(deadline=None)  # the first example compiles
+@given(st.sampled_from(sorted(MODE_IDS.values())), st.floats(-0.6, 0.6), st.floats(-5.0, 5.0), st.floats(0.0, 3000.0),
+       st.floats(-5.0, 30.0))
+def test_actuate_is_targets_then_actuator_step(mode, steer, drive, brake, vx):
+    consts, cmd, x = plant_consts(vilma()), np.array([steer, drive, brake, 10.0]), (0.0, 0.0, 0.0, vx, 0.1, 0.02)
+    u, expected = np.array([0.1, 200.0, 50.0]), np.array([0.1, 200.0, 50.0])
+    actuator_step(expected, *targets(mode, cmd, x, expected, consts), consts, STEP)
+    actuate(mode, cmd, x, u, np.array(consts), STEP)
+    assert u.tolist() == expected.tolist()
