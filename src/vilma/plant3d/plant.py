@@ -61,13 +61,15 @@ class MujocoPlant:
         self._obstacle_ids = np.array(sorted(self._obstacles), dtype=np.int32)
         self._chassis = m.body("chassis").id
         self._car_geoms = np.flatnonzero(m.body_rootid[m.geom_bodyid] == self._chassis)
-        self._accel = m.sensor("imu_accel").adr[0]
-        self._gyro = m.sensor("imu_gyro").adr[0]
         # the chassis's free joint comes first (qpos[0:7], qvel[0:6]), the drive motors then the steering servos
         assert m.joint("chassis").qposadr[0] == 0 and m.joint("chassis").dofadr[0] == 0
         assert [m.actuator(i).name for i in range(6)] == [*(f"drive_{c}" for c in CORNERS), "steer_fl", "steer_fr"]
         self._xmat = self.data.xmat[self._chassis]
         self._force = self.data.xfrc_applied[self._chassis]
+        # views kept: each read of an MjData attribute makes a new one, and a step reads a dozen
+        d, accel, gyro = self.data, m.sensor("imu_accel").adr[0], m.sensor("imu_gyro").adr[0]
+        self._qpos, self._qvel, self._qacc, self._ctrl = d.qpos[0:7], d.qvel[0:6], d.qacc[0:6], d.ctrl
+        self._accel, self._gyro = d.sensordata[accel:accel + 3], d.sensordata[gyro:gyro + 3]
         self._spin_dof = np.array([m.joint(f"spin_{c}").dofadr[0] for c in CORNERS])
         self._susp_q = np.array([m.joint(f"susp_{c}").qposadr[0] for c in CORNERS])
         self._steer_q = np.array([m.joint(f"steer_{c}").qposadr[0] for c in ("fl", "fr")])
@@ -98,16 +100,15 @@ class MujocoPlant:
 
     def set_controls(self, steer: float, drive: float, brake: float) -> None:
         """Hold ``steer`` [rad], ``drive`` [N] and ``brake`` [N] from now on."""
-        p, d = self.params, self.data
-        xm, (vx_w, vy_w, vz_w) = self._xmat.tolist(), d.qvel[0:3].tolist()
+        p = self.params
+        xm, (vx_w, vy_w, vz_w) = self._xmat.tolist(), self._qvel[0:3].tolist()
         vx = xm[0] * vx_w + xm[3] * vy_w + xm[6] * vz_w  # along body x
-        d.ctrl[4:6] = ackermann(steer, p.wheelbase, p.track)
         f = min(max(drive, -p.max_drive_force), p.max_drive_force)
         f_power = p.max_power / max(abs(vx), 1e-3)
         f = min(max(f, -f_power), f_power)
         r = p.wheel_radius
         front, rear = p.drive_split_front * f / 2 * r, (1 - p.drive_split_front) * f / 2 * r
-        d.ctrl[0:4] = (front, front, rear, rear)
+        self._ctrl[:] = (front, front, rear, rear, *ackermann(steer, p.wheelbase, p.track))
         if brake != self._brake:
             self._brake = brake
             b = min(max(brake, 0.0), p.max_brake_force)
@@ -123,7 +124,7 @@ class MujocoPlant:
         nstep = max(1, round(dt / TIMESTEP))
         if self._traffic is not None:  # where the traffic is at the block's end, when the sensors look
             self._traffic.move(self.data, self.data.time + nstep * TIMESTEP)
-        mujoco.mj_step(self.model, self.data, nstep=nstep)
+        mujoco.mj_step(self.model, self.data, nstep)
         mujoco.mj_kinematics(self.model, self.data)  # body poses at the step's end, as qpos (cameras see them)
         if len(self._obstacle_ids):
             self._check_contacts()
@@ -166,41 +167,38 @@ class MujocoPlant:
     def extras(self) -> tuple[float, ...]:
         """What only the 3D plant has, in the layout of :data:`vilma.vehicle.state.N3` (height above rest, roll,
         pitch, vertical velocity, body angular velocity, specific force at the IMU)."""
-        d = self.data
         z, roll, pitch = self.attitude()
-        return (z - self.params.suspension.cg_height, roll, pitch, float(d.qvel[2]),
-                *d.sensordata[self._gyro:self._gyro + 3].tolist(), *d.sensordata[self._accel:self._accel + 3].tolist())
+        return (z - self.params.suspension.cg_height, roll, pitch, float(self._qvel[2]), *self._gyro.tolist(),
+                *self._accel.tolist())
 
     def derivative(self, state: tuple[float, ...] | None = None) -> tuple[float, float, float, float, float, float]:
         """Time derivative of :meth:`planar_state` now (as the planar models' ``derivative``); ``state``: the
         planar state now, if known."""
-        d = self.data
         _, _, yaw, vx, vy, r = state or self.planar_state()
         c, s = math.cos(yaw), math.sin(yaw)
         xm = self._xmat.tolist()
-        ax_w, ay_w, _, a0, a1, a2 = d.qacc[0:6].tolist()
-        vx_w, vy_w = d.qvel[0:2].tolist()
+        ax_w, ay_w, _, a0, a1, a2 = self._qacc.tolist()
+        vx_w, vy_w = self._qvel[0:2].tolist()
         return vx_w, vy_w, r, c * ax_w + s * ay_w + vy * r, -s * ax_w + c * ay_w - vx * r, \
             xm[6] * a0 + xm[7] * a1 + xm[8] * a2
 
     def planar_state(self) -> tuple[float, float, float, float, float, float]:
         """``(x, y, yaw, vx, vy, yaw_rate)`` as vilma's planar models hold them (yaw from the heading of
         body x in the ground plane, velocities of the centre of mass in the heading frame)."""
-        d = self.data
         xm = self._xmat.tolist()
-        vx_w, vy_w, _, w0, w1, w2 = d.qvel[0:6].tolist()  # world linear, body angular
+        vx_w, vy_w, _, w0, w1, w2 = self._qvel.tolist()  # world linear, body angular
         n = math.hypot(xm[0], xm[3]) or 1.0
         c, s = xm[0] / n, xm[3] / n
-        x, y = d.qpos[0:2].tolist()
+        x, y = self._qpos[0:2].tolist()
         return x, y, math.atan2(s, c), c * vx_w + s * vy_w, -s * vx_w + c * vy_w, xm[6] * w0 + xm[7] * w1 + xm[8] * w2
 
     def attitude(self) -> tuple[float, float, float]:
         """``(z [m] of the centre of mass, roll, pitch [rad])`` (ZYX Euler angles, roll about body x, pitch
         about body y: positive nose down)."""
-        w, x, y, z = self.data.qpos[3:7].tolist()  # floats: numpy scalars are slow to compute with
+        height, w, x, y, z = self._qpos[2:7].tolist()  # floats: numpy scalars are slow to compute with
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
-        return float(self.data.qpos[2]), roll, pitch
+        return height, roll, pitch
 
     def suspension(self) -> np.ndarray:
         """Suspension positions ``fl, fr, rl, rr`` [m] from the static rest position, positive in compression
