@@ -180,7 +180,8 @@ def target_speed(ds, pa):
 def _track(dc, ds, pa):
     """Progress along the path and the switch to the final stop."""
     hint = ds.index if ds.has_progress else -1
-    i, _, s, cross, _, _, _, left = path_project(pa, ds.x, ds.y, hint, PROGRESS_WINDOW)
+    # an int64, as the controllers' windows are (a constant would compile path_project once more, for a literal)
+    i, _, s, cross, _, _, _, left = path_project(pa, ds.x, ds.y, hint, np.int64(PROGRESS_WINDOW))
     ds.has_progress, ds.index, ds.progress, ds.remaining, ds.cross = True, i, s, left, cross
     v = ds.measured
     braking = v * v / (2.0 * dc.stop_deceleration)

@@ -53,6 +53,10 @@ def _project_track(xy, seg, seg_len, s0, heading, pts, window, jump):
     return out
 
 
+_NO_SPEED = np.empty(0)
+_NO_SPEED.flags.writeable = False  # read-only as a path's speeds are: compiled code takes both as one type
+
+
 class PathArrays(NamedTuple):
     """A trajectory as compiled code reads it (see :attr:`Trajectory.arrays`); ``speed`` is empty without speeds."""
 
@@ -254,7 +258,7 @@ class Trajectory:
     @cached_property
     def arrays(self) -> PathArrays:
         """The arrays compiled code reads (:class:`PathArrays`)."""
-        speed = self.speed if self.speed is not None else np.empty(0)
+        speed = self.speed if self.speed is not None else _NO_SPEED
         return PathArrays(self.xy, np.ascontiguousarray(self._seg), self._seg_len, self.s, self.heading, speed)
 
     def point_at(self, s: float) -> tuple[float, float]:
