@@ -78,6 +78,9 @@ def enu_to_geodetic(enu, ecef0, axes):
     """ENU points (n, 3) [m] around ``ecef0`` (ENU ``axes`` as rows) -> latitude, longitude [deg], height [m]."""
     out = np.empty_like(enu)
     for i in range(enu.shape[0]):
-        x = ecef0 + enu[i, 0] * axes[0] + enu[i, 1] * axes[1] + enu[i, 2] * axes[2]
-        out[i, 0], out[i, 1], out[i, 2] = ecef_to_geodetic(x[0], x[1], x[2])
+        e, n, u = enu[i, 0], enu[i, 1], enu[i, 2]
+        out[i, 0], out[i, 1], out[i, 2] = ecef_to_geodetic(  # on scalars: compiles in a third of the time
+            ecef0[0] + e * axes[0, 0] + n * axes[1, 0] + u * axes[2, 0],
+            ecef0[1] + e * axes[0, 1] + n * axes[1, 1] + u * axes[2, 1],
+            ecef0[2] + e * axes[0, 2] + n * axes[1, 2] + u * axes[2, 2])
     return out

@@ -83,7 +83,7 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
 
     The driver steers by the exact pose (``ekf`` None: ``truth`` = ``[speed, yaw rate]`` of the latest velocity
     reading, as :class:`TruthEstimator` keeps it) or by the EKF (``ekf``: :class:`~.lockstep_ekf.EkfLoop`).
-    ``traffic`` (:class:`~vilma.world.idm.IdmArrays`) steps a period at each period's end, seeing the ego's box
+    ``traffic`` (:class:`~vilma.world.idm.IdmArrays`, or None) steps a period at each period's end, seeing the ego's box
     centre ``body_offset`` [m] ahead of its reference point, as :meth:`Simulator.advance` does.
     """
     j = 0
@@ -111,7 +111,8 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
             cmd_mode[0] = mode
         else:
             r[15] = r[16] = r[17] = math.nan
-        idm_step(traffic, z[X] + body_offset * math.cos(z[YAW]), z[Y] + body_offset * math.sin(z[YAW]), z[VX])
+        if traffic is not None:  # pruned when compiled without (no IDM to compile for a run without traffic)
+            idm_step(traffic, z[X] + body_offset * math.cos(z[YAW]), z[Y] + body_offset * math.sin(z[YAW]), z[VX])
         if stop_at_rest and ds.arrived and abs(z[VX]) < dc.rest_speed:
             return k + 1, j, True
     return n, j, False

@@ -41,7 +41,7 @@ from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_com
 from vilma.vehicle.integrate import INTEGRATORS, constrain, empty_records
 from vilma.vehicle.params import VehicleParams, plant_consts, vilma
 from vilma.vehicle.state import N3, NX, VX, YAW, VehicleState, X, Y
-from vilma.world.idm import IdmArrays, idle
+from vilma.world.idm import IdmArrays
 
 if TYPE_CHECKING:  # the roads extra
     from vilma.world.reactive import ReactiveTraffic
@@ -165,8 +165,8 @@ class PlantKernel(NamedTuple):
     """``[steer, drive, brake, velocity limit]`` in force."""
     limits: np.ndarray
     """The car's command limits (:func:`~vilma.vehicle.actuators.command_limits`)."""
-    traffic: IdmArrays
-    """The reactive traffic's arrays (:attr:`SimConfig.reactive`; none: :func:`~vilma.world.idm.idle`), to step at
+    traffic: IdmArrays | None
+    """The reactive traffic's arrays (:attr:`SimConfig.reactive`; None without), to step at
     each of its period ends (:func:`~vilma.world.idm.idm_step`)."""
 
 
@@ -451,7 +451,7 @@ class Simulator(Closeable):
         return PlantKernel(self._model, self._integrator, self._z, self._consts, self.clock.step_s, self.clock.step_ns,
                            self.clock.tick, self._periods, self._kernel_records, np.array([self._mode]),
                            self._cmd.copy(), command_limits(self.config.vehicle),
-                           idle() if self.config.reactive is None else self.config.reactive.arrays)
+                           None if self.config.reactive is None else self.config.reactive.arrays)
 
     def kernel_end(self, k: PlantKernel, done: KernelResult) -> dict[str, Readings]:
         """Take what compiled code did to the plant of :meth:`kernel_start`'s ``k``; returns the readings."""

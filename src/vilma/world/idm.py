@@ -61,13 +61,6 @@ class IdmArrays(NamedTuple):
     """``[the period the states are filled to]``."""
 
 
-def idle() -> IdmArrays:
-    """Arrays of no cars and no periods: the step does nothing (the closed loop without reactive traffic)."""
-    e = np.zeros((0, 1))
-    return IdmArrays(np.zeros(9), np.zeros(0), np.zeros(0, bool), np.zeros(0), e, e, e, e, e, np.zeros((0, 0, 4)),
-                     np.zeros(0), np.zeros(0), np.zeros((0, 1, 4)), np.zeros((0, 1), bool), np.zeros(1, np.int64))
-
-
 def chunk_bounds(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """:attr:`IdmArrays.bounds` of the paths through the points ``x``, ``y`` (m, k) [m]."""
     m, k = x.shape
