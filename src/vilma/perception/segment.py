@@ -38,16 +38,16 @@ def scan_points(ranges: np.ndarray, bearings: np.ndarray) -> np.ndarray:
 
 
 def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = SegmentParams()) -> list[np.ndarray]:
-    """The clusters of a scan: each the indices of its rays, consecutive returns in bearing order.
+    """The clusters of a scan: each the indices of its rays, runs of neighbouring rays with returns.
 
     Args:
-        ranges: each ray's range [m], (rays,); inf or NaN: no return (ignored).
+        ranges: each ray's range [m], (rays,); inf or NaN: no return.
         bearings: each ray's bearing [rad], (rays,), increasing.
         params: the detector.
 
-    Two neighbouring returns n-1, n at bearings dphi apart belong to one cluster when their distance is at most
-    ``r[n-1] sin(dphi) / sin(lambda - dphi) + 3 sigma`` (Borges & Aldon 2004, eq. 4); returns ``lambda`` or more
-    apart in bearing never do.
+    Neighbouring rays n-1, n at bearings dphi apart join one cluster when both returned and their points are at
+    most ``r[n-1] sin(dphi) / sin(lambda - dphi) + 3 sigma`` apart (Borges & Aldon 2004, eq. 4); rays ``lambda``
+    or more apart never do. A ray without a return splits: it passed between its neighbours' points.
     """
     ranges, bearings = np.asarray(ranges, float), np.asarray(bearings, float)
     if ranges.ndim != 1 or ranges.shape != bearings.shape:
@@ -57,12 +57,13 @@ def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = Se
         raise ValueError("a scan's bearings must be finite and increasing [rad]: give the rays in scan order")
     if (ranges < 0).any():
         raise ValueError(f"a scan's ranges must be >= 0 [m] (inf or NaN: no return), got {ranges.min()!r}")
-    hit = np.flatnonzero(np.isfinite(ranges))
-    r, b = ranges[hit], bearings[hit]
-    gap = np.hypot(np.diff(r * np.cos(b)), np.diff(r * np.sin(b)))
-    dphi = np.diff(b)
+    points = scan_points(ranges, bearings)  # NaN without a return: every comparison with it is False
+    gap = np.hypot(*np.diff(points, axis=0).T)
+    dphi = np.diff(bearings)
     near = dphi < params.angle
-    reach = np.full(len(dphi), -np.inf)  # a gap of lambda or more in bearing always breaks
-    reach[near] = r[:-1][near] * np.sin(dphi[near]) / np.sin(params.angle - dphi[near]) + 3 * params.range_noise
-    clusters = np.split(hit, np.flatnonzero(gap > reach) + 1)
+    reach = np.full(len(dphi), -np.inf)
+    reach[near] = ranges[:-1][near] * np.sin(dphi[near]) / np.sin(params.angle - dphi[near]) + 3 * params.range_noise
+    joined = np.concatenate([[False], gap <= reach])  # whether each ray joins the cluster of the ray before
+    hit = np.flatnonzero(np.isfinite(ranges))
+    clusters = np.split(hit, np.flatnonzero(~joined[hit])[1:])
     return [c for c in clusters if len(c) >= params.min_points]
