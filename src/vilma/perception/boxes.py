@@ -33,26 +33,26 @@ class BoxParams:
 
 @njit(cache=True)
 def _closeness(xy, c, s, d0):
-    """The closeness score of the rectangle edges along (c, s) and (-s, c) to the points ``xy`` (n, 2)."""
+    """The closeness score of the rectangle edges along (c, s) and (-s, c) to the points ``xy`` (n, 2): each
+    point's distance to the nearer of the two edges, each edge the one of its pair the points lie nearer to as a
+    whole. In passes over the points rather than with arrays: this runs for every cluster and orientation."""
     n = xy.shape[0]
-    c1, c2 = np.empty(n), np.empty(n)
+    lo1 = hi1 = xy[0, 0] * c + xy[0, 1] * s
+    lo2 = hi2 = -xy[0, 0] * s + xy[0, 1] * c
+    for i in range(1, n):
+        c1, c2 = xy[i, 0] * c + xy[i, 1] * s, -xy[i, 0] * s + xy[i, 1] * c
+        lo1, hi1, lo2, hi2 = min(lo1, c1), max(hi1, c1), min(lo2, c2), max(hi2, c2)
+    to_lo1 = to_hi1 = to_lo2 = to_hi2 = 0.0
     for i in range(n):
-        c1[i] = xy[i, 0] * c + xy[i, 1] * s
-        c2[i] = -xy[i, 0] * s + xy[i, 1] * c
-    d1 = _nearer_edge(c1)
-    d2 = _nearer_edge(c2)
+        c1, c2 = xy[i, 0] * c + xy[i, 1] * s, -xy[i, 0] * s + xy[i, 1] * c
+        to_lo1, to_hi1 = to_lo1 + (c1 - lo1) ** 2, to_hi1 + (hi1 - c1) ** 2
+        to_lo2, to_hi2 = to_lo2 + (c2 - lo2) ** 2, to_hi2 + (hi2 - c2) ** 2
+    edge1, edge2 = lo1 if to_lo1 <= to_hi1 else hi1, lo2 if to_lo2 <= to_hi2 else hi2
     score = 0.0
     for i in range(n):
-        score += 1.0 / max(min(d1[i], d2[i]), d0)
+        c1, c2 = xy[i, 0] * c + xy[i, 1] * s, -xy[i, 0] * s + xy[i, 1] * c
+        score += 1.0 / max(min(abs(c1 - edge1), abs(c2 - edge2)), d0)
     return score
-
-
-@njit(cache=True)
-def _nearer_edge(c):
-    """The points' distances to whichever of the two edges across ``c`` they lie nearer to as a whole."""
-    lo, hi = c.min(), c.max()
-    to_lo, to_hi = c - lo, hi - c
-    return to_lo if (to_lo * to_lo).sum() <= (to_hi * to_hi).sum() else to_hi
 
 
 @njit(cache=True)
