@@ -78,6 +78,13 @@ def test_no_cluster_gives_no_box():
     assert fit_boxes(np.zeros((5, 2)), [], (0.0, 0.0, 0.0)).shape == (0, 5)
 
 
+@pytest.mark.parametrize("clusters", [[np.array([0, 1]), np.zeros(0, np.int64)], [np.array([1, 2])]])
+def test_an_empty_cluster_or_one_without_returns_is_refused(clusters):
+    points = np.array([[1.0, 0.0], [1.0, 0.1], [np.nan, np.nan]])
+    with pytest.raises(ValueError, match="give the clusters of segment"):
+        fit_boxes(points, clusters, (0.0, 0.0, 0.0))
+
+
 @pytest.mark.parametrize(("field", "value"), [("angle_step", 0.0), ("angle_step", 2.0), ("min_distance", 0.0),
                                               ("min_distance", math.inf)])
 def test_bad_params_are_refused(field, value):

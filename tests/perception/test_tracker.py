@@ -106,6 +106,15 @@ def test_yaw_follows_the_velocity_and_the_size_turns_with_the_box():
     assert (t.length, t.width) == (4.5, 1.8)  # the largest extents seen along and across
 
 
+@pytest.mark.parametrize("bad", [[[1.0, 2.0, 0.0, 4.0]], [[1.0, math.nan, 0.0, 4.0, 2.0]], np.zeros((1, 1, 5))])
+def test_boxes_not_finite_rows_of_five_are_refused_and_the_tracks_kept(bad):
+    tracker = Tracker(TrackerParams(confirm_hits=1))
+    tracker.update(0, [box(10.0, 0.0)])
+    with pytest.raises(ValueError, match=r"boxes must be finite rows of x, y, yaw, length, width \(n, 5\)"):
+        tracker.update(DT_NS, bad)
+    assert [t.x for t in tracker.update(DT_NS, [box(10.0, 0.0)])] == [10.0]
+
+
 def test_updates_out_of_time_order_are_refused():
     tracker = Tracker()
     tracker.update(DT_NS, [])

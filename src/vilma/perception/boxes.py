@@ -95,6 +95,9 @@ def fit_boxes(points: np.ndarray, clusters: list[np.ndarray], pose: tuple[float,
     c, s = math.cos(yaw), math.sin(yaw)
     rays = np.concatenate(clusters) if clusters else np.zeros(0, np.int64)
     local = points[rays]
+    if not (all(len(k) for k in clusters) and np.isfinite(local).all()):
+        raise ValueError("each cluster to fit a box to needs one ray or more, all with returns (finite points): "
+                         "give the clusters of segment()")
     world = np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
     starts = np.concatenate([[0], np.cumsum([len(k) for k in clusters], dtype=np.int64)])
     out = np.empty((len(clusters), 5))

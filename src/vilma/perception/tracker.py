@@ -95,7 +95,11 @@ class Tracker:
 
     def update(self, stamp_ns: int, boxes: np.ndarray) -> list[Track]:
         """The confirmed tracks after the boxes (n, 5) seen at sim time ``stamp_ns`` [ns] (not before the last)."""
-        boxes = np.asarray(boxes, float).reshape(-1, 5)
+        boxes = np.asarray(boxes, float)
+        if boxes.size and not (boxes.ndim == 2 and boxes.shape[1] == 5 and np.isfinite(boxes).all()):
+            raise ValueError(f"tracker update at {stamp_ns} ns: boxes must be finite rows of x, y, yaw, length, "
+                             f"width (n, 5), got shape {boxes.shape}")
+        boxes = boxes.reshape(-1, 5)
         if self._stamp_ns is not None and stamp_ns < self._stamp_ns:
             raise ValueError(f"tracker update at {stamp_ns} ns is before the last one at {self._stamp_ns} ns: "
                              "give the scans in time order (or reset)")
