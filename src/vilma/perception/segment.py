@@ -1,0 +1,69 @@
+"""Laser scan segmentation: consecutive returns split where the gap between them is wider than a surface seen at
+the beam's angle could make (adaptive breakpoint detection, Borges & Aldon 2004, eq. 4)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SegmentParams:
+    """The breakpoint detector."""
+
+    angle: float = math.radians(10.0)
+    """Smallest angle between a surface and a beam that still counts as one surface, lambda [rad] (Borges & Aldon
+    use 10 deg): a surface more nearly parallel to the beams is split."""
+    range_noise: float = 0.03
+    """Standard deviation of each range [m]: the gap allowed grows by three of them."""
+    min_points: int = 3
+    """Clusters of fewer returns are dropped (spurious returns, rain, a pole's edge)."""
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.angle) and 0 < self.angle < math.pi / 2):
+            raise ValueError(f"segmentation angle must be in (0, pi/2) rad, got {self.angle!r}")
+        if not (math.isfinite(self.range_noise) and self.range_noise >= 0):
+            raise ValueError(f"segmentation range_noise must be a number >= 0 [m], got {self.range_noise!r}")
+        if not (isinstance(self.min_points, int) and self.min_points >= 1):
+            raise ValueError(f"segmentation min_points must be a whole number >= 1, got {self.min_points!r}")
+
+
+def scan_points(ranges: np.ndarray, bearings: np.ndarray) -> np.ndarray:
+    """The returns of a planar scan in the laser frame (x forward, y left), (rays, 2) [m]; no return (inf or NaN
+    range) gives NaN."""
+    r = np.where(np.isfinite(ranges), ranges, np.nan)  # inf * cos(pi / 2) would warn
+    return np.stack([r * np.cos(bearings), r * np.sin(bearings)], axis=-1)
+
+
+def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = SegmentParams()) -> list[np.ndarray]:
+    """The clusters of a scan: each the indices of its rays, runs of neighbouring rays with returns.
+
+    Args:
+        ranges: each ray's range [m], (rays,); inf or NaN: no return.
+        bearings: each ray's bearing [rad], (rays,), increasing.
+        params: the detector.
+
+    Neighbouring rays n-1, n at bearings dphi apart join one cluster when both returned and their points are at
+    most ``r[n-1] sin(dphi) / sin(lambda - dphi) + 3 sigma`` apart (Borges & Aldon 2004, eq. 4); rays ``lambda``
+    or more apart never do. A ray without a return splits: it passed between its neighbours' points.
+    """
+    ranges, bearings = np.asarray(ranges, float), np.asarray(bearings, float)
+    if ranges.ndim != 1 or ranges.shape != bearings.shape:
+        raise ValueError(f"a scan needs as many ranges as bearings in 1-D arrays, got shapes {ranges.shape} and "
+                         f"{bearings.shape}")
+    if not (np.isfinite(bearings).all() and (np.diff(bearings) > 0).all()):
+        raise ValueError("a scan's bearings must be finite and increasing [rad]: give the rays in scan order")
+    if (ranges < 0).any():
+        raise ValueError(f"a scan's ranges must be >= 0 [m] (inf or NaN: no return), got {ranges.min()!r}")
+    points = scan_points(ranges, bearings)  # NaN without a return: every comparison with it is False
+    gap = np.hypot(*np.diff(points, axis=0).T)
+    dphi = np.diff(bearings)
+    near = dphi < params.angle
+    reach = np.full(len(dphi), -np.inf)
+    reach[near] = ranges[:-1][near] * np.sin(dphi[near]) / np.sin(params.angle - dphi[near]) + 3 * params.range_noise
+    joined = np.concatenate([[False], gap <= reach])  # whether each ray joins the cluster of the ray before
+    hit = np.flatnonzero(np.isfinite(ranges))
+    clusters = np.split(hit, np.flatnonzero(~joined[hit])[1:])
+    return [c for c in clusters if len(c) >= params.min_points]

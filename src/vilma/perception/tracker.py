@@ -1,0 +1,198 @@
+"""Multi-object tracking of laser boxes: a constant-velocity Kalman filter per track, Mahalanobis gating, global
+nearest-neighbour association (Hungarian method, :func:`scipy.optimize.linear_sum_assignment`), birth on M hits
+of N scans and death after K misses in a row."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from vilma.core.geometry import wrap_angle
+from vilma.perception.boxes import BOX_LENGTH, BOX_WIDTH, BOX_X, BOX_Y, BOX_YAW
+
+_H = np.eye(2, 4)  # the boxes measure the position of the state x, y, vx, vy
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class TrackerParams:
+    """The tracker."""
+
+    acceleration_noise: float = 2.0
+    """Standard deviation of the objects' acceleration [m/s^2], white (the process noise of the constant-velocity
+    model)."""
+    position_noise: float = 0.2
+    """Standard deviation of a box centre's x and y [m]."""
+    initial_speed: float = 10.0
+    """Standard deviation of a new track's vx and vy [m/s]: how fast an object first seen may move."""
+    gate: float = 13.8
+    """Largest squared Mahalanobis distance of a box from a track it may update (13.8: 99.9 % of the chi-square
+    distribution with 2 degrees of freedom)."""
+    confirm_hits: int = 3
+    """M: a track is confirmed (reported) once it has been hit in M of its first N scans..."""
+    confirm_scans: int = 4
+    """N: ... and dropped if not by then."""
+    max_misses: int = 3
+    """K: a track is dropped after K scans in a row without a box."""
+    heading_speed: float = 1.0
+    """From this speed [m/s] a track's yaw follows its velocity; slower, it keeps the box's orientation nearest
+    its last yaw."""
+
+    def __post_init__(self) -> None:
+        for name in ("acceleration_noise", "position_noise", "initial_speed", "gate"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise ValueError(f"tracker {name} must be a positive number, got {getattr(self, name)!r}")
+        if not (math.isfinite(self.heading_speed) and self.heading_speed >= 0):
+            raise ValueError(f"tracker heading_speed must be a number >= 0 [m/s], got {self.heading_speed!r}")
+        for name in ("confirm_hits", "confirm_scans", "max_misses"):
+            if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
+                raise ValueError(f"tracker {name} must be a whole number >= 1, got {getattr(self, name)!r}")
+        if self.confirm_hits > self.confirm_scans:
+            raise ValueError(f"tracker confirm_hits ({self.confirm_hits}) must be at most confirm_scans "
+                             f"({self.confirm_scans}): M hits of N scans")
+
+
+@dataclass(frozen=True, slots=True)
+class Track:
+    """A confirmed track in the world frame: its id, centre x, y [m], yaw [rad], velocity vx, vy [m/s], length and
+    width [m] (the largest seen), covariance of x, y, vx, vy (4, 4) [m, m/s], and age [s] since its first box."""
+
+    id: int
+    x: float
+    y: float
+    yaw: float
+    vx: float
+    vy: float
+    length: float
+    width: float
+    covariance: np.ndarray
+    age: float
+
+    @property
+    def speed(self) -> float:
+        """Speed [m/s]."""
+        return math.hypot(self.vx, self.vy)
+
+
+class Tracker:
+    """Tracks the boxes of consecutive scans (:func:`~vilma.perception.boxes.fit_boxes`); :meth:`update` once a
+    scan. The tracks live in arrays, one row each, so that a scan costs a few array operations however many."""
+
+    def __init__(self, params: TrackerParams = TrackerParams()) -> None:
+        self.params = params
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every track; ids start again from 1."""
+        self._next_id, self._stamp_ns = 1, None
+        self._id = np.zeros(0, np.int64)
+        self._x, self._P = np.zeros((0, 4)), np.zeros((0, 4, 4))
+        self._yaw, self._size = np.zeros(0), np.zeros((0, 2))
+        self._born_ns, self._scans, self._hits, self._misses = (np.zeros(0, np.int64) for _ in range(4))
+        self._confirmed = np.zeros(0, bool)
+
+    def update(self, stamp_ns: int, boxes: np.ndarray) -> list[Track]:
+        """The confirmed tracks after the boxes (n, 5) seen at sim time ``stamp_ns`` [ns] (not before the last)."""
+        boxes = np.asarray(boxes, float)
+        if boxes.size and not (boxes.ndim == 2 and boxes.shape[1] == 5 and np.isfinite(boxes).all()):
+            raise ValueError(f"tracker update at {stamp_ns} ns: boxes must be finite rows of x, y, yaw, length, "
+                             f"width (n, 5), got shape {boxes.shape}")
+        boxes = boxes.reshape(-1, 5)
+        if self._stamp_ns is not None and stamp_ns < self._stamp_ns:
+            raise ValueError(f"tracker update at {stamp_ns} ns is before the last one at {self._stamp_ns} ns: "
+                             "give the scans in time order (or reset)")
+        self._predict(0.0 if self._stamp_ns is None else (stamp_ns - self._stamp_ns) * 1e-9)
+        self._stamp_ns = stamp_ns
+        rows, cols = self._associate(boxes[:, [BOX_X, BOX_Y]])
+        self._correct(rows, boxes[cols])
+        self._scans += 1
+        hit = np.zeros(len(self._id), bool)
+        hit[rows] = True
+        self._hits += hit
+        self._misses = np.where(hit, 0, self._misses + 1)
+        self._confirmed |= self._hits >= self.params.confirm_hits
+        self._prune()
+        self._birth(np.delete(boxes, cols, axis=0), stamp_ns)
+        return self.tracks()
+
+    def tracks(self) -> list[Track]:
+        """The confirmed tracks now."""
+        return [Track(int(self._id[i]), *self._x[i, :2].tolist(), float(self._yaw[i]), *self._x[i, 2:].tolist(),
+                      *self._size[i].tolist(), self._P[i].copy(), (self._stamp_ns - int(self._born_ns[i])) * 1e-9)
+                for i in np.flatnonzero(self._confirmed)]
+
+    def _predict(self, dt: float) -> None:
+        """Move the tracks ``dt`` [s] on at constant velocity (discrete white-noise acceleration, Bar-Shalom et
+        al. 2001, eq. 6.3.2-4)."""
+        F = np.eye(4)
+        F[0, 2] = F[1, 3] = dt
+        q = self.params.acceleration_noise ** 2 * np.array([[dt ** 4 / 4, dt ** 3 / 2], [dt ** 3 / 2, dt ** 2]])
+        Q = np.zeros((4, 4))
+        Q[np.ix_([0, 2], [0, 2])] = Q[np.ix_([1, 3], [1, 3])] = q
+        self._x = self._x @ F.T
+        self._P = F @ self._P @ F.T + Q
+
+    def _innovation_inverse(self, P: np.ndarray) -> np.ndarray:
+        """The inverses of the innovation covariances of tracks of covariances ``P`` (n, 4, 4), (n, 2, 2)."""
+        return np.linalg.inv(P[:, :2, :2] + self.params.position_noise ** 2 * np.eye(2))
+
+    def _associate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs (track rows, box rows) of least total squared Mahalanobis distance, each within the gate."""
+        if len(self._id) == 0 or len(z) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        y, S_inv = z[None] - self._x[:, None, :2], self._innovation_inverse(self._P)
+        d2 = np.einsum("nmi,nij,nmj->nm", y, S_inv, y)
+        gated = d2 <= self.params.gate
+        rows, cols = linear_sum_assignment(np.where(gated, d2, 1e3 * self.params.gate))  # outside: never chosen
+        keep = gated[rows, cols]                                                          # over a gated pair
+        return rows[keep], cols[keep]
+
+    def _correct(self, rows: np.ndarray, boxes: np.ndarray) -> None:
+        """The Kalman update of the tracks ``rows`` with their boxes, and their yaw and size."""
+        if len(rows) == 0:
+            return
+        x, P = self._x[rows], self._P[rows]
+        y = boxes[:, [BOX_X, BOX_Y]] - x[:, :2]
+        K = P[:, :, :2] @ self._innovation_inverse(P)
+        self._x[rows] = x + np.einsum("nij,nj->ni", K, y)
+        self._P[rows] = (np.eye(4) - K @ _H) @ P
+        speed = np.hypot(self._x[rows, 2], self._x[rows, 3])
+        ref = np.where(speed >= self.params.heading_speed, np.arctan2(self._x[rows, 3], self._x[rows, 2]),
+                       self._yaw[rows])
+        yaw, size = _aligned(boxes, ref)
+        self._yaw[rows] = yaw
+        self._size[rows] = np.maximum(self._size[rows], size)
+
+    def _prune(self) -> None:
+        """Drop the tracks missed too often and those not confirmed in time."""
+        p = self.params
+        keep = (self._misses < p.max_misses) & (self._confirmed | (self._scans < p.confirm_scans))
+        for name in ("_id", "_x", "_P", "_yaw", "_size", "_born_ns", "_scans", "_hits", "_misses", "_confirmed"):
+            setattr(self, name, getattr(self, name)[keep])
+
+    def _birth(self, boxes: np.ndarray, stamp_ns: int) -> None:
+        """A new tentative track at each box no track took, at rest with the initial speed's uncertainty."""
+        n, p = len(boxes), self.params
+        ids = np.arange(self._next_id, self._next_id + n)
+        self._next_id += n
+        P = np.zeros((n, 4, 4))
+        P[:, [0, 1], [0, 1]] = p.position_noise ** 2
+        P[:, [2, 3], [2, 3]] = p.initial_speed ** 2
+        x = np.zeros((n, 4))
+        x[:, :2] = boxes[:, [BOX_X, BOX_Y]]
+        new = {"_id": ids, "_x": x, "_P": P, "_yaw": boxes[:, BOX_YAW], "_size": boxes[:, [BOX_LENGTH, BOX_WIDTH]],
+               "_born_ns": np.full(n, stamp_ns), "_scans": np.ones(n, np.int64), "_hits": np.ones(n, np.int64),
+               "_misses": np.zeros(n, np.int64), "_confirmed": np.full(n, p.confirm_hits <= 1)}
+        for name, value in new.items():
+            setattr(self, name, np.concatenate([getattr(self, name), value]))
+
+
+def _aligned(boxes: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The boxes' yaws turned by the multiple of pi/2 nearest ``ref`` [rad] (a box's orientation is known only up
+    to that), (n,), and their extents along and across it, (n, 2) [m]."""
+    quarter = np.round(wrap_angle(ref - boxes[:, BOX_YAW]) / (np.pi / 2))
+    swap = (quarter % 2).astype(bool)[:, None]
+    size = np.where(swap, boxes[:, [BOX_WIDTH, BOX_LENGTH]], boxes[:, [BOX_LENGTH, BOX_WIDTH]])
+    return wrap_angle(boxes[:, BOX_YAW] + quarter * np.pi / 2), size
