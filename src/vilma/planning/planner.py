@@ -201,7 +201,7 @@ class _Car(NamedTuple):
 
 
 @njit(cache=True)
-def _overlap(ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl, bhw):
+def boxes_overlap(ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl, bhw):
     """Whether two oriented boxes (centre, yaw, half length, half width) overlap: no separating axis among their
     four edge normals (touching counts as overlap)."""
     dx, dy = bx - ax, by - ay
@@ -225,7 +225,7 @@ def _collides(car, x, y, yaw, objects, k, margin):
         reach = r + 0.5 * math.hypot(ol, ow)
         if (ox - cx) ** 2 + (oy - cy) ** 2 > reach * reach:
             continue  # the bounding circles are apart
-        if _overlap(cx, cy, yaw, hl, hw, ox, oy, oyaw, 0.5 * ol, 0.5 * ow):
+        if boxes_overlap(cx, cy, yaw, hl, hw, ox, oy, oyaw, 0.5 * ol, 0.5 * ow):
             return True
     return False
 
