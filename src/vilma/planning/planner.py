@@ -65,11 +65,12 @@ class PlannerParams:
     reach within the duration)."""
     speed_durations: tuple[float, ...] = (1.5, 2.25, 3.0)
     """Durations of the velocity-keeping quartics [s]."""
-    position_offsets: tuple[float, ...] = (-2.0, -1.0, 0.0, 1.0, 2.0)
-    """End positions sampled around a following or stopping target [m] (only those <= 0 for a stop)."""
+    position_offsets: tuple[float, ...] = (-3.0, -2.0, -1.0, -0.5, 0.0)
+    """End positions sampled at and behind a following or stopping target [m], each <= 0 (never closer to a lead
+    than the gap, never past the goal)."""
     position_durations: tuple[float, ...] = (2.0, 3.0, 4.5, 6.0, 8.0)
     """Durations of the following and stopping quintics [s] (those past the horizon are planned whole and
-    driven for the horizon)."""
+    driven for the horizon); one more is the time a steady slow-down to the target's speed takes to reach it."""
     follow_distance: float = 5.0
     """Werling's ``d0``: the gap to a lead at rest [m], bumper to bumper."""
     time_gap: float = 1.5
@@ -116,6 +117,9 @@ class PlannerParams:
         if self.steps > MAX_STEPS:
             raise ValueError(f"planner horizon / dt is {self.steps} steps, over the limit of {MAX_STEPS}; "
                              "raise dt or shorten the horizon")
+        if max(self.position_offsets) > 0:
+            raise ValueError(f"planner position_offsets must be <= 0 m (at or behind the target), got "
+                             f"{self.position_offsets!r}")
         if self.replan_period > self.horizon:
             raise ValueError(f"planner replan_period {self.replan_period!r} s is longer than the horizon "
                              f"{self.horizon!r} s; shorten it")
@@ -138,7 +142,7 @@ class PlannerParams:
         """Most candidates a cycle evaluates."""
         lateral = len(self.lateral_offsets) * len(self.lateral_durations)
         return lateral * max(len(self.speed_offsets) * len(self.speed_durations),
-                             len(self.position_offsets) * len(self.position_durations))
+                             len(self.position_offsets) * (len(self.position_durations) + 1))
 
     @property
     def max_curvature(self) -> float:
@@ -313,11 +317,19 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         coeffs = quartic(state.s, state.s_dot, state.s_ddot, v1, 0.0, T)
         miss = p.speed_weight * (v1 - p.target_speed) ** 2
     else:
-        offsets = np.asarray([o for o in p.position_offsets if target.mode == "follow" or o <= 0.0] or [0.0])
-        T = np.repeat(np.asarray(p.position_durations), len(offsets))
-        dev = np.tile(offsets, len(p.position_durations))
-        coeffs = quintic(state.s, state.s_dot, state.s_ddot, target.s + target.speed * T + dev, target.speed, 0.0, T)
-        miss = p.position_weight * dev**2
+        durations = list(p.position_durations)
+        closing = state.s_dot - target.speed
+        if closing > 0 and target.s > state.s:  # and the time a steady slow-down to the target speed closes the gap in
+            durations.append(max(2.0 * (target.s - state.s) / closing, p.dt))
+        T = np.repeat(np.asarray(durations), len(p.position_offsets))
+        dev = np.tile(np.asarray(p.position_offsets), len(durations))
+        # an end the car reaches only braking harder than comfortably moves on to where it does
+        b = p.vehicle.actuators.stop_deceleration
+        v0, v1 = max(state.s_dot, target.speed), target.speed
+        nearest = state.s + (v0 * v0 - v1 * v1) / (2.0 * b) + v1 * np.maximum(T - (v0 - v1) / b, 0.0)
+        end = np.maximum(target.s + v1 * T + dev, nearest)
+        coeffs = quintic(state.s, state.s_dot, state.s_ddot, end, v1, 0.0, T)
+        miss = p.position_weight * (end - target.s - v1 * T) ** 2
     return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + miss
 
 
