@@ -18,14 +18,14 @@ from scipy.interpolate import CubicSpline
 from vilma.trajectory import Trajectory
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(5)
-_SEARCH = 8
-"""Samples per spline piece when looking for the nearest point before Newton's method."""
 
 
 class FrameArrays(NamedTuple):
-    """The spline as compiled code reads it: knots (n,) [m] and per-piece coefficients (n-1, 4), highest first."""
+    """The spline as compiled code reads it: knots (n,) [m], the points there (n, 2) [m] and per-piece
+    coefficients (n-1, 4), highest power first."""
 
     knots: np.ndarray
+    xy: np.ndarray
     cx: np.ndarray
     cy: np.ndarray
 
@@ -87,24 +87,22 @@ def _to_cartesian(fa, s, d):
 
 @njit(cache=True)
 def _project(fa, x, y):
-    """Arc length of the nearest spline point: the best of a few samples per piece, refined by Newton's method."""
+    """Arc length of the nearest spline point: the nearest point of the knots' polyline, refined by Newton's
+    method on the spline."""
     k = fa.knots
     best, s = np.inf, k[0]
     for i in range(k.shape[0] - 1):
-        for m in range(_SEARCH):
-            u = k[i] + (k[i + 1] - k[i]) * m / _SEARCH
-            px, py, _, _, _, _, _, _ = frame_eval(fa, u)
-            e = (px - x) ** 2 + (py - y) ** 2
-            if e < best:
-                best, s = e, u
-    px, py, _, _, _, _, _, _ = frame_eval(fa, k[-1])
-    if (px - x) ** 2 + (py - y) ** 2 < best:
-        s = k[-1]
+        ax, ay = fa.xy[i, 0], fa.xy[i, 1]
+        ex, ey = fa.xy[i + 1, 0] - ax, fa.xy[i + 1, 1] - ay
+        f = min(max(((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        e = (ax + f * ex - x) ** 2 + (ay + f * ey - y) ** 2
+        if e < best:
+            best, s = e, k[i] + f * (k[i + 1] - k[i])
     for _ in range(50):
         px, py, dx, dy, ddx, ddy, _, _ = frame_eval(fa, s)
         ex, ey = px - x, py - y
         slope = dx * dx + dy * dy + ex * ddx + ey * ddy
-        if slope <= 0.0:  # beyond the centre of curvature: the sampled point is as good as any
+        if slope <= 0.0:  # beyond the centre of curvature: the polyline's point is as good as any
             break
         step = (ex * dx + ey * dy) / slope
         s -= step
@@ -138,7 +136,7 @@ class FrenetFrame:
         speed = np.hypot(*spline(u, 1).transpose(2, 0, 1))
         spline = CubicSpline(np.concatenate([[0.0], np.cumsum(0.5 * h * (speed @ _GAUSS_W))]), xy)
         c = spline.c  # (4, n-1, 2), highest power first
-        self.arrays = FrameArrays(spline.x.copy(), np.ascontiguousarray(c[:, :, 0].T),
+        self.arrays = FrameArrays(spline.x.copy(), np.ascontiguousarray(xy), np.ascontiguousarray(c[:, :, 0].T),
                                   np.ascontiguousarray(c[:, :, 1].T))
 
     @property
