@@ -2,10 +2,11 @@
 
 A planning cycle (:func:`vilma.planning.plan`) on a curved three-lane road with 20 predicted objects moving
 along it within 80 m ahead of the car (one lane oncoming) over the 3 s horizon, every candidate checked (a few
-hundred), replanned every period
-from the last plan's state for 60 s of driving after a warm-up. Target (issue 20): under 10 ms mean and 25 ms
-max per cycle on one core. Anchor: CommonRoad's reactive planner takes 22-99 ms per cycle on real scenarios;
-vilma must be at least 5x faster (``speedup_vs_22ms``: how many times 22 ms the mean cycle is).
+hundred), replanned every period from the last plan's state for 60 s of driving after a warm-up.
+
+Target (issue 20): under 10 ms mean and 25 ms max per cycle on one core. Anchor: CommonRoad's reactive planner
+takes 22-99 ms per cycle on real scenarios; vilma must be at least 5x faster (``speedup_vs_22ms``: how many
+times the mean cycle fits in 22 ms).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vilma.planning.frenet import FrenetFrame, FrenetState, frame_pose, frenet_motion
@@ -15,6 +15,9 @@ def _arc(radius=R, n=60, arc=math.pi):
     """A left turn of ``radius`` [m] from the origin heading +x (centre at (0, radius))."""
     a = np.linspace(0.0, arc, n)
     return Trajectory.from_points(np.column_stack([radius * np.sin(a), radius * (1 - np.cos(a))]))
+
+
+CIRCLE = FrenetFrame(_arc(n=200))
 
 
 def _s_curve():
@@ -35,7 +38,7 @@ def test_round_trip_xy_to_sd_to_xy_is_exact_on_a_curved_path(reference):
 
 
 def test_the_frame_of_a_circle_is_its_arc_length_radius_and_curvature():
-    frame = FrenetFrame(_arc(n=200))
+    frame = CIRCLE
     assert frame.length == pytest.approx(R * math.pi, rel=1e-6)
     phi = np.array([0.3, 1.0, 2.5])
     # a point at radius R - r from the centre is r left of a left turn, at arc length R phi
@@ -54,10 +57,11 @@ def test_a_straight_reference_is_the_plane_and_goes_on_straight_past_its_ends():
     assert frame.pose(14.0)[:4] == pytest.approx((14.0, 0.0, 0.0, 0.0))
 
 
+@settings(deadline=None)  # the first example loads the compiled code
 @given(st.floats(1.0, 90.0), st.floats(-3.0, 3.0), st.floats(-1.0, 1.0), st.floats(-0.5, 0.5),
        st.floats(-2.0, 2.0), st.floats(-0.5, 0.5))
 def test_the_state_of_a_car_is_the_inverse_of_its_frenet_motion(s, d, s_dot_rel, s_ddot, d_dot, d_ddot):
-    frame = FrenetFrame(_arc(n=200))
+    frame = CIRCLE
     s_dot = 5.0 + 4.0 * s_dot_rel
     _, _, theta, k, dk = frame_pose(frame.arrays, s)
     (cx,), (cy,) = frame.to_cartesian([s], [d])
@@ -76,7 +80,7 @@ def test_a_car_on_a_straight_reference_at_an_angle():
 
 def test_a_curvature_follows_from_a_circle_driven_at_an_offset():
     # driving the circle of radius R - d concentric with a left-turn reference: curvature 1 / (R - d)
-    frame = FrenetFrame(_arc(n=200))
+    frame = CIRCLE
     _, _, theta, k, dk = frame.pose(40.0)
     yaw, v, a, kappa = frenet_motion(theta, k, dk, 10.0, 0.0, 2.0, 0.0, 0.0)
     assert (yaw, v, a, kappa) == pytest.approx((theta, 10.0 * (R - 2.0) / R, 0.0, 1 / (R - 2.0)), rel=1e-4,

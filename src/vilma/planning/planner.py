@@ -323,11 +323,10 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
             durations.append(max(2.0 * (target.s - state.s) / closing, p.dt))
         T = np.repeat(np.asarray(durations), len(p.position_offsets))
         dev = np.tile(np.asarray(p.position_offsets), len(durations))
-        # an end the car reaches only braking harder than comfortably moves on to where it does
-        b = p.vehicle.actuators.stop_deceleration
-        v0, v1 = max(state.s_dot, target.speed), target.speed
-        nearest = state.s + (v0 * v0 - v1 * v1) / (2.0 * b) + v1 * np.maximum(T - (v0 - v1) / b, 0.0)
-        end = np.maximum(target.s + v1 * T + dev, nearest)
+        v0, v1, b = state.s_dot, target.speed, p.vehicle.actuators.stop_deceleration
+        end = target.s + v1 * T + dev
+        if v0 > v1:  # an end the car reaches only braking harder than comfortably moves on to where it does
+            end = np.maximum(end, state.s + (v0 * v0 - v1 * v1) / (2.0 * b) + v1 * np.maximum(T - (v0 - v1) / b, 0))
         coeffs = quintic(state.s, state.s_dot, state.s_ddot, end, v1, 0.0, T)
         miss = p.position_weight * (end - target.s - v1 * T) ** 2
     return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + miss
@@ -367,8 +366,10 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     """Plan from the car's ``state`` along ``reference`` among predicted ``objects`` (n_obj, n_t, 5: x, y [m],
     yaw [rad], length, width [m] at ``params.times``), stopping at arc length ``goal`` [m] if given.
 
-    The longitudinal mode: following the nearest object ahead in the car's lane, or stopping at the goal,
-    whichever is nearer, once it binds (:func:`_binds`); velocity keeping otherwise.
+    The longitudinal mode: following the nearest object ahead within half a lane of the car, or stopping at the
+    goal, whichever target is nearer, once the car keeping its speed would come within its braking distance of
+    it over the horizon; velocity keeping otherwise. The lateral motion is planned in time (Werling's
+    high-speed mode), so that at walking pace a lane change comes out infeasible by its curvature.
     """
     objects = _check(state, objects, params)
     targets = [t for t in (_lead_target(state, reference, objects, params),
