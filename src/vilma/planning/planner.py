@@ -219,12 +219,14 @@ def boxes_overlap(ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl, bhw):
 
 
 @njit(cache=True)
-def _collides(car, x, y, yaw, objects, k, margin):
-    """Whether the car at ``(x, y, yaw)`` overlaps any object box at step ``k``."""
+def _collides(car, x, y, yaw, objects, k, near, margin):
+    """Whether the car at ``(x, y, yaw)`` overlaps any of the ``near`` object boxes at step ``k``."""
     hl, hw = car.half_length + margin, car.half_width + margin
     cx, cy = x + car.offset * math.cos(yaw), y + car.offset * math.sin(yaw)
     r = math.hypot(hl, hw)
     for o in range(objects.shape[0]):
+        if not near[o, k]:
+            continue
         ox, oy, oyaw, ol, ow = objects[o, k, 0], objects[o, k, 1], objects[o, k, 2], objects[o, k, 3], objects[o, k, 4]
         reach = r + 0.5 * math.hypot(ol, ow)
         if (ox - cx) ** 2 + (oy - cy) ** 2 > reach * reach:
@@ -232,6 +234,24 @@ def _collides(car, x, y, yaw, objects, k, margin):
         if boxes_overlap(cx, cy, yaw, hl, hw, ox, oy, oyaw, 0.5 * ol, 0.5 * ow):
             return True
     return False
+
+
+@njit(cache=True)
+def _near(objects, out, checked, reach):
+    """(n_obj, n_t): whether an object's bounding circle at a step comes within ``reach`` [m] of the box around
+    the points of the ``checked`` candidates at that step (the others cannot touch any of them)."""
+    n_obj, n_t = objects.shape[0], objects.shape[1]
+    near = np.zeros((n_obj, n_t), dtype=np.bool_)
+    for k in range(n_t):
+        lo_x, hi_x, lo_y, hi_y = np.inf, -np.inf, np.inf, -np.inf
+        for c in range(checked.shape[0]):
+            if checked[c]:
+                lo_x, hi_x = min(lo_x, out[0, c, k]), max(hi_x, out[0, c, k])
+                lo_y, hi_y = min(lo_y, out[1, c, k]), max(hi_y, out[1, c, k])
+        for o in range(n_obj):
+            r = reach + 0.5 * math.hypot(objects[o, k, 3], objects[o, k, 4])
+            near[o, k] = lo_x - r <= objects[o, k, 0] <= hi_x + r and lo_y - r <= objects[o, k, 1] <= hi_y + r
+    return near
 
 
 @njit(cache=True)
@@ -260,11 +280,14 @@ def _combine(fa, lat, lon, objects, car, margin, check_all, out, status):
                         or a > car.max_accel or a < -car.max_decel):
                     ok = False
             status[c] = 0 if ok else 1
-            if ok or check_all:
-                for k in range(n_t):
-                    if _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, margin):
-                        status[c] = 2
-                        break
+    checked = (status == 0) | check_all
+    near = _near(objects, out, checked, abs(car.offset) + math.hypot(car.half_length + margin, car.half_width + margin))
+    for c in range(status.shape[0]):
+        if checked[c]:
+            for k in range(n_t):
+                if _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
+                    status[c] = 2
+                    break
 
 
 def _car(p: PlannerParams) -> _Car:
