@@ -61,8 +61,14 @@ def _assert_within_limits(plans, params=P):
 
 
 def test_on_an_empty_straight_road_it_keeps_the_lane_centre_and_reaches_the_target_speed():
-    plans = _drive(FrenetState(0.0, 5.0, 0.0, 0.0), 12.0)
+    start = FrenetState(0.0, 5.0, 0.0, 0.0)
+    plans = _drive(start, 12.0)
     _assert_within_limits(plans)
+    first = plans[0][1]
+    assert first.state_at(0.0) == pytest.approx(start) and (first.x[0], first.y[0]) == (0.0, 0.0)
+    chosen = np.flatnonzero((first.candidates.x == first.x).all(axis=1) & (first.candidates.y == first.y).all(axis=1))
+    assert first.cost in first.candidates.cost[chosen]  # the plan is the candidate of its cost
+    assert first.cost == first.candidates.cost[first.candidates.status == Status.FEASIBLE].min()
     last = plans[-1][1]
     assert max(np.abs(p.y).max() for _, p in plans) < 1e-9  # the centre line, y = 0
     assert last.speed == pytest.approx(P.target_speed, abs=1e-3) and last.yaw == pytest.approx(0.0, abs=1e-9)
