@@ -3,7 +3,8 @@
 The reference polyline is interpolated by a cubic spline in arc length (reparametrised once by its own length,
 so that the parameter is the arc length to within the spline's tiny speed error); beyond its ends it continues
 straight along its end tangents. Conversions are exact for the spline: a point is projected by Newton's method
-onto the nearest spline point, and ``P(s) + d n(s)`` gives it back.
+from the nearest point of the reference polyline (O(points) a projection) onto the spline, and ``P(s) + d n(s)``
+gives it back.
 """
 
 from __future__ import annotations
