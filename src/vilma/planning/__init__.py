@@ -1,0 +1,6 @@
+"""Local motion planning: the Frenet frame of a reference path, boundary-value polynomials, the sampling planner."""
+
+from vilma.planning.frenet import FrenetFrame, FrenetState
+from vilma.planning.planner import Candidates, Plan, PlannerParams, Status, plan
+
+__all__ = ["Candidates", "FrenetFrame", "FrenetState", "Plan", "PlannerParams", "Status", "plan"]

@@ -1,0 +1,439 @@
+"""The local motion planner: sampled Frenet-frame polynomials, Werling et al. 2010.
+
+M. Werling, J. Ziegler, S. Kammel, S. Thrun, "Optimal trajectory generation for dynamic street scenarios in a
+Frenet frame", ICRA 2010. Each cycle samples lateral quintics ``d(t)`` to lane offsets and longitudinal
+polynomials ``s(t)`` (quartics for velocity keeping; quintics to a point for following a lead, Werling's
+``s_target = s_lead - (d0 + tau v_lead)``, and for stopping at the goal), combines every lateral with every
+longitudinal one, rejects the infeasible (curvature beyond the car's steering, acceleration beyond its limits,
+driving backwards) and those whose car box overlaps a predicted object's box at the same time (separating axes),
+and keeps the cheapest of the rest. When none is left the plan is the safe fallback: a stop at the car's
+comfortable deceleration, or at its emergency deceleration when that one collides, with the reason. A planning
+failure is never an exception; only malformed parameters or inputs raise ValueError.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from vilma.core.checks import check_numbers
+from vilma.planning.frenet import FrenetFrame, FrenetState, frame_pose, frenet_motion
+from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic
+from vilma.trajectory import Trajectory
+from vilma.vehicle.params import VehicleParams, vilma
+
+MAX_CANDIDATES = 4000
+"""Most candidates a cycle may sample (lateral times longitudinal samples)."""
+MAX_STEPS = 400
+"""Most time steps in a horizon."""
+
+
+class Status(IntEnum):
+    """What became of a candidate."""
+
+    FEASIBLE = 0
+    """Within the car's limits and free of every predicted object."""
+    INFEASIBLE = 1
+    COLLIDING = 2
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class PlannerParams:
+    """Sampling, costs and limits of the planner. Times [s], lengths [m], speeds [m/s], accelerations [m/s^2]."""
+
+    vehicle: VehicleParams = vilma()
+    """The car: its box (length, width, body offset), steering limit and acceleration limits."""
+    horizon: float = 3.0
+    """Length of the planned trajectory [s]."""
+    dt: float = 0.1
+    """Time step of the trajectory and of the predicted objects [s]; the horizon is a whole number of them."""
+    replan_period: float = 0.2
+    """Time between planning cycles [s], a whole number of ``dt``."""
+    lateral_offsets: tuple[float, ...] = (-3.5, -1.0, 0.0, 1.0, 3.5)
+    """End offsets from the reference [m], left positive (the neighbour lanes' centres among them)."""
+    lateral_durations: tuple[float, ...] = (2.0, 2.5, 3.0)
+    """Durations of the lateral manoeuvres [s]."""
+    target_speed: float = 10.0
+    """Desired speed of velocity keeping [m/s]."""
+    speed_offsets: tuple[float, ...] = (-2.0, -1.0, 0.0, 1.0)
+    """End speeds sampled around the target speed [m/s] (each limited to what the comfortable accelerations
+    reach within the duration)."""
+    speed_durations: tuple[float, ...] = (1.5, 2.25, 3.0)
+    """Durations of the velocity-keeping quartics [s]."""
+    position_offsets: tuple[float, ...] = (-3.0, -2.0, -1.0, -0.5, 0.0)
+    """End positions sampled at and behind a following or stopping target [m], each <= 0 (never closer to a lead
+    than the gap, never past the goal)."""
+    position_durations: tuple[float, ...] = (2.0, 3.0, 4.5, 6.0, 8.0)
+    """Durations of the following and stopping quintics [s] (those past the horizon are planned whole and
+    driven for the horizon); one more is the time a steady slow-down to the target's speed takes to reach it."""
+    follow_distance: float = 5.0
+    """Werling's ``d0``: the gap to a lead at rest [m], bumper to bumper."""
+    time_gap: float = 1.5
+    """Werling's ``tau``: the gap grows by this time times the lead's speed [s]."""
+    lane_width: float = 3.5
+    """An object is a lead when its centre is less than half this from the car's offset [m] and ahead."""
+    comfort_accel: float = 2.0
+    """Acceleration a velocity-keeping end speed is planned with at most [m/s^2]."""
+    margin: float = 0.2
+    """Added to each side of the car's box in the collision check [m]."""
+    jerk_weight: float = 0.1
+    """Werling's ``k_j``: weight of the integral of the squared jerk [s^5/m^2]."""
+    time_weight: float = 1.0
+    """``k_t``: weight of a manoeuvre's duration [1/s]."""
+    offset_weight: float = 1.0
+    """``k_d``: weight of the squared end offset from the reference [1/m^2]."""
+    speed_weight: float = 1.0
+    """``k_v``: weight of the squared miss of the target speed [s^2/m^2]."""
+    position_weight: float = 1.0
+    """``k_s``: weight of the squared miss of a following or stopping target [1/m^2]."""
+    lateral_weight: float = 1.0
+    """``k_lat``: weight of the lateral cost in the total."""
+    longitudinal_weight: float = 1.0
+    """``k_lon``: weight of the longitudinal cost in the total."""
+
+    def __post_init__(self) -> None:
+        samples = ("lateral_offsets", "lateral_durations", "speed_offsets", "speed_durations", "position_offsets",
+                   "position_durations")
+        for name in samples:
+            if len(getattr(self, name)) == 0:
+                raise ValueError(f"planner {name} is empty; give at least one value")
+        check_numbers(self, "planner", positive=("horizon", "dt", "replan_period", "lateral_durations",
+                                                 "speed_durations", "position_durations", "lane_width",
+                                                 "comfort_accel"))
+        for name in ("target_speed", "follow_distance", "time_gap", "margin", "jerk_weight", "time_weight",
+                     "offset_weight", "speed_weight", "position_weight", "lateral_weight", "longitudinal_weight"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"planner {name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("horizon", "replan_period"):
+            steps = getattr(self, name) / self.dt
+            if abs(steps - round(steps)) > 1e-9:
+                raise ValueError(f"planner {name} {getattr(self, name)!r} s is not a whole number of dt "
+                                 f"{self.dt!r} s; make it one")
+        if self.steps > MAX_STEPS:
+            raise ValueError(f"planner horizon / dt is {self.steps} steps, over the limit of {MAX_STEPS}; "
+                             "raise dt or shorten the horizon")
+        if max(self.position_offsets) > 0:
+            raise ValueError(f"planner position_offsets must be <= 0 m (at or behind the target), got "
+                             f"{self.position_offsets!r}")
+        if self.replan_period > self.horizon:
+            raise ValueError(f"planner replan_period {self.replan_period!r} s is longer than the horizon "
+                             f"{self.horizon!r} s; shorten it")
+        if self.candidate_count > MAX_CANDIDATES:
+            raise ValueError(f"planner samples {self.candidate_count} candidates, over the limit of "
+                             f"{MAX_CANDIDATES}; sample fewer offsets, speeds or durations")
+
+    @property
+    def steps(self) -> int:
+        """Time steps in the horizon (the trajectory has one point more)."""
+        return round(self.horizon / self.dt)
+
+    @property
+    def times(self) -> np.ndarray:
+        """The trajectory's times, 0 .. horizon [s] (steps + 1,): the times the predicted objects are given at."""
+        return np.arange(self.steps + 1) * self.dt
+
+    @property
+    def candidate_count(self) -> int:
+        """Most candidates a cycle evaluates."""
+        lateral = len(self.lateral_offsets) * len(self.lateral_durations)
+        return lateral * max(len(self.speed_offsets) * len(self.speed_durations),
+                             len(self.position_offsets) * (len(self.position_durations) + 1))
+
+    @property
+    def max_curvature(self) -> float:
+        """Curvature of the car's tightest turn [1/m]: tan(max steer) / wheelbase."""
+        return math.tan(self.vehicle.max_steer) / self.vehicle.wheelbase
+
+
+class Candidates(NamedTuple):
+    """The candidates of a cycle, for drawing: paths (n, n_t) [m], :class:`Status` (n,) and costs (n,)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    status: np.ndarray
+    cost: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """A planning cycle's result: the trajectory to drive (arrays (n_t,) over ``t`` [s] from the cycle's state).
+
+    Attributes:
+        t: times [s]; x, y: the car's reference point [m]; yaw [rad]; speed [m/s]; accel: tangential [m/s^2];
+        curvature [1/m]; frenet: (n_t, 6) s, s_dot, s_ddot, d, d_dot, d_ddot (:class:`FrenetState` fields).
+        cost: of the chosen candidate (inf for the fallback). mode: ``velocity``, ``follow``, ``stop`` or
+        ``fallback``. candidates: every candidate evaluated. reason: why the plan is the fallback ('' if not).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    speed: np.ndarray
+    accel: np.ndarray
+    curvature: np.ndarray
+    frenet: np.ndarray
+    cost: float
+    mode: str
+    candidates: Candidates
+    reason: str = ""
+
+    def state_at(self, time: float) -> FrenetState:
+        """The plan's Frenet state at ``time`` [s] after its start (the nearest step): where the next cycle starts
+        when the car follows the plan."""
+        k = min(max(round(time / (self.t[1] - self.t[0])), 0), len(self.t) - 1)
+        return FrenetState(*(float(v) for v in self.frenet[k]))
+
+    @property
+    def trajectory(self) -> Trajectory:
+        """The plan as a trajectory with speeds, for the path and speed controllers."""
+        return Trajectory(np.column_stack([self.x, self.y]), self.speed)
+
+
+class _Car(NamedTuple):
+    half_length: float
+    half_width: float
+    offset: float
+    max_curvature: float
+    max_accel: float
+    max_decel: float
+
+
+@njit(cache=True)
+def boxes_overlap(ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl, bhw):
+    """Whether two oriented boxes (centre, yaw, half length, half width) overlap: no separating axis among their
+    four edge normals (touching counts as overlap)."""
+    dx, dy = bx - ax, by - ay
+    ca, sa, cb, sb = math.cos(ayaw), math.sin(ayaw), math.cos(byaw), math.sin(byaw)
+    for ux, uy in ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb)):
+        ra = ahl * abs(ca * ux + sa * uy) + ahw * abs(-sa * ux + ca * uy)
+        rb = bhl * abs(cb * ux + sb * uy) + bhw * abs(-sb * ux + cb * uy)
+        if abs(dx * ux + dy * uy) > ra + rb:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _collides(car, x, y, yaw, objects, k, near, margin):
+    """Whether the car at ``(x, y, yaw)`` overlaps any of the ``near`` object boxes at step ``k``."""
+    hl, hw = car.half_length + margin, car.half_width + margin
+    cx, cy = x + car.offset * math.cos(yaw), y + car.offset * math.sin(yaw)
+    r = math.hypot(hl, hw)
+    for o in range(objects.shape[0]):
+        if not near[o, k]:
+            continue
+        ox, oy, oyaw, ol, ow = objects[o, k, 0], objects[o, k, 1], objects[o, k, 2], objects[o, k, 3], objects[o, k, 4]
+        reach = r + 0.5 * math.hypot(ol, ow)
+        if (ox - cx) ** 2 + (oy - cy) ** 2 > reach * reach:
+            continue  # the bounding circles are apart
+        if boxes_overlap(cx, cy, yaw, hl, hw, ox, oy, oyaw, 0.5 * ol, 0.5 * ow):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _near(objects, out, checked, reach):
+    """(n_obj, n_t): whether an object's bounding circle at a step comes within ``reach`` [m] of the box around
+    the points of the ``checked`` candidates at that step (the others cannot touch any of them)."""
+    n_obj, n_t = objects.shape[0], objects.shape[1]
+    near = np.zeros((n_obj, n_t), dtype=np.bool_)
+    for k in range(n_t):
+        lo_x, hi_x, lo_y, hi_y = np.inf, -np.inf, np.inf, -np.inf
+        for c in range(checked.shape[0]):
+            if checked[c]:
+                lo_x, hi_x = min(lo_x, out[0, c, k]), max(hi_x, out[0, c, k])
+                lo_y, hi_y = min(lo_y, out[1, c, k]), max(hi_y, out[1, c, k])
+        for o in range(n_obj):
+            r = reach + 0.5 * math.hypot(objects[o, k, 3], objects[o, k, 4])
+            near[o, k] = lo_x - r <= objects[o, k, 0] <= hi_x + r and lo_y - r <= objects[o, k, 1] <= hi_y + r
+    return near
+
+
+@njit(cache=True)
+def _combine(fa, lat, lon, objects, car, margin, check_all, out, status):
+    """Every lateral (3, n_lat, n_t) with every longitudinal (3, n_lon, n_t) motion: Cartesian motion into
+    ``out`` (6, n_lat * n_lon, n_t: x, y, yaw, speed, accel, curvature) and the :class:`Status` of each
+    (the infeasible checked for collisions too with ``check_all``)."""
+    n_lat, n_lon, n_t = lat.shape[1], lon.shape[1], lat.shape[2]
+    ref = np.empty((n_lon, n_t, 5))
+    for j in range(n_lon):
+        for k in range(n_t):
+            ref[j, k, 0], ref[j, k, 1], ref[j, k, 2], ref[j, k, 3], ref[j, k, 4] = frame_pose(fa, lon[0, j, k])
+    for i in range(n_lat):
+        for j in range(n_lon):
+            c = i * n_lon + j
+            ok = True
+            for k in range(n_t):
+                theta, kr, dk = ref[j, k, 2], ref[j, k, 3], ref[j, k, 4]
+                d = lat[0, i, k]
+                s_dot = lon[1, j, k]
+                yaw, v, a, kappa = frenet_motion(theta, kr, dk, s_dot, lon[2, j, k], d, lat[1, i, k], lat[2, i, k])
+                out[0, c, k] = ref[j, k, 0] - d * math.sin(theta)
+                out[1, c, k] = ref[j, k, 1] + d * math.cos(theta)
+                out[2, c, k], out[3, c, k], out[4, c, k], out[5, c, k] = yaw, v, a, kappa
+                if (s_dot < -1e-6 or 1.0 - kr * d <= 0.0 or abs(kappa) > car.max_curvature
+                        or a > car.max_accel or a < -car.max_decel):
+                    ok = False
+            status[c] = 0 if ok else 1
+    checked = (status == 0) | check_all
+    near = _near(objects, out, checked, abs(car.offset) + math.hypot(car.half_length + margin, car.half_width + margin))
+    for c in range(status.shape[0]):
+        if checked[c]:
+            for k in range(n_t):
+                if _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
+                    status[c] = 2
+                    break
+
+
+def _car(p: PlannerParams) -> _Car:
+    v = p.vehicle
+    return _Car(0.5 * v.length, 0.5 * v.width, v.body_offset, p.max_curvature, v.actuators.max_accel,
+                v.actuators.max_decel)
+
+
+class _Target(NamedTuple):
+    """A point to reach: at ``s + speed t`` [m] at time t, moving at ``speed`` [m/s]."""
+
+    mode: str
+    s: float
+    speed: float
+
+
+def _lead_target(state: FrenetState, frame: FrenetFrame, objects: np.ndarray, p: PlannerParams) -> _Target | None:
+    """Werling's following target behind the nearest object ahead within half a lane of the car's offset."""
+    if objects.shape[0] == 0:
+        return None
+    s, d = frame.to_frenet(objects[:, :2, 0], objects[:, :2, 1])
+    ahead = (np.abs(d[:, 0] - state.d) < 0.5 * p.lane_width) & (s[:, 0] > state.s)
+    if not ahead.any():
+        return None
+    i = np.flatnonzero(ahead)[np.argmin(s[ahead, 0])]
+    speed = max((s[i, 1] - s[i, 0]) / p.dt, 0.0)
+    front = p.vehicle.body_offset + 0.5 * p.vehicle.length  # the car's front bumper ahead of its reference point
+    gap = p.follow_distance + p.time_gap * speed
+    return _Target("follow", float(s[i, 0] - 0.5 * objects[i, 0, 3] - front - gap), float(speed))
+
+
+def _binds(target: _Target, state: FrenetState, p: PlannerParams) -> bool:
+    """Whether a target is near enough to plan for: the car, keeping the faster of its speed and the target
+    speed over the horizon, would close on it by more than its distance (then it brakes at half the comfortable
+    deceleration to the target's speed)."""
+    v = max(state.s_dot, p.target_speed)
+    closing = max(v - target.speed, 0.0) * p.horizon + max(v * v - target.speed**2, 0.0) / (
+        p.vehicle.actuators.stop_deceleration)
+    return target.s - state.s <= closing
+
+
+def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
+    """Longitudinal polynomials (n, 6), their durations (n,) and costs (n,)."""
+    if target is None:
+        T = np.repeat(np.asarray(p.speed_durations), len(p.speed_offsets))
+        want = np.tile(p.target_speed + np.asarray(p.speed_offsets), len(p.speed_durations))
+        reach = np.clip(want, state.s_dot - p.vehicle.actuators.stop_deceleration * T,
+                        state.s_dot + p.comfort_accel * T)
+        v1 = np.maximum(reach, 0.0)
+        coeffs = quartic(state.s, state.s_dot, state.s_ddot, v1, 0.0, T)
+        miss = p.speed_weight * (v1 - p.target_speed) ** 2
+    else:
+        durations = list(p.position_durations)
+        closing = state.s_dot - target.speed
+        if closing > 0 and target.s > state.s:  # and the time a steady slow-down to the target speed closes the gap in
+            durations.append(max(2.0 * (target.s - state.s) / closing, p.dt))
+        T = np.repeat(np.asarray(durations), len(p.position_offsets))
+        dev = np.tile(np.asarray(p.position_offsets), len(durations))
+        v0, v1, b = state.s_dot, target.speed, p.vehicle.actuators.stop_deceleration
+        end = target.s + v1 * T + dev
+        if v0 > v1:  # an end the car reaches only braking harder than comfortably moves on to where it does
+            end = np.maximum(end, state.s + (v0 * v0 - v1 * v1) / (2.0 * b) + v1 * np.maximum(T - (v0 - v1) / b, 0))
+        coeffs = quintic(state.s, state.s_dot, state.s_ddot, end, v1, 0.0, T)
+        miss = p.position_weight * (end - target.s - v1 * T) ** 2
+    return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + miss
+
+
+def _lateral(state: FrenetState, p: PlannerParams):
+    """Lateral quintics (n, 6), their durations (n,) and costs (n,)."""
+    T = np.repeat(np.asarray(p.lateral_durations), len(p.lateral_offsets))
+    d1 = np.tile(np.asarray(p.lateral_offsets), len(p.lateral_durations))
+    coeffs = quintic(state.d, state.d_dot, state.d_ddot, d1, 0.0, 0.0, T)
+    return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + p.offset_weight * d1**2
+
+
+def _motions(frame, lat, lat_T, lon, lon_T, objects, p, check_all=False):
+    t = p.times
+    lat_m, lon_m = evaluate(lat, lat_T, t)[:3], evaluate(lon, lon_T, t)[:3]
+    n = lat_m.shape[1] * lon_m.shape[1]
+    out, status = np.empty((6, n, len(t))), np.empty(n, dtype=np.int8)
+    _combine(frame.arrays, lat_m, lon_m, objects, _car(p), p.margin, check_all, out, status)
+    return lat_m, lon_m, out, status
+
+
+def _check(state: FrenetState, objects: np.ndarray, p: PlannerParams) -> np.ndarray:
+    if not all(math.isfinite(v) for v in state):
+        raise ValueError(f"plan: the car's Frenet state must be finite numbers, got {tuple(state)}")
+    objects = np.ascontiguousarray(objects, dtype=np.float64)
+    if objects.ndim != 3 or objects.shape[1:] != (p.steps + 1, 5):
+        raise ValueError(f"plan: predicted objects must be an array (n_obj, {p.steps + 1}, 5) of x, y, yaw, "
+                         f"length, width at the planner's times, got shape {objects.shape}")
+    if not np.isfinite(objects).all():
+        raise ValueError("plan: predicted objects must be finite numbers")
+    return objects
+
+
+def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerParams,
+         goal: float | None = None) -> Plan:
+    """Plan from the car's ``state`` along ``reference`` among predicted ``objects`` (n_obj, n_t, 5: x, y [m],
+    yaw [rad], length, width [m] at ``params.times``), stopping at arc length ``goal`` [m] if given.
+
+    The longitudinal mode: following the nearest object ahead within half a lane of the car, or stopping at the
+    goal, whichever target is nearer, once the car keeping its speed would come within its braking distance of
+    it over the horizon; velocity keeping otherwise. The lateral motion is planned in time (Werling's
+    high-speed mode), so that at walking pace a lane change comes out infeasible by its curvature.
+    """
+    objects = _check(state, objects, params)
+    targets = [t for t in (_lead_target(state, reference, objects, params),
+                           None if goal is None else _Target("stop", float(goal), 0.0))
+               if t is not None and _binds(t, state, params)]
+    target = min(targets, key=lambda t: t.s + t.speed * params.horizon, default=None)
+    lat, lat_T, lat_cost = _lateral(state, params)
+    lon, lon_T, lon_cost = _longitudinal(state, target, params)
+    lat_m, lon_m, out, status = _motions(reference, lat, lat_T, lon, lon_T, objects, params)
+    cost = (params.lateral_weight * lat_cost[:, None] + params.longitudinal_weight * lon_cost[None, :]).ravel()
+    candidates = Candidates(out[0], out[1], status, cost)
+    free = np.flatnonzero(status == Status.FEASIBLE)
+    if len(free) == 0:
+        return _fallback(state, reference, objects, params, candidates)
+    c = int(free[np.argmin(cost[free])])
+    i, j = divmod(c, lon.shape[0])
+    frenet = np.column_stack([lon_m[0, j], lon_m[1, j], lon_m[2, j], lat_m[0, i], lat_m[1, i], lat_m[2, i]])
+    return Plan(params.times, *out[:, c], frenet, float(cost[c]), "velocity" if target is None else target.mode,
+                candidates)
+
+
+def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p: PlannerParams,
+              candidates: Candidates) -> Plan:
+    """The safe stop: along the reference at the comfortable deceleration (the car's controlled stop), or its
+    emergency deceleration when the comfortable stop collides; the lane offset settles where it is."""
+    infeasible = int((candidates.status == Status.INFEASIBLE).sum())
+    why = f"no free candidate: {infeasible} infeasible, {len(candidates.status) - infeasible} colliding"
+    lat = quintic(state.d, state.d_dot, state.d_ddot, state.d, 0.0, 0.0, min(p.lateral_durations))[None]
+    v0 = max(state.s_dot, 0.0)
+
+    def stop(decel):
+        lon = np.array([[state.s, v0, -0.5 * decel if v0 > 0 else 0.0, 0.0, 0.0, 0.0]])
+        return _motions(reference, lat, [min(p.lateral_durations)], lon, [max(v0 / decel, p.dt)], objects, p, True)
+
+    decel, name = p.vehicle.actuators.stop_deceleration, "comfortable"
+    lat_m, lon_m, out, status = stop(decel)
+    if status[0] == Status.COLLIDING:
+        decel, name = p.vehicle.actuators.max_decel, "emergency"
+        lat_m, lon_m, out, status = stop(decel)
+    reason = f"{why}; {name} stop at {decel:g} m/s^2 within {v0 * v0 / (2 * decel):.1f} m"
+    if status[0] == Status.COLLIDING:
+        reason += ", which still collides"
+    frenet = np.column_stack([lon_m[0, 0], lon_m[1, 0], lon_m[2, 0], lat_m[0, 0], lat_m[1, 0], lat_m[2, 0]])
+    return Plan(p.times, *out[:, 0], frenet, math.inf, "fallback", candidates, reason)

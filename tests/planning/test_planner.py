@@ -1,0 +1,198 @@
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vilma.planning import FrenetFrame, FrenetState, PlannerParams, Status, plan
+from vilma.planning.planner import MAX_CANDIDATES, MAX_STEPS, boxes_overlap
+from vilma.trajectory import Trajectory
+
+P = PlannerParams()
+CAR = P.vehicle
+STRAIGHT = FrenetFrame(Trajectory.from_points([(0.0, 0.0), (1000.0, 0.0)]))
+NONE = np.zeros((0, P.steps + 1, 5))
+LANE = 3.5  # the neighbour lanes' centres are the outer lateral offsets
+
+
+def _box(x, y, speed, start=0.0, length=4.5, width=1.8):
+    """A car heading +x at a constant speed, predicted at the planner's times from ``start`` [s]: (n_t, 5)."""
+    t = start + P.times
+    return np.column_stack([x + speed * t, np.full_like(t, y), np.zeros_like(t), np.full_like(t, length),
+                            np.full_like(t, width)])
+
+
+def _drive(state, seconds, objects=lambda t: NONE, frame=STRAIGHT, params=P, goal=None):
+    """Replan every period from where the last plan put the car (perfect tracking): (start time, plan) pairs."""
+    plans = []
+    for k in range(round(seconds / params.replan_period)):
+        p = plan(state, frame, objects(k * params.replan_period), params, goal)
+        plans.append((k * params.replan_period, p))
+        state = p.state_at(params.replan_period)
+    return plans
+
+
+def _polygon(x, y, yaw, length, width, offset=0.0):
+    c, s = math.cos(yaw), math.sin(yaw)
+    cx, cy = x + offset * c, y + offset * s
+    corners = [(a * length / 2, b * width / 2) for a, b in ((1, 1), (-1, 1), (-1, -1), (1, -1))]
+    return shapely.Polygon([(cx + u * c - v * s, cy + u * s + v * c) for u, v in corners])
+
+
+def _assert_never_overlaps(plans, objects):
+    """Shapely's polygons of the car's real box along each plan and of each object at the same time are apart."""
+    for start, p in plans:
+        boxes = objects(start)
+        for k in range(len(p.t)):
+            car = _polygon(p.x[k], p.y[k], p.yaw[k], CAR.length, CAR.width, CAR.body_offset)
+            for o in boxes:
+                assert not car.intersects(_polygon(*o[k, :3], o[k, 3], o[k, 4])), f"overlap at {start + p.t[k]} s"
+
+
+def _assert_within_limits(plans, params=P):
+    for _, p in plans:
+        assert p.mode != "fallback", p.reason
+        assert np.abs(p.curvature).max() <= params.max_curvature
+        assert (p.accel <= CAR.actuators.max_accel).all() and (p.accel >= -CAR.actuators.max_decel).all()
+        assert (p.frenet[:, 1] >= -1e-6).all()  # never backwards
+
+
+def test_on_an_empty_straight_road_it_keeps_the_lane_centre_and_reaches_the_target_speed():
+    start = FrenetState(0.0, 5.0, 0.0, 0.0)
+    plans = _drive(start, 12.0)
+    _assert_within_limits(plans)
+    first = plans[0][1]
+    assert first.state_at(0.0) == pytest.approx(start) and (first.x[0], first.y[0]) == (0.0, 0.0)
+    chosen = np.flatnonzero((first.candidates.x == first.x).all(axis=1) & (first.candidates.y == first.y).all(axis=1))
+    assert first.cost in first.candidates.cost[chosen]  # the plan is the candidate of its cost
+    assert first.cost == first.candidates.cost[first.candidates.status == Status.FEASIBLE].min()
+    last = plans[-1][1]
+    assert max(np.abs(p.y).max() for _, p in plans) < 1e-9  # the centre line, y = 0
+    assert last.speed == pytest.approx(P.target_speed, abs=1e-3) and last.yaw == pytest.approx(0.0, abs=1e-9)
+    assert last.mode == "velocity" and last.reason == ""
+    path = last.trajectory
+    assert path.speed == pytest.approx(last.speed) and path.length == pytest.approx(np.sum(last.speed[:-1]) * P.dt)
+    assert (last.candidates.status == Status.FEASIBLE).sum() > 0
+
+
+def test_on_a_curve_the_plan_follows_the_reference_at_its_curvature():
+    radius = 30.0
+    a = np.linspace(0.0, 1.5 * math.pi, 300)
+    frame = FrenetFrame(Trajectory.from_points(np.column_stack([radius * np.sin(a), radius * (1 - np.cos(a))])))
+    p = plan(FrenetState(10.0, P.target_speed, 0.0, 0.0), frame, NONE, P)
+    assert np.hypot(p.x, p.y - radius) == pytest.approx(radius, abs=1e-6)
+    assert p.curvature == pytest.approx(1 / radius, rel=1e-3) and p.speed == pytest.approx(P.target_speed)
+
+
+def test_with_a_stopped_car_in_the_lane_it_stops_behind_it_or_changes_lane_and_never_overlaps_it():
+    def objects(t):
+        return _box(40.0, 0.0, 0.0)[None]
+
+    plans = _drive(FrenetState(0.0, 10.0, 0.0, 0.0), 15.0, objects)
+    _assert_never_overlaps(plans, objects)
+    _assert_within_limits(plans)
+    last = plans[-1][1]
+    gap = 40.0 - 4.5 / 2 - (last.x[0] + CAR.body_offset + CAR.length / 2)
+    changed = abs(abs(last.y[0]) - LANE) < 0.05 and last.x[0] > 45.0
+    stopped = last.speed[0] < 1e-3 and gap == pytest.approx(P.follow_distance, abs=0.1)
+    assert changed or stopped
+
+
+def test_behind_a_slower_lead_with_the_other_lane_blocked_it_follows_at_d0_plus_tau_v():
+    v_lead = 8.0
+    params = dataclasses.replace(P, target_speed=15.0)
+
+    def objects(t):
+        return np.stack([_box(50.0, 0.0, v_lead, t), _box(50.0, LANE, v_lead, t)])
+
+    plans = _drive(FrenetState(0.0, 12.0, 0.0, 0.0), 40.0, objects, params=params)
+    _assert_never_overlaps(plans, objects)
+    _assert_within_limits(plans, params)
+    start, last = plans[-1]
+    gap = 50.0 + v_lead * start - 4.5 / 2 - (last.x[0] + CAR.body_offset + CAR.length / 2)
+    assert last.mode == "follow"
+    assert gap == pytest.approx(P.follow_distance + P.time_gap * v_lead, abs=0.1)
+    assert last.speed[0] == pytest.approx(v_lead, abs=0.02) and last.y[0] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_it_stops_at_the_goal_without_passing_it():
+    plans = _drive(FrenetState(0.0, 10.0, 0.0, 0.0), 25.0, goal=80.0)
+    _assert_within_limits(plans)
+    assert max(p.frenet[:, 0].max() for _, p in plans) <= 80.0 + 1e-6
+    last = plans[-1][1]
+    assert last.mode == "stop" and last.frenet[0, 0] == pytest.approx(80.0, abs=0.05) and last.speed[0] < 1e-3
+
+
+def test_when_every_candidate_collides_it_stops_within_the_braking_distance_it_has():
+    # a 30 m truck crossing the road 15 m ahead: every candidate meets it, the comfortable stop too
+    v = 10.0
+    truck = np.column_stack([np.full_like(P.times, 15.0), -20.0 + 10.0 * P.times, np.full_like(P.times, math.pi / 2),
+                             np.full_like(P.times, 30.0), np.full_like(P.times, 2.5)])[None]
+    p = plan(FrenetState(0.0, v, 0.0, 0.0), STRAIGHT, truck, P)
+    assert (p.candidates.status == Status.COLLIDING).all()
+    decel = CAR.actuators.max_decel
+    assert v * v / (2 * CAR.actuators.stop_deceleration) + CAR.body_offset + CAR.length / 2 > 15.0 - 2.5 / 2
+    assert p.mode == "fallback" and "emergency" in p.reason and "still collides" not in p.reason
+    assert p.cost == math.inf
+    assert p.frenet[-1, 0] == pytest.approx(v * v / (2 * decel)) and p.speed[-1] == pytest.approx(0.0)
+    assert p.accel[1] == pytest.approx(-decel)
+    _assert_never_overlaps([(0.0, p)], lambda t: truck)
+
+
+def test_when_no_candidate_is_feasible_it_stops_at_the_comfortable_deceleration():
+    # braking at 2 m/s^2 already, on a car allowed 0.5: every candidate starts beyond the limit
+    car = dataclasses.replace(CAR, actuators=dataclasses.replace(CAR.actuators, max_decel=0.5))
+    params = dataclasses.replace(P, vehicle=car)
+    v = 8.0  # stops within the horizon: 8 / 3 s
+    p = plan(FrenetState(0.0, v, -2.0, 0.0), STRAIGHT, NONE, params)
+    assert (p.candidates.status == Status.INFEASIBLE).all()
+    decel = car.actuators.stop_deceleration
+    assert p.mode == "fallback" and "comfortable" in p.reason and "infeasible" in p.reason
+    assert p.frenet[-1, 0] == pytest.approx(v * v / (2 * decel)) and p.speed[-1] == pytest.approx(0.0)
+
+
+def test_a_tight_curve_beyond_the_steering_limit_is_infeasible():
+    radius = 0.5 / P.max_curvature
+    a = np.linspace(0.0, math.pi, 200)
+    frame = FrenetFrame(Trajectory.from_points(np.column_stack([radius * np.sin(a), radius * (1 - np.cos(a))])))
+    p = plan(FrenetState(0.5, 5.0, 0.0, 0.0), frame, NONE, P)
+    assert (p.candidates.status == Status.INFEASIBLE).all() and p.mode == "fallback"
+
+
+@settings(deadline=None)  # the first example loads the compiled code
+@given(st.floats(-5, 5), st.floats(-5, 5), st.floats(-math.pi, math.pi), st.floats(-math.pi, math.pi),
+       st.floats(0.2, 5), st.floats(0.2, 3), st.floats(0.2, 5), st.floats(0.2, 3))
+def test_the_separating_axis_check_agrees_with_polygon_intersection(x, y, yaw_a, yaw_b, la, wa, lb, wb):
+    a, b = _polygon(0.0, 0.0, yaw_a, la, wa), _polygon(x, y, yaw_b, lb, wb)
+    if a.distance(b) < 1e-9 and a.intersection(b).area < 1e-9:
+        return  # touching within rounding: either answer is right
+    assert boxes_overlap(0.0, 0.0, yaw_a, la / 2, wa / 2, x, y, yaw_b, lb / 2, wb / 2) == a.intersects(b)
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"horizon": 0.0}, "planner horizon must be a finite number > 0"),
+    ({"horizon": -1.0}, "planner horizon must be a finite number > 0"),
+    ({"lateral_offsets": ()}, "planner lateral_offsets is empty"),
+    ({"speed_durations": ()}, "planner speed_durations is empty"),
+    ({"horizon": 2.95}, "not a whole number of dt"),
+    ({"horizon": 100.0, "dt": 0.1}, f"over the limit of {MAX_STEPS}"),
+    ({"lateral_offsets": tuple(range(100))}, f"over the limit of {MAX_CANDIDATES}"),
+    ({"replan_period": 4.0}, "longer than the horizon"),
+    ({"margin": -0.1}, "planner margin must be >= 0"),
+    ({"position_offsets": (0.0, 1.0)}, "position_offsets must be <= 0 m"),
+])
+def test_bad_parameters_are_a_one_line_error(change, message):
+    with pytest.raises(ValueError, match=message) as e:
+        dataclasses.replace(P, **change)
+    assert "\n" not in str(e.value)
+
+
+def test_malformed_objects_or_state_are_a_one_line_error():
+    with pytest.raises(ValueError, match=r"\(n_obj, 31, 5\)") as e:
+        plan(FrenetState(0.0, 1.0, 0.0, 0.0), STRAIGHT, np.zeros((2, 30, 5)), P)
+    assert "\n" not in str(e.value)
+    with pytest.raises(ValueError, match="must be finite"):
+        plan(FrenetState(math.nan, 1.0, 0.0, 0.0), STRAIGHT, NONE, P)

@@ -1,0 +1,60 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.integrate import quad
+
+from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic
+
+value = st.floats(-50.0, 50.0)
+duration = st.floats(0.5, 10.0)
+
+
+def _at(coeffs, T, t):
+    return evaluate(coeffs, T, np.asarray([t], dtype=float))[:, 0]
+
+
+@given(value, value, value, value, value, value, duration)
+def test_a_quintic_meets_its_six_boundary_conditions(x0, v0, a0, x1, v1, a1, T):
+    c = quintic(x0, v0, a0, x1, v1, a1, T)
+    assert _at(c, T, 0.0)[:3] == pytest.approx([x0, v0, a0], abs=1e-9)
+    assert _at(c, T, T)[:3] == pytest.approx([x1, v1, a1], rel=1e-9, abs=1e-7)
+
+
+@given(value, value, value, value, value, duration)
+def test_a_quartic_meets_its_five_boundary_conditions(x0, v0, a0, v1, a1, T):
+    c = quartic(x0, v0, a0, v1, a1, T)
+    assert c[5] == 0.0
+    assert _at(c, T, 0.0)[:3] == pytest.approx([x0, v0, a0], abs=1e-9)
+    assert _at(c, T, T)[1:3] == pytest.approx([v1, a1], rel=1e-9, abs=1e-7)
+
+
+def test_rest_to_rest_quintic_is_the_minimum_jerk_motion():
+    # Flash and Hogan 1985: from rest to rest over D in T, x = D (10 u^3 - 15 u^4 + 6 u^5), u = t / T
+    D, T = 7.0, 2.0
+    assert quintic(0.0, 0.0, 0.0, D, 0.0, 0.0, T) == pytest.approx([0, 0, 0, 10 * D / T**3, -15 * D / T**4,
+                                                                    6 * D / T**5])
+
+
+def test_evaluation_is_vectorised_and_goes_on_at_the_end_rate_past_the_duration():
+    c = quintic([0.0, 1.0], 0.0, 0.0, [3.5, -2.0], [0.0, 4.0], 0.0, [2.0, 3.0])
+    t = np.array([0.0, 2.0, 3.0, 5.0])
+    x, v, a, j = evaluate(c, [2.0, 3.0], t)
+    assert x.shape == (2, 4)
+    assert x[0] == pytest.approx([0.0, 3.5, 3.5, 3.5])  # the lane offset is held
+    assert x[1, 3] == pytest.approx(-2.0 + 4.0 * 2.0) and v[1, 3] == pytest.approx(4.0)  # the end speed is kept
+    assert a[:, 3] == pytest.approx([0.0, 0.0]) and j[:, 3] == pytest.approx([0.0, 0.0])
+
+
+@given(value, value, value, value, value, value, duration)
+def test_jerk_cost_is_the_integral_of_the_squared_jerk(x0, v0, a0, x1, v1, a1, T):
+    c = quintic(x0, v0, a0, x1, v1, a1, T)
+    numeric, _ = quad(lambda t: _at(c, T, t)[3] ** 2, 0.0, T)
+    assert jerk_cost(c, T) == pytest.approx(numeric, rel=1e-7, abs=1e-9)
+
+
+def test_a_duration_that_is_not_positive_is_an_error():
+    with pytest.raises(ValueError, match="duration must be > 0 s"):
+        quintic(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match="duration must be > 0 s"):
+        quartic(0.0, 0.0, 0.0, 1.0, 0.0, [1.0, -1.0])
