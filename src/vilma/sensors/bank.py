@@ -185,17 +185,21 @@ class SensorBank:
         counted."""
         b = self.book
         need = max(BLOCK, *b[COUNT].tolist())
-        rests, fresh = [], []
+        kept, short = [], []  # per slot: normals not yet used, whether to draw ``need`` samples' more
         for slot, (u, held, c) in enumerate(zip(b[USED].tolist(), b[HELD].tolist(), b[COUNT].tolist(), strict=True)):
-            d, sensor = NORMALS[slot], self._by_slot[slot]
-            short = d and sensor is not None and u + c > held
-            rests.append(self.noise[slot, u * d:held * d])
-            fresh.append(sensor.rng.standard_normal(need * d) if short else rests[-1][:0])
-        rows = max(BLOCK, *((len(r) + len(f)) // max(d, 1) for r, f, d in zip(rests, fresh, NORMALS, strict=True)))
-        self.noise = np.zeros((len(KINDS), rows * MAX_NORMALS))
-        for slot, (rest, new) in enumerate(zip(rests, fresh, strict=True)):
-            self.noise[slot, :len(rest) + len(new)] = np.concatenate([rest, new])
-            b[HELD, slot] = (len(rest) + len(new)) // NORMALS[slot] if NORMALS[slot] else ENDLESS
+            d = NORMALS[slot]
+            kept.append((u * d, held * d) if d else (0, 0))
+            short.append(bool(d) and self._by_slot[slot] is not None and u + c > held)
+        sizes = [hi - lo + (need * d if s else 0) for (lo, hi), s, d in zip(kept, short, NORMALS, strict=True)]
+        rows = max(BLOCK, *(n // max(d, 1) for n, d in zip(sizes, NORMALS, strict=True)))
+        old = self.noise
+        if old.shape[1] < rows * MAX_NORMALS:  # else the rows are reused: the unused normals move to the front
+            self.noise = np.empty((len(KINDS), rows * MAX_NORMALS))
+        for slot, ((lo, hi), s) in enumerate(zip(kept, short, strict=True)):
+            self.noise[slot, :hi - lo] = old[slot, lo:hi]
+            if s:  # drawn in place: the same numbers as drawn apart
+                self._by_slot[slot].rng.standard_normal(out=self.noise[slot, hi - lo:sizes[slot]])
+            b[HELD, slot] = sizes[slot] // NORMALS[slot] if NORMALS[slot] else ENDLESS
         b[USED] = 0
         if (b[FILLED] + b[COUNT] > self.outs.shape[1] // MAX_WIDTH).any():
             self._new_blocks(need)

@@ -15,12 +15,13 @@ CURVATURE_SPAN = 2.0
 
 
 @njit(cache=True)
-def _nearest(xy, seg, seg_len2, x, y, lo, hi):
+def _nearest(xy, seg, seg_len, x, y, lo, hi):
     """Nearest segment in ``lo .. hi-1`` to ``(x, y)``: (index, t, squared distance)."""
     best, bi, bt = np.inf, lo, 0.0
     for i in range(lo, hi):
         rx, ry = x - xy[i, 0], y - xy[i, 1]
-        t = (rx * seg[i, 0] + ry * seg[i, 1]) / seg_len2[i] if seg_len2[i] > 1e-18 else 0.0
+        len2 = seg_len[i] * seg_len[i]  # squared here, for the searched segments only
+        t = (rx * seg[i, 0] + ry * seg[i, 1]) / len2 if len2 > 1e-18 else 0.0
         t = min(max(t, 0.0), 1.0)
         ex, ey = rx - t * seg[i, 0], ry - t * seg[i, 1]
         d = ex * ex + ey * ey
@@ -34,16 +35,15 @@ def _project_track(xy, seg, seg_len, s0, heading, pts, window, jump):
     """Project a sequence of points, each searched near the previous one (all segments when it is lost)."""
     n, m = pts.shape[0], seg.shape[0]
     out = np.empty((n, 3))  # s, cross-track, heading
-    seg_len2 = seg_len * seg_len
     prev = -1
     for k in range(n):
         x, y = pts[k, 0], pts[k, 1]
         if prev < 0:
-            i, t, d = _nearest(xy, seg, seg_len2, x, y, 0, m)
+            i, t, d = _nearest(xy, seg, seg_len, x, y, 0, m)
         else:
-            i, t, d = _nearest(xy, seg, seg_len2, x, y, max(0, prev - window), min(m, prev + window + 1))
+            i, t, d = _nearest(xy, seg, seg_len, x, y, max(0, prev - window), min(m, prev + window + 1))
             if d > jump * jump:
-                i, t, d = _nearest(xy, seg, seg_len2, x, y, 0, m)
+                i, t, d = _nearest(xy, seg, seg_len, x, y, 0, m)
         prev = i
         h = heading[i]
         px, py = xy[i, 0] + t * seg[i, 0], xy[i, 1] + t * seg[i, 1]
@@ -146,7 +146,7 @@ def path_project(pa, x, y, hint, window):
     if hint >= 0:
         hi = min(n - 1, hint + window + 1)
         lo = min(max(0, hint - window), hi - 1)
-    i, t, _ = _nearest(pa.xy, pa.seg, pa.seg_len * pa.seg_len, x, y, lo, hi)
+    i, t, _ = _nearest(pa.xy, pa.seg, pa.seg_len, x, y, lo, hi)
     h = pa.heading[i]
     px, py = pa.xy[i, 0] + t * pa.seg[i, 0], pa.xy[i, 1] + t * pa.seg[i, 1]
     s = pa.s[i] + t * pa.seg_len[i]
