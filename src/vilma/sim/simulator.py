@@ -192,6 +192,7 @@ class Simulator(Closeable):
         self.clock = Clock(seconds_to_ns(c.step))
         self._consts = plant_consts(c.vehicle)
         self._consts_array = np.array(self._consts)  # crosses into compiled code far cheaper (sim/frame.py)
+        self._limits = command_limits(c.vehicle)  # for compiled code, made once
         self._plant3d = None
         self._world_sensors: list[WorldSensor] = []
         if c.model == MUJOCO:
@@ -450,7 +451,7 @@ class Simulator(Closeable):
             self._kernel_records = empty_records(ticks)  # kept: one allocation for the blocks of a run
         return PlantKernel(self._model, self._integrator, self._z, self._consts, self.clock.step_s, self.clock.step_ns,
                            self.clock.tick, self._periods, self._kernel_records, np.array([self._mode]),
-                           self._cmd.copy(), command_limits(self.config.vehicle),
+                           self._cmd.copy(), self._limits,
                            None if self.config.reactive is None else self.config.reactive.arrays)
 
     def kernel_end(self, k: PlantKernel, done: KernelResult) -> dict[str, Readings]:
