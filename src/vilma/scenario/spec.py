@@ -41,6 +41,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -76,6 +77,12 @@ from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file
     from vilma.world.commonroad import EgoTask
 
+
+@lru_cache(maxsize=8)  # a sweep or a benchmark drives one course many times: one spline for them all
+def _course(points: tuple[tuple[float, float], ...]) -> Trajectory:
+    """:func:`~vilma.trajectory.course.spline_course` through ``points`` (a trajectory is immutable: shared)."""
+    return spline_course(points)
+
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Scenario:
     """A validated scenario: everything a run needs."""
@@ -110,7 +117,7 @@ class Scenario:
         if t.kind == "route":
             return self._route()
         if t.kind == "course":
-            path = spline_course(t.course)
+            path = _course(t.course)
         else:
             try:
                 path = load_trajectory(self.trajectory_file())

@@ -29,9 +29,9 @@ def speed_profile(path: Trajectory, speed: float | None, max_lateral_accel: floa
     base = np.full(len(path), float(speed)) if speed is not None else np.array(path.speed)
     k = np.abs(path.curvature)
     v = np.minimum(base, np.sqrt(max_lateral_accel / np.maximum(k, 1e-12)))
-    ds = np.diff(path.s)
+    ds, v = np.diff(path.s).tolist(), v.tolist()  # Python floats: the loop runs on scalars
     for i in range(len(v) - 2, -1, -1):
-        v[i] = min(v[i], np.sqrt(v[i + 1] ** 2 + 2.0 * max_decel * ds[i]))
+        v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * max_decel * ds[i]))
     return Trajectory(path.xy, v)
 
 
