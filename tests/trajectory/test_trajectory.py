@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vilma.trajectory import Trajectory
@@ -46,6 +46,27 @@ def test_projection_is_the_nearest_point(x, y):
     dense = np.column_stack([np.interp(np.linspace(0, c.length, 5000), c.s, c.xy[:, i]) for i in range(2)])
     assert d <= np.hypot(dense[:, 0] - x, dense[:, 1] - y).min() + 1e-6
     assert abs(p.cross_track) == pytest.approx(d, abs=1e-9) or p.t in (0.0, 1.0)
+
+
+@settings(deadline=None)  # the first example loads the compiled projection
+@given(st.lists(st.tuples(st.integers(-9, 9), st.integers(-9, 9)), min_size=2, max_size=40),
+       st.floats(-12, 12), st.floats(-12, 12), st.integers(0, 40), st.integers(0, 12))
+def test_projection_takes_the_first_nearest_segment_of_its_window(points, x, y, hint, window):
+    # points on a grid: repeated points, crossings and segments exactly as near as others (ties) are common
+    path = Trajectory.from_points(points)
+    a, n = path.arrays, len(points) - 1
+    hi = min(n, hint + window + 1)
+    lo = min(max(0, hint - window), hi - 1)
+    # every segment of the window by definition: the clamped foot of the perpendicular, the first of equals
+    rx, ry = x - a.xy[:-1, 0], y - a.xy[:-1, 1]
+    len2 = a.seg_len * a.seg_len
+    t = np.clip(np.where(len2 > 1e-18, (rx * a.seg[:, 0] + ry * a.seg[:, 1]) / np.where(len2 > 1e-18, len2, 1.0),
+                         0.0), 0.0, 1.0)
+    ex, ey = rx - t * a.seg[:, 0], ry - t * a.seg[:, 1]
+    d = ex * ex + ey * ey
+    for p, (first, last) in ((path.project(x, y, hint, window), (lo, hi)), (path.project(x, y), (0, n))):
+        i = first + int(np.argmin(d[first:last]))
+        assert (p.index, p.t) == (i, t[i])
 
 
 def test_duplicate_points_do_not_make_nan():

@@ -15,18 +15,34 @@ CURVATURE_SPAN = 2.0
 
 
 @njit(cache=True)
+def _to_segment(xy, seg, seg_len, i, x, y):
+    """Where ``(x, y)`` projects on segment ``i``: (t, squared distance)."""
+    rx, ry = x - xy[i, 0], y - xy[i, 1]
+    len2 = seg_len[i] * seg_len[i]
+    t = (rx * seg[i, 0] + ry * seg[i, 1]) / len2 if len2 > 1e-18 else 0.0
+    t = min(max(t, 0.0), 1.0)
+    ex, ey = rx - t * seg[i, 0], ry - t * seg[i, 1]
+    return t, ex * ex + ey * ey
+
+
+@njit(cache=True)
 def _nearest(xy, seg, seg_len, x, y, lo, hi):
-    """Nearest segment in ``lo .. hi-1`` to ``(x, y)``: (index, t, squared distance)."""
+    """Nearest segment in ``lo .. hi-1`` to ``(x, y)``: (index, t, squared distance); the first of equals."""
     best, bi, bt = np.inf, lo, 0.0
+    if hi <= lo:
+        return bi, bt, best
+    # No point of a segment is nearer than its start less its length: segments whose start is farther than
+    # that from the nearest distance known (the middle one's, then the best's) are skipped, with a margin far
+    # above rounding so that the answer is the full search's.
+    reach = math.sqrt(_to_segment(xy, seg, seg_len, (lo + hi) // 2, x, y)[1])
     for i in range(lo, hi):
         rx, ry = x - xy[i, 0], y - xy[i, 1]
-        len2 = seg_len[i] * seg_len[i]  # squared here, for the searched segments only
-        t = (rx * seg[i, 0] + ry * seg[i, 1]) / len2 if len2 > 1e-18 else 0.0
-        t = min(max(t, 0.0), 1.0)
-        ex, ey = rx - t * seg[i, 0], ry - t * seg[i, 1]
-        d = ex * ex + ey * ey
+        far = (seg_len[i] + reach) * (1.0 + 1e-6) + 1e-6
+        if rx * rx + ry * ry > far * far:
+            continue
+        t, d = _to_segment(xy, seg, seg_len, i, x, y)
         if d < best:
-            best, bi, bt = d, i, t
+            best, bi, bt, reach = d, i, t, min(reach, math.sqrt(d))
     return bi, bt, best
 
 
