@@ -82,6 +82,17 @@ def test_reset_restarts_time_state_and_noise():
     assert np.array_equal(sim.run_for(1.0)["gps"].values, first)
 
 
+def test_a_simulator_made_at_a_start_is_one_reset_to_it():
+    start = VehicleState(x=3.0, y=-2.0, yaw=0.5, vx=4.0)
+    made, reset = Simulator(initial=start), Simulator()
+    reset.reset(start)
+    assert made.time_ns == 0 and made.state == reset.state and made.state.x == 3.0 and made.state.vx == 4.0
+    a, b = made.run_for(1.0), reset.run_for(1.0)
+    assert a.keys() == b.keys()
+    for name in a:  # the same plant and the same noise: bit for bit
+        assert np.array_equal(a[name].values, b[name].values), name
+
+
 def test_watchdog_stops_the_car_when_autonomous_commands_stop():
     p = vilma()
     sim = Simulator(physics_only())

@@ -70,7 +70,7 @@ def _wave(cars: list[Car], loading: LoadTimer) -> list[RunResult]:
     loops = [0.0] * len(cars)
     with contextlib.ExitStack() as stack:
         for car in cars:
-            car.start(stack.enter_context(Simulator(car.config)))
+            car.start(stack.enter_context(Simulator(car.config, car.initial)))
             car.begin()
         drives = {i: CompiledDrive(c.sim, c.driver, c.log, c.periods, c.follows, c.on_block)
                   for i, c in enumerate(cars) if compiled_ok(c.sim, c.driver)}

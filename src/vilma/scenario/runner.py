@@ -60,7 +60,7 @@ def run(scenario: Scenario, realtime: float | None = None, compiled: bool = True
     loading = LoadTimer()
     with install_listener("numba:compiler_lock", loading), failing(observers):
         car = Car(scenario, scenario.reference_path(), observers)
-        with Simulator(car.config) as sim:  # the 3D plant's renderers are freed however it ends
+        with Simulator(car.config, car.initial) as sim:  # the 3D plant's renderers are freed however it ends
             try:
                 result = car.drive(sim, realtime, compiled, loading)
             except KeyboardInterrupt:
@@ -128,13 +128,15 @@ class Car:
         self.driver = Driver(scenario.sim.vehicle, scenario.driver, step=scenario.sim.step)
         self.capacity = round(scenario.duration / self.driver.period) + 2  # a row a period, allocated once
         self.config = sim_config(scenario, self.capacity)
-        """The simulator's settings: the caller opens the :class:`Simulator`."""
+        """The simulator's settings: the caller opens the :class:`Simulator` with them, at :attr:`initial`."""
+        self.initial = initial_state(scenario, path)
+        """Where the car starts."""
         self.periods, self.t_start = 0, 0.0
 
     def start(self, sim: Simulator) -> None:
-        """Put the car at its start on ``sim`` (opened with :attr:`config`) with a new log; the observers start."""
+        """Drive the car on ``sim`` (opened with :attr:`config` at :attr:`initial`, as it starts) with a new log; the
+        observers start."""
         self.sim = sim
-        sim.reset(initial_state(self.scenario, self.path))
         self.log = DriveLog(capacity=self.capacity)
         for o in self.observers:
             o.started(sim, self.log)

@@ -184,10 +184,10 @@ class Simulator(Closeable):
 
     Use :meth:`command` to set actuator commands and :meth:`run_for` /
     :meth:`step` to advance; both return the sensor readings made meanwhile,
-    by sensor name.
+    by sensor name. It starts at ``initial`` (default: the configured one), as after :meth:`reset`.
     """
 
-    def __init__(self, config: SimConfig | None = None) -> None:
+    def __init__(self, config: SimConfig | None = None, initial: VehicleState | None = None) -> None:
         self.config = c = config or SimConfig()
         self.clock = Clock(seconds_to_ns(c.step))
         self._consts = plant_consts(c.vehicle)
@@ -227,7 +227,7 @@ class Simulator(Closeable):
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._records, self._records_steps = empty_records(0), 0  # kept: the frames' records, for up to that many steps
         self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
-        self.reset()
+        self.reset(initial)
 
     # -- state -------------------------------------------------------------------------------------------
 
