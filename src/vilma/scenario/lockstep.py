@@ -99,7 +99,8 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
         sent = driver_step(dc, ds, pa, has_path, speed_c, speed_s, path_c, path_s)
         r = rows[k]
         r[0] = (tick * step_ns) * 1e-9
-        r[1:10] = z
+        for i in range(9):  # element by element: a slice copy compiles its shape check's message
+            r[1 + i] = z[i]
         r[10] = target_speed(ds, pa) if ds.mode != MANUAL else 0.0
         r[11] = ds.measured
         r[12], r[13], r[14] = (ds.x, ds.y, ds.yaw) if ds.has_pose else (math.nan, math.nan, math.nan)

@@ -100,7 +100,8 @@ def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par, vec, 
             integrate_into(rear, w, q[0], vec[7, :2], q[3], q[2], q[4], vec[8, :5], out)
         else:
             for k in range(c):
-                out[k, :] = z[r[k], STEER:BRAKE + 1]
+                for i in range(BRAKE - STEER + 1):  # by element: a slice copy compiles its shape check's message
+                    out[k, i] = z[r[k], STEER + i]
         book[USED, s], book[FILLED, s] = u + c, a + c
 
 

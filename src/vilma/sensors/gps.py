@@ -47,7 +47,9 @@ def measure_into(rows, z, noise, offset, sigma, bias, phi, step_sigma, ecef0, ax
         out[k, 3] = z[i, X] + offset[0] * c - offset[1] * s + sigma[0] * noise[k, 0] + b[0]
         out[k, 4] = z[i, Y] + offset[0] * s + offset[1] * c + sigma[1] * noise[k, 1] + b[1]
         out[k, 5] = offset[2] + sigma[2] * noise[k, 2] + b[2]
-    out[:, :3] = enu_to_geodetic(out[:, 3:], ecef0, axes)
+    geo = enu_to_geodetic(out[:, 3:], ecef0, axes)
+    for k in range(rows.shape[0]):  # element by element: a slice copy compiles its shape check's message
+        out[k, 0], out[k, 1], out[k, 2] = geo[k, 0], geo[k, 1], geo[k, 2]
     return out
 
 

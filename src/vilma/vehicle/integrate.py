@@ -94,12 +94,14 @@ def advance(model, integrator, z, mode, cmd, p, dt, n, tick, periods, out_z, out
             for k in range(NX):
                 out_z[j, k] = x[k]
                 out_dx[j, k] = dx[k]
-            out_z[j, NX:] = u
+            for k in range(NX, NZ):  # element by element: a slice copy compiles its shape check's message
+                out_z[j, k] = u[k - NX]
             out_tick[j] = tick + i
             j += 1
     for k in range(NX):
         z[k] = x[k]
-    z[NX:] = u
+    for k in range(NX, NZ):
+        z[k] = u[k - NX]
     return j
 
 
