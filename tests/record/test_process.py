@@ -18,10 +18,11 @@ from vilma.app.batch import BUNDLED
 from vilma.bus.topics import SENSOR_TOPICS
 from vilma.core.messages import Pose
 from vilma.record import run as run_module
+from vilma.record import run_recorder
 from vilma.record.process import Joined, RecorderProcess
 from vilma.record.reader import RecordingError, read_recording
 from vilma.record.recorder import Recorder
-from vilma.record.run import RunRecorder, _write
+from vilma.record.run_recorder import RunRecorder, _write
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import COLUMNS, DriveLog
 from vilma.sensors import Readings
@@ -123,7 +124,7 @@ def test_joined_and_plain_arrays_arrive_as_they_were(tmp_path, ring):
 def test_a_run_hands_its_blocks_over_in_parts_the_ring_holds(tmp_path, monkeypatch):
     """While the process starts, and whenever it is behind, a run keeps what the ring has no room for and hands
     it over later, in parts: every reading and log row arrives, in order."""
-    monkeypatch.setattr(run_module, "RecorderProcess", functools.partial(RecorderProcess, ring=1 << 20))
+    monkeypatch.setattr(run_recorder, "RecorderProcess", functools.partial(RecorderProcess, ring=1 << 20))
     monkeypatch.setattr(RunRecorder, "BLOCK", 100)  # a hand-over tried every other block
     log = DriveLog(capacity=16)
     rec = RunRecorder(tmp_path / "run.mcap", load_scenario(BUNDLED / "paper_fig11_speed_10.yaml"))
@@ -235,8 +236,8 @@ def test_a_run_recorded_here_holds_what_its_recording_process_writes(tmp_path):
 def test_an_unpaced_run_records_here_up_to_its_limit_and_beside_beyond(tmp_path, monkeypatch, duration, where):
     chosen = []
     for name in ("RecorderHere", "RecorderProcess"):
-        real = getattr(run_module, name)
-        monkeypatch.setattr(run_module, name, lambda *a, _real=real, _name=name, **k: chosen.append(_name) or
+        real = getattr(run_recorder, name)
+        monkeypatch.setattr(run_recorder, name, lambda *a, _real=real, _name=name, **k: chosen.append(_name) or
                             _real(*a, **k))
     scenario = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml", {"duration": str(duration)})
     run_module.record_run(scenario, tmp_path / "out", plots=False)

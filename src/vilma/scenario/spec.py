@@ -71,7 +71,6 @@ from vilma.trajectory import (
     resample,
     speed_profile,
 )
-from vilma.trajectory.course import spline_course
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 
 if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file
@@ -81,6 +80,8 @@ if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonR
 @lru_cache(maxsize=8)  # a sweep or a benchmark drives one course many times: one spline for them all
 def _course(points: tuple[tuple[float, float], ...]) -> Trajectory:
     """:func:`~vilma.trajectory.course.spline_course` through ``points`` (a trajectory is immutable: shared)."""
+    from vilma.trajectory.course import spline_course  # scipy.interpolate, 0.3-0.5 s to import: for courses only
+
     return spline_course(points)
 
 @dataclass(frozen=True, slots=True, kw_only=True)
