@@ -32,7 +32,8 @@ SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("late
            ("speed_error_rms_mps", "speed RMS [m/s]"), ("pose_error_rms_m", "pose RMS [m]"),
            ("realtime_factor", "x real time"))
 """Scorecard keys shown in the summary table, with their headings."""
-COMPILING = "compiling vilma's numba code for this machine: about a minute, once (cached for the next runs)"
+COMPILING = ("compiling vilma's numba code for this machine, once: 15 s for a scenario's kernels, up to a minute for "
+             "many kinds (cached for the next runs)")
 """What the first run says when numba's cache is cold (:func:`numba_cache_cold`)."""
 MAX_RUNS = 100_000
 """Runs one ``--set`` sweep may ask for (each is loaded and checked before the first starts)."""
