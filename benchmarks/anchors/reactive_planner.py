@@ -63,9 +63,10 @@ def planner_for(config: ReactivePlannerConfiguration) -> ReactivePlanner:
     return planner
 
 
-def drive(planner: ReactivePlanner, steps: int, plan_s: list[float]) -> None:
+def drive(planner: ReactivePlanner, steps: int, plan_s: list[float]) -> str | None:
     """Plan and follow for at most ``steps`` time steps (the states in ``planner.record_state_list``, rear axle),
-    each plan's time [s] appended to ``plan_s``. A plan that fails ends the drive; an exception propagates."""
+    each plan's time [s] appended to ``plan_s``; why it stopped early if a plan failed (an exception
+    propagates)."""
     every, optimal = planner.config.planning.replanning_frequency, None
     while not planner.goal_reached() and len(planner.record_state_list) <= steps:
         k = (len(planner.record_state_list) - 1) % every
@@ -75,16 +76,17 @@ def drive(planner: ReactivePlanner, steps: int, plan_s: list[float]) -> None:
             optimal = planner.plan()
             plan_s.append(time.perf_counter() - t0)
             if not optimal:
-                break
+                return f"no feasible trajectory at {(len(planner.record_state_list) - 1) * planner.dt:.3g} s"
         planner.record_state_and_input(optimal[0].state_list[1 + k])
         planner.reset(initial_state_cart=planner.record_state_list[-1],
                       initial_state_curv=(optimal[1][1 + k], optimal[2][1 + k]),
                       collision_checker=planner.collision_checker, coordinate_system=planner.coordinate_system)
+    return None
 
 
 def run(file: str | Path, time_limit: float | None = None) -> dict:
     """Drive ``file``'s first planning problem for at most ``time_limit`` [s] (default: until the goal's last
-    time step) and score it: one row; ``error`` holds what the planner raised, if it did."""
+    time step) and score it: one row; ``error`` holds what the planner raised or why it stopped, if it did."""
     road = load(file)
     task = road.task()
     config = configuration(task, road.planning_problems[task.planning_problem_id])
@@ -93,7 +95,7 @@ def run(file: str | Path, time_limit: float | None = None) -> dict:
     error, planner, plan_s = None, None, []
     try:
         planner = planner_for(config)
-        drive(planner, steps, plan_s)
+        error = drive(planner, steps, plan_s)
     except Exception as e:  # a crash is a row, as in the issue's figures, scored on its drive so far
         error = f"{type(e).__name__}: {e}".strip().splitlines()[0] if str(e).strip() else type(e).__name__
     states = planner.record_state_list if planner is not None else []
