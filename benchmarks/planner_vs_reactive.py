@@ -58,7 +58,8 @@ def reactive_side(file: Path) -> dict:
         last = next((x for x in reversed(lines) if "Error" in x), lines[-1])  # not the checker's leak report
         return {**dict.fromkeys(FIELDS), "goal_reached": False, "error": f"exit {done.returncode}: {last}"}
     row = json.loads(done.stdout)
-    return {k: row[k] for k in FIELDS}
+    del row["file"]
+    return row
 
 
 def scenario_files(folder: Path) -> list[Path]:
