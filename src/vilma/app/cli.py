@@ -74,6 +74,8 @@ def _run(args: argparse.Namespace) -> int:
 
     from vilma.app import batch
 
+    if args.workers is not None or args.scheduler is not None:
+        return _sweep(args)
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
     console = _console(args)
     if args.cars is not None:
@@ -98,6 +100,32 @@ def _run(args: argparse.Namespace) -> int:
         console.print(Text(f"{job.scenario.file or job.scenario.name}{' ' + job.label if job.label else ''}: "
                            f"files in {r.out_dir}"))
     return _report_failures(results, console)
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    """``vilma sweep SWEEP.yaml``, and ``vilma run ... --workers N | --scheduler ADDRESS``: the runs on Dask."""
+    from vilma.core.extras import require
+
+    require("sweep", f"vilma {args.command} on Dask")
+    from rich.text import Text
+
+    from vilma.app import sweep
+
+    # Dask's own logs (its workers coming and going, its sockets closing at the end): with -v only
+    logging.getLogger("distributed").setLevel(logging.ERROR if args.verbose < 1 else logging.getLogger().level)
+    runs = (sweep.read_sweep(args.sweep, args.yes) if args.command == "sweep"
+            else sweep.plan_sets(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])], args.yes))
+    out = Path(args.out) if args.out else Path("sweeps") / (Path(args.sweep).stem if args.command == "sweep" else
+                                                            time.strftime("run-%Y%m%d-%H%M%S"))
+    console = _console(args)
+    console.print(f"vilma {args.command}: {len(runs)} runs on {args.scheduler or 'a local Dask cluster'}, "
+                  f"table in {out}", highlight=False)
+    table = sweep.sweep(runs, out, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+                        keep_files=args.keep_files, plots=not args.no_plots, console=console)
+    console.print(sweep.summary_table(table))
+    for error in table["error"].dropna().unique()[:10]:
+        console.print(Text(f"FAIL: {error}"), style="red")
+    return 1 if table["error"].notna().any() else 0
 
 
 def _trajectory(args: argparse.Namespace) -> int:
@@ -272,7 +300,27 @@ def _add_runs(sub) -> None:
                         f"(at most {MAX_CARS}); each writes its folder without plots or run.mcap")
     r.add_argument("--overwrite", action="store_true", help="replace the files of an earlier run in the --out folder "
                    "(without it, a folder that holds anything is refused)")
+    _add_engine_options(r)
     r.set_defaults(func=_run)
+    w = sub.add_parser("sweep", help="run a sweep file on Dask (scenarios x grid x samples x seeds): a results table")
+    w.add_argument("sweep", metavar="SWEEP.yaml", help="the sweep file (scenarios, grid, samples, seeds)")
+    w.add_argument("--out", metavar="DIR", help="where the table and plots go (default sweeps/<SWEEP>/)")
+    w.add_argument("--no-plots", action="store_true", help="draw no box plots")
+    _add_engine_options(w)
+    w.set_defaults(func=_sweep)
+
+
+def _add_engine_options(q) -> None:
+    """Where a sweep runs (Dask), and what it keeps."""
+    e = q.add_mutually_exclusive_group()
+    e.add_argument("--workers", type=count, metavar="N", help="run on a local Dask cluster of N processes "
+                   "(vilma sweep: default one a core)")
+    e.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
+    q.add_argument("--resume", action="store_true", help="with --workers/--scheduler: keep the finished runs in --out, "
+                   "run the rest")
+    q.add_argument("--yes", action="store_true", help="with --workers/--scheduler: run a sweep of more than 10,000 runs")
+    q.add_argument("--keep-files", metavar="DIR", help="with --workers/--scheduler: each run writes its files in "
+                   "DIR/<key> (a folder the workers can write)")
 
 
 def _add_programs(sub) -> None:

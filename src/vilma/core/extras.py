@@ -6,7 +6,8 @@ from __future__ import annotations
 import importlib
 
 EXTRAS = {"gui": ("PySide6", "pyqtgraph"), "3d": ("mujoco",), "foxglove": ("foxglove",),
-          "roads": ("commonroad", "commonroad_route_planner", "commonroad_dc")}
+          "roads": ("commonroad", "commonroad_route_planner", "commonroad_dc"),
+          "sweep": ("distributed", "pandas", "pyarrow")}
 """The extras of ``pyproject.toml`` and the modules each brings; ``vilma[all]`` has them all."""
 
 

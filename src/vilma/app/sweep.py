@@ -1,0 +1,512 @@
+"""Sweeps on Dask: scenarios times a grid, random samples and Monte-Carlo seeds, run on a dask.distributed cluster.
+
+A sweep file (YAML; every key optional but ``scenarios``)::
+
+    scenarios: [paper_fig11_speed_10, my_scenarios/]    # files, bundled names, CommonRoad .xml, folders of them
+    grid: {task.speed: [5, 10, 15], duration: 30}       # --set keys: a list sweeps, a value is fixed ([[1, 2]]: a list)
+    samples:                                             # random draws, each run with every grid point
+      count: 20
+      seed: 1
+      values: {speed_controller.kp: {uniform: [0.1, 1.0]}, driver.actuation_delay: {choice: [true, false]}}
+    seeds: 10                                            # Monte-Carlo seeds 0..9, or a list [3, 7]
+
+Runs go to a :class:`distributed.LocalCluster` (a process a core) or to a running scheduler; each run is a row of the
+results table (:data:`IDENTITY` keys, the swept values, every scorecard key, the worker, its error if it failed),
+appended to ``rows.jsonl`` as it arrives and written whole as ``results.parquet`` and ``results.csv`` at the end or on
+an interrupt. A run's key hashes its scenario, values and seed: ``--resume`` runs the keys with no row (or a failed
+one), and a run Dask reschedules after a lost worker is kept once.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import itertools
+import json
+import logging
+import math
+import os
+import time
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import yaml
+from distributed import Client, LocalCluster, as_completed, get_worker
+from distributed.diagnostics.plugin import WorkerPlugin
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from rich.console import Console
+from rich.progress import BarColumn, Progress, ProgressColumn, TaskProgressColumn, TextColumn, TimeRemainingColumn
+from rich.table import Table
+from rich.text import Text
+
+from vilma.app.batch import parse_sets
+from vilma.core.files import atomic_path
+from vilma.record.run import record_run
+from vilma.scenario.fields import Source, SpecError, _suggest, read_yaml
+from vilma.scenario.runner import run
+from vilma.scenario.scorecard import SCORECARD_KEYS
+from vilma.scenario.spec import Scenario, load_scenario
+
+KEYS = ("scenarios", "grid", "samples", "seeds")
+"""The keys of a sweep file."""
+SAMPLE_KEYS = ("count", "seed", "values")
+DISTRIBUTIONS = {  # name -> (its arguments, a draw from numpy's Generator)
+    "uniform": ("[low, high]", lambda g, a: g.uniform(*a)),
+    "normal": ("[mean, std]", lambda g, a: g.normal(*a)),
+    "loguniform": ("[low, high], both > 0", lambda g, a: math.exp(g.uniform(math.log(a[0]), math.log(a[1])))),
+    "choice": ("[option, option, ...]", lambda g, a: a[int(g.integers(len(a)))]),
+}
+"""The distributions of ``samples.values``."""
+CONFIRM_RUNS = 10_000
+"""Runs a sweep may ask for without ``--yes`` (or ``yes=True``)."""
+MAX_RUNS = 1_000_000
+"""Runs one sweep may ask for at all (its plan is held in memory): split larger ones."""
+CONNECT_TIMEOUT = 5.0
+"""How long to wait for a scheduler to answer [s]."""
+IN_FLIGHT = 256
+"""Runs handed to the cluster ahead of the results (the rest wait here: the scheduler's memory stays bounded)."""
+IDENTITY = ("key", "scenario", "seed")
+"""The columns that name a run (its swept values follow them)."""
+ENGINE = ("worker", "error")
+"""The columns the engine adds after the scorecard."""
+ROWS, PARQUET, CSV = "rows.jsonl", "results.parquet", "results.csv"
+"""The files of a sweep's folder: a row a line as they come, then the table whole."""
+BOXES = ("lateral_error_rms_m", "lateral_error_max_m", "speed_error_rms_mps", "speed_rise_time_90_s",
+         "speed_overshoot_pct", "pose_error_rms_m")
+"""Scorecard keys drawn as box plots, a box per group of runs (``box_<key>.png``), where any run has a value."""
+SUMMARY = ("lateral_error_rms_m", "speed_error_rms_mps", "speed_rise_time_90_s", "wall_time_s")
+"""Scorecard keys summarised per group (mean and standard deviation over its runs)."""
+
+
+@dataclass(frozen=True, slots=True)
+class SweepRun:
+    """One run of a sweep: its scenario (loaded with its values and seed) and what names it."""
+
+    key: str
+    """Hash of the scenario's name as given, the values and the seed: the same run in any sweep or resume."""
+    label: str
+    """The scenario as the sweep named it (bundled name or file)."""
+    values: tuple[tuple[str, str], ...]
+    """The swept ``--set`` keys and their YAML values."""
+    seed: int
+    scenario: Scenario
+
+    def row(self) -> dict[str, Any]:
+        """The columns that name this run: :data:`IDENTITY` and the swept values (as YAML reads them)."""
+        return {"key": self.key, "scenario": self.label, "seed": self.seed,
+                **{k: _value(v) for k, v in self.values if k != "seed"}}
+
+
+def run_key(label: str, values: Sequence[tuple[str, str]], seed: int) -> str:
+    """The stable key of a run (16 hex digits of a SHA-256)."""
+    text = json.dumps([label, sorted(values), seed])
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _value(text: str) -> Any:
+    """A ``--set`` value as a table cell: numbers, booleans and words as YAML reads them, anything else as text."""
+    try:
+        v = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+    return v if isinstance(v, bool | int | float | str) else text
+
+
+# --- planning: the sweep file to runs -------------------------------------------------------------------------------
+
+def read_sweep(path: str | Path, yes: bool = False) -> list[SweepRun]:
+    """The runs of the sweep file ``path``, every scenario loaded and checked (a bad one stops the sweep here).
+
+    Raises:
+        SpecError: an unknown key, a bad value or distribution (``file:line``), a scenario that does not load, or
+            more than :data:`CONFIRM_RUNS` runs without ``yes`` (more than :data:`MAX_RUNS` at all).
+    """
+    data, src = read_yaml(Path(path))
+    if not isinstance(data, Mapping):
+        raise src.error((), "expected a mapping with scenarios (and grid, samples, seeds)")
+    for k in data:
+        if k not in KEYS:
+            raise src.error((k,), f"unknown key{_suggest(str(k), dict.fromkeys(KEYS))}")
+    if "scenarios" not in data:
+        raise src.error((), "missing scenarios: name the scenario files, bundled names or folders to sweep")
+    scenarios = _scenarios(data["scenarios"], src, Path(path).parent)
+    grid = _grid(data.get("grid") or {}, src)
+    samples = _samples(data.get("samples"), src)
+    seeds = _seeds(data.get("seeds"), src)
+    return plan_runs(scenarios, grid, samples, seeds, yes)
+
+
+def plan_runs(scenarios: Sequence[str], grid: Sequence[tuple[str, Sequence[str]]],
+              samples: Sequence[Sequence[tuple[str, str]]] = ((),), seeds: Sequence[int] | None = None,
+              yes: bool = False) -> list[SweepRun]:
+    """Every combination of a scenario, a grid point (``grid``: each key's YAML values), a sample and a seed
+    (``None``: each scenario's own), loaded and checked; see :func:`read_sweep` for the errors."""
+    if seeds is not None and any(k == "seed" for k, _ in grid):
+        raise SpecError("sweep: seed is in the grid and in seeds; give the seeds in one place")
+    total = len(scenarios) * math.prod(len(v) for _, v in grid) * len(samples) * (len(seeds) if seeds else 1)
+    if total > MAX_RUNS:
+        raise SpecError(f"sweep: {total:.3g} runs, more than {MAX_RUNS} in one sweep; split it into smaller sweeps")
+    if total > CONFIRM_RUNS and not yes:
+        raise SpecError(f"sweep: {total} runs, more than {CONFIRM_RUNS}; give --yes to run them all")
+    runs = []
+    for label in scenarios:
+        for point in itertools.product(*([(k, v) for v in vs] for k, vs in grid)):
+            for sample in samples:
+                values = (*point, *sample)
+                scenario = load_scenario(label, dict(values))
+                for seed in seeds if seeds is not None else (scenario.sim.seed,):
+                    s = dataclasses.replace(scenario, sim=dataclasses.replace(scenario.sim, seed=seed))
+                    runs.append(SweepRun(run_key(label, values, seed), label, values, seed, s))
+    return runs
+
+
+def _scenarios(raw: Any, src: Source, here: Path) -> list[str]:
+    """Scenario names and files as given (relative to the sweep file), a folder as its .yaml and .xml files."""
+    items = [raw] if isinstance(raw, str) else raw
+    if not isinstance(items, list) or not items or not all(isinstance(i, str) for i in items):
+        raise src.error(("scenarios",), "expected a scenario file, bundled name or folder, or a list of them")
+    out = []
+    for i, item in enumerate(items):
+        p = here / item
+        if p.is_dir():
+            found = sorted(str(f) for f in p.iterdir() if f.suffix in (".yaml", ".xml"))
+            if not found:
+                raise src.error(("scenarios", i), f"folder {p} holds no .yaml or .xml scenario")
+            out += found
+        else:
+            out.append(str(p) if p.is_file() else item)
+    return out
+
+
+def _grid(raw: Any, src: Source) -> list[tuple[str, list[str]]]:
+    """``key: [values]`` (a sweep) or ``key: value`` (fixed), each value as YAML text."""
+    if not isinstance(raw, Mapping):
+        raise src.error(("grid",), "expected a mapping of --set keys to a value or a list of values")
+    out = []
+    for k, v in raw.items():
+        values = v if isinstance(v, list) else [v]
+        if not values:
+            raise src.error(("grid", k), "an empty list sweeps nothing; give at least one value")
+        out.append((str(k), [json.dumps(x) for x in values]))
+    return out
+
+
+def _samples(raw: Any, src: Source) -> list[tuple[tuple[str, str], ...]]:
+    """``count`` draws of ``values`` (a distribution a key) from a generator seeded with ``seed``."""
+    if raw is None:
+        return [()]
+    if not isinstance(raw, Mapping):
+        raise src.error(("samples",), "expected a mapping with count, seed and values")
+    for k in raw:
+        if k not in SAMPLE_KEYS:
+            raise src.error(("samples", k), f"unknown key{_suggest(str(k), dict.fromkeys(SAMPLE_KEYS))}")
+    count, seed, values = raw.get("count"), raw.get("seed", 0), raw.get("values")
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise src.error(("samples", "count"), f"expected a whole number of draws >= 1, got {count!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise src.error(("samples", "seed"), f"expected a whole number >= 0, got {seed!r}")
+    if not isinstance(values, Mapping) or not values:
+        raise src.error(("samples", "values"), "expected a mapping of --set keys to distributions, e.g. "
+                                               "task.speed: {uniform: [5, 10]}")
+    draws = {str(k): _distribution(v, src, ("samples", "values", k)) for k, v in values.items()}
+    rng = np.random.default_rng(seed)
+    return [tuple((k, json.dumps(draw(rng, args))) for k, (draw, args) in draws.items()) for _ in range(count)]
+
+
+def _distribution(raw: Any, src: Source, key: tuple) -> tuple:
+    """``{name: [arguments]}`` as (its draw, its arguments)."""
+    if not isinstance(raw, Mapping) or len(raw) != 1:
+        raise src.error(key, f"expected one distribution, e.g. {{uniform: [0, 1]}}; known: {', '.join(DISTRIBUTIONS)}")
+    (name, args), = raw.items()
+    if name not in DISTRIBUTIONS:
+        raise src.error((*key, name), f"unknown distribution{_suggest(str(name), DISTRIBUTIONS)}")
+    shape, draw = DISTRIBUTIONS[name]
+    numbers = isinstance(args, list) and all(isinstance(a, int | float) and not isinstance(a, bool) for a in args)
+    ok = (isinstance(args, list) and len(args) > 0 if name == "choice" else numbers and len(args) == 2 and (
+        args[0] < args[1] if name != "normal" else args[1] >= 0) and (name != "loguniform" or args[0] > 0))
+    if not ok:
+        raise src.error((*key, name), f"expected {shape}{'' if name in ('choice', 'normal') else ', low < high'}, "
+                                      f"got {args!r}")
+    return draw, args
+
+
+def _seeds(raw: Any, src: Source) -> list[int] | None:
+    """``N`` (seeds 0 to N - 1) or a list of seeds; ``None`` without ``seeds`` (each scenario's own)."""
+    if raw is None:
+        return None
+    ok = (isinstance(raw, int) and not isinstance(raw, bool) and raw >= 1) or (
+        isinstance(raw, list) and raw and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in raw)
+        and len(set(raw)) == len(raw))
+    if not ok:
+        raise src.error(("seeds",), f"expected a count of seeds >= 1 or a list of different seeds >= 0, got {raw!r}")
+    return list(range(raw)) if isinstance(raw, int) else raw
+
+
+def plan_sets(scenarios: Sequence[str], sets: Sequence[str], yes: bool = False) -> list[SweepRun]:
+    """The runs of ``vilma run SCENARIO... --set ...`` (``key=a,b`` sweeps, as :func:`~vilma.app.batch.parse_sets`)."""
+    points = parse_sets(sets)
+    grid = [(k, list(dict.fromkeys(p[k] for p in points))) for k in points[0]]
+    return plan_runs(scenarios, grid, yes=yes)
+
+
+# --- running: the engine --------------------------------------------------------------------------------------------
+
+@contextlib.contextmanager
+def connect(workers: int | None = None, scheduler: str | None = None) -> Iterator[Client]:
+    """A Dask client of the scheduler at ``scheduler``, else of a new local cluster of ``workers`` processes (default:
+    a core each), a thread each (runs hold the GIL).
+
+    Raises:
+        OSError: no scheduler answers at ``scheduler`` within :data:`CONNECT_TIMEOUT`.
+    """
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, ValueError, TypeError) as e:
+            why = "no Dask scheduler answers there" if isinstance(e, OSError) else f"not a scheduler address ({e})"
+            raise OSError(f"--scheduler {scheduler}: {why} within {CONNECT_TIMEOUT:g} s; start one with `dask "
+                          "scheduler` and give the address it prints (tcp://host:8786)") from None
+        with client:
+            yield client
+        return
+    with LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                      dashboard_address=":0", silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+class Warm(WorkerPlugin):
+    """Compiles (or loads from numba's cache) the closed loop once when a worker starts, not in its first run: a
+    short drive of ``scenario``."""
+
+    name = "vilma-warm"
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+
+    def setup(self, worker) -> None:
+        s = self.scenario
+        with contextlib.suppress(Exception):  # a scenario that cannot run fails as its runs' rows, with the error
+            run(dataclasses.replace(s, duration=min(s.duration, 1.0), expect={}))
+
+
+def run_remote(scenario: Scenario, keep: str | None = None) -> dict[str, Any]:
+    """One run on a worker: its scorecard, the worker, the error if it failed (every scorecard key then None, but
+    ``wall_time_s``); with ``keep``, its files go into that folder."""
+    t0 = time.perf_counter()
+    try:
+        r = record_run(scenario, Path(keep), started=t0) if keep else run(scenario, started=t0)
+        row, error = r.metrics, None
+    except Exception as e:  # any failure of one run is its row's, not the sweep's
+        row, error = {**dict.fromkeys(SCORECARD_KEYS), "wall_time_s": time.perf_counter() - t0}, f"{e}"
+    return {**row, "worker": get_worker().address, "error": error}
+
+
+def sweep(runs: str | Path | Sequence[SweepRun], out: str | Path | None = None, *, workers: int | None = None,
+          scheduler: str | None = None, resume: bool = False, keep_files: str | Path | None = None,
+          plots: bool = True, yes: bool = False, console: Console | None = None) -> pd.DataFrame:
+    """Run a sweep (a sweep file, or the runs of :func:`read_sweep` / :func:`plan_runs`) on Dask; returns its table, a
+    row a run in plan order.
+
+    ``out`` (default: none) keeps the rows as they come and the table, and with ``resume`` holds an earlier run of
+    the sweep whose finished rows are kept (only the missing and the failed run again); ``keep_files`` is where each
+    run writes its folder ``<keep_files>/<key>`` (a path the workers can write).
+
+    Raises:
+        SpecError: ``out`` holds an earlier sweep and ``resume`` is not given.
+        KeyboardInterrupt: Ctrl-C; what finished is kept in ``out``, and the message says so.
+    """
+    runs = read_sweep(runs, yes) if isinstance(runs, str | Path) else list(runs)
+    console = console or Console(quiet=True)
+    rows = Rows(Path(out) if out is not None else None, resume)
+    todo = [r for r in runs if not rows.done(r.key)]
+    if len(todo) < len(runs):
+        console.print(f"resuming: {len(runs) - len(todo)} of {len(runs)} runs kept from {out}", highlight=False)
+    try:
+        if todo:
+            _execute(todo, rows, workers, scheduler, keep_files, console)
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(f"interrupted: {rows.kept(runs)} of {len(runs)} runs kept in {out}; run it again "
+                                "with --resume for the rest" if out else "interrupted") from None
+    finally:
+        table = rows.table(runs)
+        if out is not None:
+            write_table(table, Path(out))
+    if out is not None and plots:
+        draw_boxes(table, Path(out))
+    return table
+
+
+def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: str | None,
+             keep_files: str | Path | None, console: Console) -> None:
+    """Run ``todo`` on the cluster, :data:`IN_FLIGHT` at a time, each row into ``rows`` as it comes."""
+    waiting = iter(todo)
+    with connect(workers, scheduler) as client, _progress(console) as bar:
+        client.register_plugin(Warm(todo[0].scenario))
+        task = bar.add_task("sweep", total=len(todo), failed=0)
+        by_key, done = {}, as_completed()
+
+        def submit(n: int) -> None:
+            for r in itertools.islice(waiting, n):
+                keep = str(Path(keep_files) / r.key) if keep_files is not None else None
+                f = client.submit(run_remote, r.scenario, keep, key=f"vilma-run-{r.key}", pure=False, retries=0)
+                by_key[f.key] = r
+                done.add(f)
+
+        submit(IN_FLIGHT)
+        failed = 0
+        for f in done:
+            r = by_key.pop(f.key)
+            if f.status == "finished":
+                result = f.result()
+            elif f.status == "cancelled":
+                raise OSError(f"lost the Dask scheduler ({scheduler or 'local cluster'}); the finished runs are "
+                              "kept: run it again with --resume for the rest")
+            else:  # a run that killed its workers (Dask tried it on others first)
+                result = {**dict.fromkeys(SCORECARD_KEYS), "worker": None, "error": f"{f.exception()}"}
+            f.release()
+            failed += result["error"] is not None
+            rows.add({**r.row(), **result})
+            bar.update(task, advance=1, failed=failed)
+            submit(1)
+
+
+class _Rate(ProgressColumn):
+    """Runs a second."""
+
+    def render(self, task) -> Text:
+        return Text(f"{task.speed:.1f} runs/s" if task.speed else "- runs/s")
+
+
+def _progress(console: Console) -> Progress:
+    return Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+                    TextColumn("{task.completed}/{task.total} done, {task.fields[failed]} failed"), _Rate(),
+                    TimeRemainingColumn(), console=console, transient=True)
+
+
+# --- results: rows as they come, the table, the plots ---------------------------------------------------------------
+
+class Rows:
+    """The rows of a sweep by key, each appended to ``<out>/rows.jsonl`` (flushed) as it comes; a key already
+    finished is not written again (a rescheduled run), a failed one is replaced by its rerun."""
+
+    def __init__(self, out: Path | None, resume: bool) -> None:
+        self.rows: dict[str, dict] = {}
+        self.file = None
+        if out is None:
+            return
+        path = out / ROWS
+        if path.exists() and not resume:
+            raise SpecError(f"{out}: holds an earlier sweep ({ROWS}); give --resume to finish it, or another --out")
+        out.mkdir(parents=True, exist_ok=True)
+        if path.exists():
+            self.rows = _read_rows(path)
+        self.file = path.open("a", encoding="utf-8")
+
+    def done(self, key: str) -> bool:
+        """Whether ``key`` has a row without an error."""
+        return key in self.rows and self.rows[key]["error"] is None
+
+    def add(self, row: dict) -> None:
+        """Keep ``row`` (and write it) unless its run is already done."""
+        if self.done(row["key"]):
+            return
+        self.rows[row["key"]] = row
+        if self.file is not None:
+            self.file.write(json.dumps(row) + "\n")
+            self.file.flush()
+
+    def kept(self, runs: Sequence[SweepRun]) -> int:
+        """How many of ``runs`` have a row."""
+        return sum(r.key in self.rows for r in runs)
+
+    def table(self, runs: Sequence[SweepRun]) -> pd.DataFrame:
+        """The rows of ``runs`` that have one, in their order; columns: :data:`IDENTITY`, the swept values, the
+        scorecard, :data:`ENGINE`."""
+        if self.file is not None:
+            self.file.close()
+        rows = [self.rows[r.key] for r in runs if r.key in self.rows]
+        swept = list(dict.fromkeys(k for r in runs for k in r.row() if k not in IDENTITY))
+        return pd.DataFrame(rows, columns=[*IDENTITY, *swept, *SCORECARD_KEYS, *ENGINE])
+
+
+def _read_rows(path: Path) -> dict[str, dict]:
+    """The rows of a ``rows.jsonl`` by key, the last of a key kept; a line cut short by a kill is dropped (and cut
+    from the file, so that the next row starts a line)."""
+    rows = {}
+    with path.open("r+b") as f:
+        lines = f.read().split(b"\n")
+        if lines[-1]:  # the last row was cut short
+            f.truncate(f.tell() - len(lines[-1]))
+    for line in lines[:-1]:
+        row = json.loads(line)
+        if not (row["key"] in rows and rows[row["key"]]["error"] is None):
+            rows[row["key"]] = row
+    return rows
+
+
+def write_table(table: pd.DataFrame, out: Path) -> None:
+    """``results.parquet`` and ``results.csv`` in ``out``, each whole or not at all."""
+    with atomic_path(out / CSV) as tmp:
+        table.to_csv(tmp, index=False)
+    parquet = table.copy()
+    for c in parquet.columns[parquet.dtypes == object]:  # a column of words and numbers (a swept value) as text
+        if parquet[c].map(type).nunique() > 1 + parquet[c].isna().any():
+            parquet[c] = parquet[c].map(lambda v: v if v is None else str(v))
+    with atomic_path(out / PARQUET) as tmp:
+        parquet.to_parquet(tmp, index=False)
+
+
+def groups(table: pd.DataFrame) -> list[str]:
+    """The columns a group of runs shares: the scenario and the swept values (not the seed)."""
+    return [c for c in table.columns[: table.columns.get_loc("completed")] if c not in ("key", "seed")]
+
+
+def draw_boxes(table: pd.DataFrame, out: Path) -> list[Path]:
+    """A box plot a :data:`BOXES` key with values, a box per group of runs (:func:`groups`): PNGs in ``out``."""
+    by = groups(table)
+    names = table[by].astype(str).agg(" ".join, axis=1)
+    written = []
+    for key in BOXES:
+        values = pd.to_numeric(table[key], errors="coerce")
+        data = {n: v.dropna().to_numpy() for n, v in values.groupby(names, sort=False)}
+        data = {n: v for n, v in data.items() if len(v)}
+        if not data:
+            continue
+        fig = Figure(figsize=(max(6.0, 0.6 * len(data) + 2), 5))
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot()
+        ax.boxplot(list(data.values()), tick_labels=list(data), vert=True)
+        ax.set_ylabel(key)
+        ax.set_title(f"{key} per group ({len(table)} runs)")
+        ax.tick_params(axis="x", labelrotation=30)
+        fig.tight_layout()
+        path = out / f"box_{key}.png"
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png")
+        written.append(path)
+    return written
+
+
+def summary_table(table: pd.DataFrame) -> Table:
+    """A row a group of runs (:func:`groups`): runs, failed, mean and standard deviation of the :data:`SUMMARY`
+    keys."""
+    by = groups(table)
+    out = Table(title=f"vilma sweep: {len(table)} runs, {int(table['error'].notna().sum())} failed")
+    for c in (*by, "runs", "failed"):
+        out.add_column(Text(c))
+    for k in SUMMARY:
+        out.add_column(Text(k), justify="right")
+    for name, g in table.groupby(by, sort=False, dropna=False):
+        cells = [Text(str(v)) for v in (name if isinstance(name, tuple) else (name,))]
+        stats = []
+        for k in SUMMARY:
+            v = pd.to_numeric(g[k], errors="coerce").dropna()
+            stats.append("-" if v.empty else f"{v.mean():.4g} ± {v.std(ddof=0):.2g}")
+        out.add_row(*cells, str(len(g)), str(int(g["error"].notna().sum())), *stats)
+    return out
