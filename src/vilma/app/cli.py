@@ -113,8 +113,9 @@ def _sweep(args: argparse.Namespace) -> int:
 
     # Dask's own logs (its workers coming and going, its sockets closing at the end): with -v only
     logging.getLogger("distributed").setLevel(logging.ERROR if args.verbose < 1 else logging.getLogger().level)
-    runs = (sweep.read_sweep(args.sweep, args.yes) if args.command == "sweep"
-            else sweep.plan_sets(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])], args.yes))
+    sets = [] if args.command == "sweep" else [*args.set, *([f"plant={args.plant}"] if args.plant else [])]
+    runs = sweep.read_sweep(args.sweep, args.yes) if args.command == "sweep" else sweep.plan_sets(args.scenarios,
+                                                                                                  sets, args.yes)
     out = Path(args.out) if args.out else Path("sweeps") / (Path(args.sweep).stem if args.command == "sweep" else
                                                             time.strftime("run-%Y%m%d-%H%M%S"))
     console = _console(args)
@@ -318,7 +319,7 @@ def _add_engine_options(q) -> None:
     e.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
     q.add_argument("--resume", action="store_true", help="with --workers/--scheduler: keep the finished runs in --out, "
                    "run the rest")
-    q.add_argument("--yes", action="store_true", help="with --workers/--scheduler: run a sweep of more than 10,000 runs")
+    q.add_argument("--yes", action="store_true", help="with --workers/--scheduler: run more than 10,000 runs")
     q.add_argument("--keep-files", metavar="DIR", help="with --workers/--scheduler: each run writes its files in "
                    "DIR/<key> (a folder the workers can write)")
 

@@ -455,7 +455,7 @@ def write_table(table: pd.DataFrame, out: Path) -> None:
     with atomic_path(out / CSV) as tmp:
         table.to_csv(tmp, index=False)
     parquet = table.copy()
-    for c in parquet.columns[parquet.dtypes == object]:  # a column of words and numbers (a swept value) as text
+    for c in parquet.select_dtypes(include="object").columns:  # a column of words and numbers (a swept value) as text
         if parquet[c].map(type).nunique() > 1 + parquet[c].isna().any():
             parquet[c] = parquet[c].map(lambda v: v if v is None else str(v))
     with atomic_path(out / PARQUET) as tmp:
