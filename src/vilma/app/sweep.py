@@ -303,7 +303,8 @@ def run_remote(scenario: Scenario, keep: str | None = None) -> dict[str, Any]:
         r = record_run(scenario, Path(keep), started=t0) if keep else run(scenario, started=t0)
         row, error = r.metrics, None
     except Exception as e:  # any failure of one run is its row's, not the sweep's
-        row, error = {**dict.fromkeys(SCORECARD_KEYS), "wall_time_s": time.perf_counter() - t0}, f"{e}"
+        row = {**dict.fromkeys(SCORECARD_KEYS), "wall_time_s": time.perf_counter() - t0}
+        error = str(e) or type(e).__name__
     return {**row, "worker": get_worker().address, "error": error}
 
 
@@ -335,9 +336,9 @@ def sweep(runs: str | Path | Sequence[SweepRun], out: str | Path | None = None, 
                                 "with --resume for the rest" if out else "interrupted") from None
     finally:
         table = rows.table(runs)
-        if out is not None:
+        if out is not None and len(table):
             write_table(table, Path(out))
-    if out is not None and plots:
+    if out is not None and plots and len(table):
         draw_boxes(table, Path(out))
     return table
 
@@ -397,16 +398,13 @@ class Rows:
 
     def __init__(self, out: Path | None, resume: bool) -> None:
         self.rows: dict[str, dict] = {}
-        self.file = None
-        if out is None:
-            return
-        path = out / ROWS
-        if path.exists() and not resume:
-            raise SpecError(f"{out}: holds an earlier sweep ({ROWS}); give --resume to finish it, or another --out")
-        out.mkdir(parents=True, exist_ok=True)
-        if path.exists():
-            self.rows = _read_rows(path)
-        self.file = path.open("a", encoding="utf-8")
+        self.path = out / ROWS if out is not None else None
+        self.file = None  # opened at the first row: a sweep that never starts leaves no file
+        if self.path is not None and self.path.exists():
+            if not resume:
+                raise SpecError(f"{out}: holds an earlier sweep ({ROWS}); give --resume to finish it, or another "
+                                "--out")
+            self.rows = _read_rows(self.path)
 
     def done(self, key: str) -> bool:
         """Whether ``key`` has a row without an error."""
@@ -417,7 +415,10 @@ class Rows:
         if self.done(row["key"]):
             return
         self.rows[row["key"]] = row
-        if self.file is not None:
+        if self.path is not None:
+            if self.file is None:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self.file = self.path.open("a", encoding="utf-8")
             self.file.write(json.dumps(row) + "\n")
             self.file.flush()
 
@@ -443,8 +444,11 @@ def _read_rows(path: Path) -> dict[str, dict]:
         lines = f.read().split(b"\n")
         if lines[-1]:  # the last row was cut short
             f.truncate(f.tell() - len(lines[-1]))
-    for line in lines[:-1]:
-        row = json.loads(line)
+    for i, line in enumerate(lines[:-1], 1):
+        try:
+            row = json.loads(line)
+        except ValueError:
+            raise SpecError(f"{path}:{i}: not a row of a sweep; delete the line or use another --out") from None
         if not (row["key"] in rows and rows[row["key"]]["error"] is None):
             rows[row["key"]] = row
     return rows
@@ -455,8 +459,8 @@ def write_table(table: pd.DataFrame, out: Path) -> None:
     with atomic_path(out / CSV) as tmp:
         table.to_csv(tmp, index=False)
     parquet = table.copy()
-    for c in parquet.select_dtypes(include="object").columns:  # a column of words and numbers (a swept value) as text
-        if parquet[c].map(type).nunique() > 1 + parquet[c].isna().any():
+    for c in parquet.columns:  # a column of words and numbers (a swept value) as text
+        if pd.api.types.is_object_dtype(parquet[c]) and parquet[c].map(type).nunique() > 1 + parquet[c].isna().any():
             parquet[c] = parquet[c].map(lambda v: v if v is None else str(v))
     with atomic_path(out / PARQUET) as tmp:
         parquet.to_parquet(tmp, index=False)
@@ -481,7 +485,7 @@ def draw_boxes(table: pd.DataFrame, out: Path) -> list[Path]:
         fig = Figure(figsize=(max(6.0, 0.6 * len(data) + 2), 5))
         FigureCanvasAgg(fig)
         ax = fig.add_subplot()
-        ax.boxplot(list(data.values()), tick_labels=list(data), vert=True)
+        ax.boxplot(list(data.values()), tick_labels=list(data))
         ax.set_ylabel(key)
         ax.set_title(f"{key} per group ({len(table)} runs)")
         ax.tick_params(axis="x", labelrotation=30)

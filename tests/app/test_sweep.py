@@ -1,0 +1,247 @@
+"""Sweeps on Dask: a real ``dask scheduler`` and ``dask worker`` processes, the results table, resume, bad input."""
+
+from __future__ import annotations
+
+import json
+import re
+import signal
+import sys
+import threading
+
+import pandas as pd
+import pytest
+from distributed import Client
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tests.conftest import Processes, free_port
+from vilma.app import sweep
+from vilma.app.cli import main
+from vilma.scenario.fields import load_yaml
+from vilma.scenario.runner import run
+from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS
+from vilma.scenario.spec import load_scenario
+
+DASK = (sys.executable, "-m", "dask")
+"""The ``dask`` command line."""
+SHORT = "paper_fig11_speed_10"
+"""A bundled scenario, cut to a few seconds in these sweeps."""
+
+
+def _worker(processes: Processes, address: str, name: str):
+    return processes.start(*DASK, "worker", address, "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1",
+                           "--no-dashboard", "--name", name)
+
+
+@pytest.fixture(scope="module")
+def scheduler():
+    """The address of a real scheduler on 127.0.0.1 with two workers (``a``, ``b``), each its own process."""
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    with Processes() as processes:
+        processes.start(*DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")
+        for name in "ab":
+            _worker(processes, address, name)
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+        yield address
+
+
+def _runs(speeds=(5, 10), seeds=(0, 1, 2), duration=3):
+    return sweep.plan_runs([SHORT], [("duration", [str(duration)]), ("task.speed", [str(s) for s in speeds])],
+                           seeds=seeds)
+
+
+def _same_as_alone(table: pd.DataFrame) -> None:
+    """Every row's scorecard is the one of its run done alone in this process (the wall-clock keys aside)."""
+    for row in table.to_dict("records"):
+        alone = run(load_scenario(SHORT, {"duration": str(row["duration"]), "task.speed": str(row["task.speed"]),
+                                          "seed": str(row["seed"])})).metrics
+        for k in SCORECARD_KEYS:
+            if k not in TIMING_KEYS:
+                assert row[k] == alone[k] or (alone[k] is None and pd.isna(row[k])), (k, row[k], alone[k])
+
+
+@pytest.mark.slow
+def test_a_sweep_on_a_real_scheduler_is_each_run_alone(scheduler, tmp_path):
+    runs = _runs(speeds=(5, 10), seeds=range(6))
+    table = sweep.sweep(runs, tmp_path, scheduler=scheduler)
+    assert list(table["key"]) == [r.key for r in runs] and table["error"].isna().all()
+    with Client(scheduler) as client:
+        assert set(table["worker"]) == set(client.scheduler_info()["workers"])  # both ran runs
+    _same_as_alone(table)
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / sweep.PARQUET), table, check_dtype=False)
+    assert len(pd.read_csv(tmp_path / sweep.CSV)) == len(runs)
+    assert len((tmp_path / sweep.ROWS).read_text().splitlines()) == len(runs)
+    drawn = {k for k in sweep.BOXES if table[k].notna().any()}
+    assert {p.name for p in tmp_path.glob("box_*.png")} == {f"box_{k}.png" for k in drawn} and drawn
+
+
+@pytest.mark.slow
+def test_a_killed_worker_loses_no_run_and_repeats_none(scheduler, tmp_path, monkeypatch, processes):
+    victim = _worker(processes, scheduler, "victim")
+    reached, killed = threading.Event(), threading.Event()
+    add = sweep.Rows.add
+
+    def add_then_wait(self, row):
+        add(self, row)
+        if len(self.rows) == 3:  # the sweep is under way: the victim goes now, with runs queued on it
+            reached.set()
+            assert killed.wait(60)
+
+    monkeypatch.setattr(sweep.Rows, "add", add_then_wait)
+    runs = _runs(speeds=(5, 7, 10, 12), seeds=range(8), duration=10)
+    out: list[pd.DataFrame] = []
+    t = threading.Thread(target=lambda: out.append(sweep.sweep(runs, tmp_path, scheduler=scheduler)))
+    with Client(scheduler) as client:
+        client.wait_for_workers(3, timeout=120)
+        (address,) = (a for a, w in client.scheduler_info()["workers"].items() if w["name"] == "victim")
+        t.start()
+        assert reached.wait(120)
+        assert client.processing([address])[address]  # it dies with runs in hand
+    victim.send_signal(signal.SIGKILL)
+    victim.wait(60)
+    killed.set()
+    t.join(300)
+    (table,) = out
+    assert list(table["key"]) == [r.key for r in runs] and table["error"].isna().all()
+    keys = [json.loads(line)["key"] for line in (tmp_path / sweep.ROWS).read_text().splitlines()]
+    assert sorted(keys) == sorted(r.key for r in runs)  # each once
+    _same_as_alone(table)
+
+
+@pytest.mark.slow
+def test_an_interrupted_sweep_keeps_its_rows_and_resume_runs_the_rest(scheduler, tmp_path, monkeypatch):
+    runs = _runs(seeds=range(4))
+    add = sweep.Rows.add
+
+    def add_then_ctrl_c(self, row):
+        add(self, row)
+        if len(self.rows) == 3:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep.Rows, "add", add_then_ctrl_c)
+    kept_in = rf"3 of {len(runs)} runs kept in {re.escape(str(tmp_path))}; .* --resume"
+    with pytest.raises(KeyboardInterrupt, match=kept_in):
+        sweep.sweep(runs, tmp_path, scheduler=scheduler)
+    kept = pd.read_parquet(tmp_path / sweep.PARQUET)
+    assert len(kept) == 3
+    monkeypatch.setattr(sweep.Rows, "add", add)
+    with pytest.raises(ValueError, match=r"holds an earlier sweep .* give --resume"):
+        sweep.sweep(runs, tmp_path, scheduler=scheduler)
+    table = sweep.sweep(runs, tmp_path, scheduler=scheduler, resume=True)
+    assert list(table["key"]) == [r.key for r in runs]
+    again = table.set_index("key").loc[kept["key"]]
+    assert list(again["wall_time_s"]) == list(kept["wall_time_s"])  # kept, not run again
+    assert len((tmp_path / sweep.ROWS).read_text().splitlines()) == len(runs)
+    _same_as_alone(table)
+
+
+@pytest.mark.slow
+def test_a_run_that_fails_is_a_row_with_its_error(scheduler, tmp_path):
+    blocked = tmp_path / "a_file"
+    blocked.write_text("not a folder")
+    table = sweep.sweep(_runs(speeds=(5,), seeds=(0,)), keep_files=blocked, scheduler=scheduler)
+    (error,) = table["error"]
+    assert str(blocked) in error and table["completed"].isna().all()
+
+
+@pytest.mark.slow
+def test_keep_files_writes_each_runs_folder(scheduler, tmp_path):
+    table = sweep.sweep(_runs(speeds=(5,), seeds=(0, 1)), keep_files=tmp_path, scheduler=scheduler)
+    for row in table.to_dict("records"):
+        metrics = json.loads((tmp_path / row["key"] / "metrics.json").read_text())
+        assert metrics["speed_error_rms_mps"] == row["speed_error_rms_mps"]
+
+
+@pytest.mark.slow
+def test_vilma_run_on_a_local_cluster(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    assert main(["run", SHORT, "--set", "duration=3", "--set", "task.speed=5,10", "--workers", "1", "--out",
+                 str(out)]) == 0
+    table = pd.read_csv(out / sweep.CSV)
+    assert list(table["task.speed"]) == [5, 10] and table["error"].isna().all()
+    assert "vilma sweep: 2 runs, 0 failed" in capsys.readouterr().out
+
+
+def test_a_sweep_file_names_scenarios_grid_samples_and_seeds(tmp_path):
+    (tmp_path / "more").mkdir()
+    (tmp_path / "more" / "slow.yaml").write_text("task: {speed: 3}\n")
+    f = tmp_path / "s.yaml"
+    f.write_text(f"scenarios: [{SHORT}, more]\ngrid: {{duration: 3, task.speed: [4, 6]}}\n"
+                 "samples: {count: 2, seed: 7, values: {initial.speed: {uniform: [0, 1]}}}\nseeds: 3\n")
+    runs = sweep.read_sweep(f)
+    assert len(runs) == 2 * 2 * 2 * 3 and len({r.key for r in runs}) == len(runs)
+    assert {r.label for r in runs} == {SHORT, str(tmp_path / "more" / "slow.yaml")}
+    assert {r.seed for r in runs} == {r.scenario.sim.seed for r in runs} == {0, 1, 2}
+    assert {r.scenario.task.speed for r in runs} == {4, 6} and {r.scenario.duration for r in runs} == {3}
+    assert runs == sweep.read_sweep(f)  # the same draws, the same keys
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("scenarios: x\ngrdi: {}\n", "s.yaml:2: grdi: unknown key; did you mean 'grid'?"),
+    ("scenarios: [nope]\n", "nope"),
+    (f"scenarios: {SHORT}\nseeds: 0\n", "s.yaml:2: seeds: expected a count of seeds >= 1"),
+    (f"scenarios: {SHORT}\nsamples: {{count: 2, values: {{duration: {{uniform: [3, 1]}}}}}}\n",
+     "s.yaml:2: samples.values.duration.uniform: expected [low, high], low < high, got [3, 1]"),
+    (f"scenarios: {SHORT}\nsamples: {{count: 2, values: {{duration: {{gamma: [3, 1]}}}}}}\n",
+     "s.yaml:2: samples.values.duration.gamma: unknown distribution (known: uniform, normal, loguniform, choice)"),
+    (f"scenarios: {SHORT}\ngrid: {{task.speed: abc}}\n", "task.speed"),
+    (f"scenarios: {SHORT}\ngrid: {{a: {list(range(1000))}, b: {list(range(1000))}, c: {list(range(1000))}}}\n",
+     f"1e+09 runs, more than {sweep.MAX_RUNS} in one sweep; split it"),
+    (f"scenarios: {SHORT}\nseeds: 20000\n", f"20000 runs, more than {sweep.CONFIRM_RUNS}; give --yes"),
+])
+def test_bad_sweep_files_are_one_line_and_exit_2_before_any_run(text, message, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.yaml").write_text(text)
+    assert main(["sweep", "s.yaml"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and not (tmp_path / "sweeps").exists()
+
+
+def test_an_unreachable_scheduler_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    address = f"tcp://127.0.0.1:{free_port()}"
+    assert main(["run", SHORT, "--set", "duration=3", "--scheduler", address]) == 2
+    err = capsys.readouterr().err
+    assert f"--scheduler {address}: no Dask scheduler answers there within {sweep.CONNECT_TIMEOUT:g} s" in err
+    assert err.count("\n") == 1 and not (tmp_path / "sweeps").exists()
+
+
+@settings(max_examples=50, deadline=None)
+@given(lo=st.floats(1e-3, 1e3), span=st.floats(1.01, 1e3), count=st.integers(1, 20), seed=st.integers(0, 2**32))
+def test_samples_stay_within_their_distributions(lo, span, count, seed):
+    hi = lo * span
+    data, src = load_yaml(f"count: {count}\nseed: {seed}\nvalues: {{u: {{uniform: [{lo!r}, {hi!r}]}}, "
+                          f"l: {{loguniform: [{lo!r}, {hi!r}]}}, c: {{choice: [a, 3, true]}}}}\n", "s.yaml")
+    draws = sweep._samples(data, src)
+    assert len(draws) == count
+    for d in draws:
+        v = {k: json.loads(x) for k, x in d}
+        assert lo <= v["u"] <= hi and lo * (1 - 1e-12) <= v["l"] <= hi * (1 + 1e-12) and v["c"] in ("a", 3, True)
+
+
+def test_rows_cut_short_by_a_kill_are_dropped_and_done_runs_not_written_twice(tmp_path):
+    rows = sweep.Rows(tmp_path, resume=False)
+    done = {"key": "k1", "error": None, "x": 1.5}
+    rows.add(done)
+    rows.add({**done, "x": 2.0})  # a run Dask rescheduled after its worker died
+    rows.add({"key": "k2", "error": "boom"})
+    rows.file.close()
+    with (tmp_path / sweep.ROWS).open("a") as f:
+        f.write('{"key": "k3", "err')  # the process was killed mid-line
+    again = sweep.Rows(tmp_path, resume=True)
+    assert again.rows == {"k1": done, "k2": {"key": "k2", "error": "boom"}}
+    assert again.done("k1") and not again.done("k2") and not again.done("k3")
+    again.add({"key": "k2", "error": None})  # a failed run, run again
+    again.file.close()
+    lines = [json.loads(line) for line in (tmp_path / sweep.ROWS).read_text().splitlines()]
+    assert [r["key"] for r in lines] == ["k1", "k2", "k2"] and sweep.Rows(tmp_path, True).done("k2")
+
+
+def test_run_keys_name_scenario_values_and_seed():
+    a = sweep.run_key(SHORT, [("task.speed", "5")], 0)
+    assert a == sweep.run_key(SHORT, [("task.speed", "5")], 0) and len(a) == 16
+    assert len({a, sweep.run_key(SHORT, [("task.speed", "6")], 0), sweep.run_key(SHORT, [("task.speed", "5")], 1),
+                sweep.run_key("other", [("task.speed", "5")], 0)}) == 4
+    assert int(a, 16) >= 0  # hex digits: a folder name on any file system
