@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tests.conftest import Processes, free_port
-from vilma.app import sweep
+from vilma.app import sweep, sweep_plan
 from vilma.app.cli import main
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import run
@@ -48,7 +48,7 @@ def scheduler():
 
 
 def _runs(speeds=(5, 10), seeds=(0, 1, 2), duration=3):
-    return sweep.plan_runs([SHORT], [("duration", [str(duration)]), ("task.speed", [str(s) for s in speeds])],
+    return sweep_plan.plan_runs([SHORT], [("duration", [str(duration)]), ("task.speed", [str(s) for s in speeds])],
                            seeds=seeds)
 
 
@@ -170,12 +170,12 @@ def test_a_sweep_file_names_scenarios_grid_samples_and_seeds(tmp_path):
     f = tmp_path / "s.yaml"
     f.write_text(f"scenarios: [{SHORT}, more]\ngrid: {{duration: 3, task.speed: [4, 6]}}\n"
                  "samples: {count: 2, seed: 7, values: {initial.speed: {uniform: [0, 1]}}}\nseeds: 3\n")
-    runs = sweep.read_sweep(f)
+    runs = sweep_plan.read_sweep(f)
     assert len(runs) == 2 * 2 * 2 * 3 and len({r.key for r in runs}) == len(runs)
     assert {r.label for r in runs} == {SHORT, str(tmp_path / "more" / "slow.yaml")}
     assert {r.seed for r in runs} == {r.scenario.sim.seed for r in runs} == {0, 1, 2}
     assert {r.scenario.task.speed for r in runs} == {4, 6} and {r.scenario.duration for r in runs} == {3}
-    assert runs == sweep.read_sweep(f)  # the same draws, the same keys
+    assert runs == sweep_plan.read_sweep(f)  # the same draws, the same keys
 
 
 @pytest.mark.parametrize(("text", "message"), [
@@ -188,8 +188,8 @@ def test_a_sweep_file_names_scenarios_grid_samples_and_seeds(tmp_path):
      "s.yaml:2: samples.values.duration.gamma: unknown distribution (known: uniform, normal, loguniform, choice)"),
     (f"scenarios: {SHORT}\ngrid: {{task.speed: abc}}\n", "task.speed"),
     (f"scenarios: {SHORT}\ngrid: {{a: {list(range(1000))}, b: {list(range(1000))}, c: {list(range(1000))}}}\n",
-     f"1e+09 runs, more than {sweep.MAX_RUNS} in one sweep; split it"),
-    (f"scenarios: {SHORT}\nseeds: 20000\n", f"20000 runs, more than {sweep.CONFIRM_RUNS}; give --yes"),
+     f"1e+09 runs, more than {sweep_plan.MAX_RUNS} in one sweep; split it"),
+    (f"scenarios: {SHORT}\nseeds: 20000\n", f"20000 runs, more than {sweep_plan.CONFIRM_RUNS}; give --yes"),
 ])
 def test_bad_sweep_files_are_one_line_and_exit_2_before_any_run(text, message, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -214,7 +214,7 @@ def test_samples_stay_within_their_distributions(lo, span, count, seed):
     hi = lo * span
     data, src = load_yaml(f"count: {count}\nseed: {seed}\nvalues: {{u: {{uniform: [{lo!r}, {hi!r}]}}, "
                           f"l: {{loguniform: [{lo!r}, {hi!r}]}}, c: {{choice: [a, 3, true]}}}}\n", "s.yaml")
-    draws = sweep._samples(data, src)
+    draws = sweep_plan._samples(data, src)
     assert len(draws) == count
     for d in draws:
         v = {k: json.loads(x) for k, x in d}
@@ -240,8 +240,9 @@ def test_rows_cut_short_by_a_kill_are_dropped_and_done_runs_not_written_twice(tm
 
 
 def test_run_keys_name_scenario_values_and_seed():
-    a = sweep.run_key(SHORT, [("task.speed", "5")], 0)
-    assert a == sweep.run_key(SHORT, [("task.speed", "5")], 0) and len(a) == 16
-    assert len({a, sweep.run_key(SHORT, [("task.speed", "6")], 0), sweep.run_key(SHORT, [("task.speed", "5")], 1),
-                sweep.run_key("other", [("task.speed", "5")], 0)}) == 4
+    key = sweep_plan.run_key
+    a = key(SHORT, [("task.speed", "5")], 0)
+    assert a == key(SHORT, [("task.speed", "5")], 0) and len(a) == 16
+    assert len({a, key(SHORT, [("task.speed", "6")], 0), key(SHORT, [("task.speed", "5")], 1),
+                key("other", [("task.speed", "5")], 0)}) == 4
     assert int(a, 16) >= 0  # hex digits: a folder name on any file system

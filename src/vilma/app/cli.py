@@ -109,13 +109,13 @@ def _sweep(args: argparse.Namespace) -> int:
     require("sweep", f"vilma {args.command} on Dask")
     from rich.text import Text
 
-    from vilma.app import sweep
+    from vilma.app import sweep, sweep_plan
 
     # Dask's own logs (its workers coming and going, its sockets closing at the end): with -v only
     logging.getLogger("distributed").setLevel(logging.ERROR if args.verbose < 1 else logging.getLogger().level)
     sets = [] if args.command == "sweep" else [*args.set, *([f"plant={args.plant}"] if args.plant else [])]
-    runs = sweep.read_sweep(args.sweep, args.yes) if args.command == "sweep" else sweep.plan_sets(args.scenarios,
-                                                                                                  sets, args.yes)
+    runs = (sweep_plan.read_sweep(args.sweep, args.yes) if args.command == "sweep"
+            else sweep_plan.plan_sets(args.scenarios, sets, args.yes))
     out = Path(args.out) if args.out else Path("sweeps") / (Path(args.sweep).stem if args.command == "sweep" else
                                                             time.strftime("run-%Y%m%d-%H%M%S"))
     console = _console(args)
