@@ -146,7 +146,7 @@ def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: s
     with connect(workers, scheduler) as client, _progress(console) as bar:
         client.register_plugin(Warm(todo[0].scenario))
         task = bar.add_task("sweep", total=len(todo), failed=0)
-        by_key, done = {}, as_completed()
+        by_key, done = {}, as_completed(with_results=True, raise_errors=False)  # results fetched as they come
 
         def submit(n: int) -> None:
             for r in itertools.islice(waiting, n):
@@ -157,18 +157,13 @@ def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: s
 
         submit(IN_FLIGHT)
         failed = 0
-        for f in done:
-            if f.status in ("pending", "lost"):  # its result was on a worker that died: Dask runs it again
-                done.add(f)
-                continue
+        for f, result in done:
             r = by_key.pop(f.key)
-            if f.status == "finished":
-                result = f.result()
-            elif f.status == "cancelled":
+            if f.status == "cancelled":
                 raise OSError(f"lost the Dask scheduler ({scheduler or 'local cluster'}); the finished runs are "
                               "kept: run it again with --resume for the rest")
-            else:  # a run that killed its workers (Dask tried it on others first)
-                result = {**dict.fromkeys(SCORECARD_KEYS), "worker": None, "error": f"{f.exception()}"}
+            if f.status == "error":  # a run that killed its workers (Dask tried it on others first)
+                result = {**dict.fromkeys(SCORECARD_KEYS), "worker": None, "error": f"{result}"}
             f.release()
             failed += result["error"] is not None
             rows.add({**r.row(), **result})
