@@ -138,6 +138,50 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resume_runs_the_rest(scheduler,
 
 
 @pytest.mark.slow
+def test_ctrl_c_keeps_the_finished_runs_and_resume_runs_the_rest(scheduler, tmp_path, processes):
+    (tmp_path / "s.yaml").write_text(f"scenarios: {SHORT}\ngrid: {{duration: 10, task.speed: [5, 10]}}\nseeds: 10\n")
+    argv = ("sweep", "s.yaml", "--scheduler", scheduler, "--out", "out")
+    p = processes.vilma(*argv, cwd=tmp_path)
+    for line in p.stdout:
+        if line.startswith("[3/20]"):
+            p.send_signal(signal.SIGINT)
+            break
+    rest = p.communicate(timeout=120)[0]
+    assert p.returncode == 130, rest
+    kept = pd.read_parquet(tmp_path / "out" / sweep.PARQUET)
+    assert 3 <= len(kept) < 20 and f"vilma sweep: interrupted: {len(kept)} of 20 runs kept in out; run it again with " \
+                                   "--resume for the rest" in rest
+    again = processes.vilma(*argv, "--resume", cwd=tmp_path)
+    out = again.communicate(timeout=300)[0]
+    assert again.returncode == 0, out
+    assert f"resuming: {len(kept)} of 20 runs kept" in out and f"[{20 - len(kept)}/{20 - len(kept)}]" in out
+    table = pd.read_parquet(tmp_path / "out" / sweep.PARQUET)
+    assert sorted(table["key"]) == sorted(r.key for r in sweep_plan.read_sweep(tmp_path / "s.yaml"))
+    pd.testing.assert_frame_equal(table.set_index("key").loc[kept["key"]].reset_index(), kept)  # kept as they were
+
+
+@pytest.mark.slow
+def test_a_lost_scheduler_keeps_the_finished_runs_and_exits_2(tmp_path, processes):
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    lost = processes.start(*DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")
+    _worker(processes, address, "w")
+    (tmp_path / "s.yaml").write_text(f"scenarios: {SHORT}\ngrid: {{duration: 10}}\nseeds: 100\n")
+    p = processes.vilma("sweep", "s.yaml", "--scheduler", address, "--out", "out", cwd=tmp_path)
+    for line in p.stdout:
+        if line.startswith("[3/100]"):
+            lost.kill()
+            break
+    rest = p.communicate(timeout=120)[0]
+    assert p.returncode == 2, rest
+    kept = pd.read_parquet(tmp_path / "out" / sweep.PARQUET)
+    assert 3 <= len(kept) < 100 and kept["error"].isna().all()
+    (error,) = [line for line in rest.splitlines() if not line.startswith("[")]
+    assert error == (f"vilma sweep: error: lost the Dask scheduler ({address}): {len(kept)} of 100 runs kept in out; "
+                     "run it again with --resume for the rest")
+
+
+@pytest.mark.slow
 def test_a_run_that_fails_is_a_row_with_its_error(scheduler, tmp_path):
     blocked = tmp_path / "a_file"
     blocked.write_text("not a folder")
@@ -206,6 +250,18 @@ def test_an_unreachable_scheduler_is_one_line_and_exit_2(tmp_path, capsys, monke
     err = capsys.readouterr().err
     assert f"--scheduler {address}: no Dask scheduler answers there within {sweep.CONNECT_TIMEOUT:g} s" in err
     assert err.count("\n") == 1 and not (tmp_path / "sweeps").exists()
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--workers", "2", "--cars", "3"], "--workers and --scheduler run on Dask as fast as they can: drop --cars"),
+    (["--scheduler", "tcp://127.0.0.1:1", "--realtime", "1"], "drop --cars, --realtime and --foxglove"),
+    (["--resume"], "--resume, --keep-files and --yes are for runs on Dask: add --workers N or --scheduler"),
+    (["--keep-files", "x"], "--resume, --keep-files and --yes are for runs on Dask"),
+])
+def test_engine_options_out_of_place_are_one_line_and_exit_2(args, message, capsys):
+    assert main(["run", SHORT, *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
 
 
 @settings(max_examples=50, deadline=None)

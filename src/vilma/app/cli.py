@@ -75,7 +75,12 @@ def _run(args: argparse.Namespace) -> int:
     from vilma.app import batch
 
     if args.workers is not None or args.scheduler is not None:
+        if args.cars is not None or args.realtime is not None or args.foxglove is not None:
+            raise ValueError("--workers and --scheduler run on Dask as fast as they can: drop --cars, --realtime "
+                             "and --foxglove")
         return _sweep(args)
+    if args.resume or args.keep_files or args.yes:
+        raise ValueError("--resume, --keep-files and --yes are for runs on Dask: add --workers N or --scheduler")
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
     console = _console(args)
     if args.cars is not None:
@@ -111,8 +116,8 @@ def _sweep(args: argparse.Namespace) -> int:
 
     from vilma.app import sweep, sweep_plan
 
-    # Dask's own logs (its workers coming and going, its sockets closing at the end): with -v only
-    logging.getLogger("distributed").setLevel(logging.ERROR if args.verbose < 1 else logging.getLogger().level)
+    # Dask's own logs (its workers coming and going, its sockets closing, a lost scheduler's traces): with -v only
+    sweep.dask_logs(logging.CRITICAL if args.verbose < 1 else logging.getLogger().level)
     sets = [] if args.command == "sweep" else [*args.set, *([f"plant={args.plant}"] if args.plant else [])]
     runs = (sweep_plan.read_sweep(args.sweep, args.yes) if args.command == "sweep"
             else sweep_plan.plan_sets(args.scenarios, sets, args.yes))

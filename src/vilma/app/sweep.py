@@ -76,6 +76,13 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> Iterato
         yield client
 
 
+def dask_logs(level: int) -> None:
+    """Set Dask's loggers and tornado's (each given its level by Dask's config) to ``level``."""
+    for name in list(logging.root.manager.loggerDict):
+        if name.partition(".")[0] in ("distributed", "tornado"):
+            logging.getLogger(name).setLevel(level)
+
+
 class Warm(WorkerPlugin):
     """Compiles (or loads from numba's cache) the closed loop once when a worker starts, not in its first run: a
     short drive of ``scenario``."""
@@ -117,6 +124,7 @@ def sweep(runs: str | Path | Sequence[SweepRun], out: str | Path | None = None, 
     Raises:
         SpecError: ``out`` holds an earlier sweep and ``resume`` is not given.
         KeyboardInterrupt: Ctrl-C; what finished is kept in ``out``, and the message says so.
+        ConnectionError: the scheduler was lost (the same).
     """
     runs = read_sweep(runs, yes) if isinstance(runs, str | Path) else list(runs)
     console = console or Console(quiet=True)
@@ -127,9 +135,10 @@ def sweep(runs: str | Path | Sequence[SweepRun], out: str | Path | None = None, 
     try:
         if todo:
             _execute(todo, rows, workers, scheduler, keep_files, console)
-    except KeyboardInterrupt:
-        raise KeyboardInterrupt(f"interrupted: {rows.kept(runs)} of {len(runs)} runs kept in {out}; run it again "
-                                "with --resume for the rest" if out else "interrupted") from None
+    except (KeyboardInterrupt, ConnectionError) as e:
+        why = f"{e}" if isinstance(e, ConnectionError) else "interrupted"
+        kept = f": {rows.kept(runs)} of {len(runs)} runs kept in {out}; run it again with --resume for the rest"
+        raise type(e)(why + (kept if out is not None else "")) from None
     finally:
         table = rows.table(runs)
         if out is not None and len(table):
@@ -157,17 +166,19 @@ def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: s
 
         submit(IN_FLIGHT)
         failed = 0
-        for f, result in done:
+        for i, (f, result) in enumerate(done, 1):
             r = by_key.pop(f.key)
             if f.status == "cancelled":
-                raise OSError(f"lost the Dask scheduler ({scheduler or 'local cluster'}); the finished runs are "
-                              "kept: run it again with --resume for the rest")
+                raise ConnectionError(f"lost the Dask scheduler ({scheduler or 'of the local cluster'})")
             if f.status == "error":  # a run that killed its workers (Dask tried it on others first)
                 result = {**dict.fromkeys(SCORECARD_KEYS), "worker": None, "error": f"{result}"}
             f.release()
             failed += result["error"] is not None
             rows.add({**r.row(), **result})
             bar.update(task, advance=1, failed=failed)
+            if not console.is_terminal:  # a log or a pipe: a line a run instead of the bar
+                console.print(Text(f"[{i}/{len(todo)}] {r.label} {' '.join(f'{k}={v}' for k, v in r.values)} seed "
+                                   f"{r.seed}: {result['error'] or 'done'}"))
             submit(1)
 
 
@@ -181,7 +192,7 @@ class _Rate(ProgressColumn):
 def _progress(console: Console) -> Progress:
     return Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
                     TextColumn("{task.completed}/{task.total} done, {task.fields[failed]} failed"), _Rate(),
-                    TimeRemainingColumn(), console=console, transient=True)
+                    TimeRemainingColumn(), console=console, transient=True, disable=not console.is_terminal)
 
 
 class Rows:
