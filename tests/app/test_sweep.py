@@ -67,8 +67,15 @@ def test_a_sweep_on_a_real_scheduler_is_each_run_alone(scheduler, tmp_path):
     runs = _runs(speeds=(5, 10), seeds=range(6))
     table = sweep.sweep(runs, tmp_path, scheduler=scheduler)
     assert list(table["key"]) == [r.key for r in runs] and table["error"].isna().all()
+    def warm(dask_worker) -> bool:
+        from vilma.scenario.lockstep import _loop
+
+        return "vilma-warm" in dask_worker.plugins and bool(_loop.signatures)  # compiled before its first run
+
     with Client(scheduler) as client:
-        assert set(table["worker"]) == set(client.scheduler_info()["workers"])  # both ran runs
+        workers = client.scheduler_info()["workers"]
+        assert set(table["worker"]) == set(workers)  # both ran runs
+        assert client.run(warm) == dict.fromkeys(workers, True)
     _same_as_alone(table)
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / sweep.PARQUET), table, check_dtype=False)
     assert len(pd.read_csv(tmp_path / sweep.CSV)) == len(runs)
