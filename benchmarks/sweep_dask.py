@@ -12,6 +12,7 @@ processes against 1, and the engine's overhead per run against the same runs one
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import sys
 import time
@@ -57,6 +58,7 @@ def main(rounds: int) -> None:
     ratio = median["1_worker"] / median["2_workers"]
     overhead = (median["1_worker"] - median["alone"]) / RUNS * 1e3
     print(json.dumps({"benchmark": "sweep_dask", "scenario": SCENARIO, "runs": RUNS, "rounds": rounds,
+                      "cores": os.cpu_count(), "load_average_1min": os.getloadavg()[0],
                       "runs_per_second": {k: round(RUNS / v, 1) for k, v in median.items()},
                       "two_workers_over_one": round(ratio, 2), "ratio_target": RATIO_TARGET,
                       "overhead_ms_per_run": round(overhead, 2), "overhead_target_ms": OVERHEAD_TARGET_MS,
