@@ -112,26 +112,9 @@ def _sweep(args: argparse.Namespace) -> int:
     from vilma.core.extras import require
 
     require("sweep", f"vilma {args.command} on Dask")
-    from rich.text import Text
+    from vilma.app.sweep import sweep_command
 
-    from vilma.app import sweep, sweep_plan
-
-    # Dask's own logs (its workers coming and going, its sockets closing, a lost scheduler's traces): with -v only
-    sweep.dask_logs(logging.CRITICAL if args.verbose < 1 else logging.getLogger().level)
-    sets = [] if args.command == "sweep" else [*args.set, *([f"plant={args.plant}"] if args.plant else [])]
-    runs = (sweep_plan.read_sweep(args.sweep, args.yes) if args.command == "sweep"
-            else sweep_plan.plan_sets(args.scenarios, sets, args.yes))
-    out = Path(args.out) if args.out else Path("sweeps") / (Path(args.sweep).stem if args.command == "sweep" else
-                                                            time.strftime("run-%Y%m%d-%H%M%S"))
-    console = _console(args)
-    console.print(f"vilma {args.command}: {len(runs)} runs on {args.scheduler or 'a local Dask cluster'}, "
-                  f"table in {out}", highlight=False)
-    table = sweep.sweep(runs, out, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
-                        keep_files=args.keep_files, plots=not args.no_plots, console=console)
-    console.print(sweep.summary_table(table))
-    for error in table["error"].dropna().unique()[:10]:
-        console.print(Text(f"FAIL: {error}"), style="red")
-    return 1 if table["error"].notna().any() else 0
+    return sweep_command(args, _console(args))
 
 
 def _trajectory(args: argparse.Namespace) -> int:
@@ -306,7 +289,7 @@ def _add_runs(sub) -> None:
                         f"(at most {MAX_CARS}); each writes its folder without plots or run.mcap")
     r.add_argument("--overwrite", action="store_true", help="replace the files of an earlier run in the --out folder "
                    "(without it, a folder that holds anything is refused)")
-    _add_engine_options(r)
+    _add_engine_options(r, "with --workers/--scheduler: ")
     r.set_defaults(func=_run)
     w = sub.add_parser("sweep", help="run a sweep file on Dask (scenarios x grid x samples x seeds): a results table")
     w.add_argument("sweep", metavar="SWEEP.yaml", help="the sweep file (scenarios, grid, samples, seeds)")
@@ -316,17 +299,16 @@ def _add_runs(sub) -> None:
     w.set_defaults(func=_sweep)
 
 
-def _add_engine_options(q) -> None:
-    """Where a sweep runs (Dask), and what it keeps."""
+def _add_engine_options(q, only: str = "") -> None:
+    """Where a sweep runs (Dask), and what it keeps; ``only`` says when they apply."""
     e = q.add_mutually_exclusive_group()
     e.add_argument("--workers", type=count, metavar="N", help="run on a local Dask cluster of N processes "
                    "(vilma sweep: default one a core)")
     e.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
-    q.add_argument("--resume", action="store_true", help="with --workers/--scheduler: keep the finished runs in --out, "
-                   "run the rest")
-    q.add_argument("--yes", action="store_true", help="with --workers/--scheduler: run more than 10,000 runs")
-    q.add_argument("--keep-files", metavar="DIR", help="with --workers/--scheduler: each run writes its files in "
-                   "DIR/<key> (a folder the workers can write)")
+    q.add_argument("--resume", action="store_true", help=f"{only}keep the finished runs in --out, run the rest")
+    q.add_argument("--yes", action="store_true", help=f"{only}run more than 10,000 runs")
+    q.add_argument("--keep-files", metavar="DIR", help=f"{only}each run writes its files in DIR/<key> (a folder the "
+                   "workers can write)")
 
 
 def _add_programs(sub) -> None:

@@ -9,6 +9,7 @@ Dask reschedules after a lost worker is kept once.
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import dataclasses
 import itertools
@@ -30,7 +31,7 @@ from rich.progress import BarColumn, Progress, ProgressColumn, TaskProgressColum
 from rich.table import Table
 from rich.text import Text
 
-from vilma.app.sweep_plan import IDENTITY, SweepRun, read_sweep
+from vilma.app.sweep_plan import IDENTITY, SweepRun, plan_sets, read_sweep
 from vilma.core.files import atomic_path
 from vilma.record.run import record_run
 from vilma.scenario.fields import SpecError
@@ -109,6 +110,26 @@ def run_remote(scenario: Scenario, keep: str | None = None) -> dict[str, Any]:
         row = {**dict.fromkeys(SCORECARD_KEYS), "wall_time_s": time.perf_counter() - t0}
         error = str(e) or type(e).__name__
     return {**row, "worker": get_worker().address, "error": error}
+
+
+def sweep_command(args: argparse.Namespace, console: Console) -> int:
+    """``vilma sweep`` and ``vilma run ... --workers | --scheduler``: plan, run, print the summary; 1 if any failed."""
+    # Dask's own logs (its workers coming and going, its sockets closing, a lost scheduler's traces): with -v only
+    dask_logs(logging.CRITICAL if args.verbose < 1 else logging.getLogger().level)
+    if args.command == "sweep":
+        runs = read_sweep(args.sweep, args.yes)
+    else:
+        runs = plan_sets(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])], args.yes)
+    name = Path(args.sweep).stem if args.command == "sweep" else time.strftime("run-%Y%m%d-%H%M%S")
+    out = Path(args.out) if args.out else Path("sweeps") / name
+    console.print(f"vilma {args.command}: {len(runs)} runs on {args.scheduler or 'a local Dask cluster'}, "
+                  f"table in {out}", highlight=False)
+    table = sweep(runs, out, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+                  keep_files=args.keep_files, plots=not args.no_plots, console=console)
+    console.print(summary_table(table))
+    for error in table["error"].dropna().unique()[:10]:
+        console.print(Text(f"FAIL: {error}"), style="red")
+    return 1 if table["error"].notna().any() else 0
 
 
 def sweep(runs: str | Path | Sequence[SweepRun], out: str | Path | None = None, *, workers: int | None = None,
