@@ -189,6 +189,25 @@ def test_a_lost_scheduler_keeps_the_finished_runs_and_exits_2(tmp_path, processe
 
 
 @pytest.mark.slow
+def test_the_cluster_holds_at_most_in_flight_runs(scheduler, monkeypatch):
+    def held(dask_scheduler) -> int:
+        return sum(str(k).startswith("vilma-run-") for k in dask_scheduler.tasks)
+
+    counts = []
+    add = sweep.Rows.add
+
+    def add_and_count(self, row):
+        add(self, row)
+        counts.append(client.run_on_scheduler(held))
+
+    monkeypatch.setattr(sweep, "IN_FLIGHT", 2)
+    monkeypatch.setattr(sweep.Rows, "add", add_and_count)
+    with Client(scheduler) as client:
+        table = sweep.sweep(_runs(seeds=range(4)), scheduler=scheduler)
+    assert len(table) == 8 and table["error"].isna().all() and len(counts) == 8 and max(counts) <= 2
+
+
+@pytest.mark.slow
 def test_a_run_that_fails_is_a_row_with_its_error(scheduler, tmp_path):
     blocked = tmp_path / "a_file"
     blocked.write_text("not a folder")
@@ -231,13 +250,14 @@ def test_a_sweep_file_names_scenarios_grid_samples_and_seeds(tmp_path):
 
 @pytest.mark.parametrize(("text", "message"), [
     ("scenarios: x\ngrdi: {}\n", "s.yaml:2: grdi: unknown key; did you mean 'grid'?"),
-    ("scenarios: [nope]\n", "nope"),
+    ("scenarios: [nope]\n", "s.yaml: nope: no such file, nor a bundled scenario"),
     (f"scenarios: {SHORT}\nseeds: 0\n", "s.yaml:2: seeds: expected a count of seeds >= 1"),
     (f"scenarios: {SHORT}\nsamples: {{count: 2, values: {{duration: {{uniform: [3, 1]}}}}}}\n",
      "s.yaml:2: samples.values.duration.uniform: expected [low, high], low < high, got [3, 1]"),
     (f"scenarios: {SHORT}\nsamples: {{count: 2, values: {{duration: {{gamma: [3, 1]}}}}}}\n",
      "s.yaml:2: samples.values.duration.gamma: unknown distribution (known: uniform, normal, loguniform, choice)"),
-    (f"scenarios: {SHORT}\ngrid: {{task.speed: abc}}\n", "task.speed"),
+    (f"scenarios: {SHORT}\ngrid: {{task.speed: [5, abc]}}\n",
+     's.yaml: --set task.speed="abc": task.speed: expected a number'),
     (f"scenarios: {SHORT}\ngrid: {{a: {list(range(1000))}, b: {list(range(1000))}, c: {list(range(1000))}}}\n",
      f"1e+09 runs, more than {sweep_plan.MAX_RUNS} in one sweep; split it"),
     (f"scenarios: {SHORT}\nseeds: 20000\n", f"20000 runs, more than {sweep_plan.CONFIRM_RUNS}; give --yes"),

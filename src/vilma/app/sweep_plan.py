@@ -102,7 +102,10 @@ def read_sweep(path: str | Path, yes: bool = False) -> list[SweepRun]:
     grid = _grid(data.get("grid") or {}, src)
     samples = _samples(data.get("samples"), src)
     seeds = _seeds(data.get("seeds"), src)
-    return plan_runs(scenarios, grid, samples, seeds, yes)
+    try:
+        return plan_runs(scenarios, grid, samples, seeds, yes)
+    except SpecError as e:  # a scenario that does not load with some values: which sweep asked for it
+        raise SpecError(f"{path}: {e}") from None
 
 
 def plan_runs(scenarios: Sequence[str], grid: Sequence[tuple[str, Sequence[str]]],
