@@ -248,6 +248,11 @@ def test_a_sweep_file_names_scenarios_grid_samples_and_seeds(tmp_path):
     assert runs == sweep_plan.read_sweep(f)  # the same draws, the same keys
 
 
+def test_a_run_asked_for_twice_runs_once():
+    runs = sweep_plan.plan_runs([SHORT, SHORT], [("task.speed", ["5", "5", "6"])], seeds=[0])
+    assert [dict(r.values)["task.speed"] for r in runs] == ["5", "6"] and len({r.key for r in runs}) == 2
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("scenarios: x\ngrdi: {}\n", "s.yaml:2: grdi: unknown key; did you mean 'grid'?"),
     ("scenarios: [nope]\n", "s.yaml: nope: no such file, nor a bundled scenario"),

@@ -256,7 +256,7 @@ class Rows:
         if self.file is not None:
             self.file.close()
         rows = [self.rows[r.key] for r in runs if r.key in self.rows]
-        swept = list(dict.fromkeys(k for r in runs for k in r.row() if k not in IDENTITY))
+        swept = [k for k, _ in runs[0].values if k != "seed"] if runs else []  # the same keys in every run
         return pd.DataFrame(rows, columns=[*IDENTITY, *swept, *SCORECARD_KEYS, *ENGINE])
 
 

@@ -112,7 +112,7 @@ def plan_runs(scenarios: Sequence[str], grid: Sequence[tuple[str, Sequence[str]]
               samples: Sequence[Sequence[tuple[str, str]]] = ((),), seeds: Sequence[int] | None = None,
               yes: bool = False) -> list[SweepRun]:
     """Every combination of a scenario, a grid point (``grid``: each key's YAML values), a sample and a seed
-    (``None``: each scenario's own), loaded and checked; see :func:`read_sweep` for the errors."""
+    (``None``: each scenario's own), loaded and checked, each once; see :func:`read_sweep` for the errors."""
     if seeds is not None and any(k == "seed" for k, _ in grid):
         raise SpecError("sweep: seed is in the grid and in seeds; give the seeds in one place")
     total = len(scenarios) * math.prod(len(v) for _, v in grid) * len(samples) * (len(seeds) if seeds else 1)
@@ -120,7 +120,7 @@ def plan_runs(scenarios: Sequence[str], grid: Sequence[tuple[str, Sequence[str]]
         raise SpecError(f"sweep: {total:.3g} runs, more than {MAX_RUNS} in one sweep; split it into smaller sweeps")
     if total > CONFIRM_RUNS and not yes:
         raise SpecError(f"sweep: {total} runs, more than {CONFIRM_RUNS}; give --yes to run them all")
-    runs = []
+    runs: dict[str, SweepRun] = {}  # by key: a run asked for twice (a value given twice, a draw repeated) runs once
     for label in scenarios:
         for point in itertools.product(*([(k, v) for v in vs] for k, vs in grid)):
             for sample in samples:
@@ -128,8 +128,9 @@ def plan_runs(scenarios: Sequence[str], grid: Sequence[tuple[str, Sequence[str]]
                 scenario = load_scenario(label, dict(values))
                 for seed in seeds if seeds is not None else (scenario.sim.seed,):
                     s = dataclasses.replace(scenario, sim=dataclasses.replace(scenario.sim, seed=seed))
-                    runs.append(SweepRun(run_key(label, values, seed), label, values, seed, s))
-    return runs
+                    key = run_key(label, values, seed)
+                    runs.setdefault(key, SweepRun(key, label, values, seed, s))
+    return list(runs.values())
 
 
 def _scenarios(raw: Any, src: Source, here: Path) -> list[str]:
