@@ -208,6 +208,23 @@ def test_the_cluster_holds_at_most_in_flight_runs(scheduler, monkeypatch):
 
 
 @pytest.mark.slow
+def test_workers_without_vilma_are_one_line_and_exit_2(tmp_path, processes, capsys):
+    (tmp_path / "vilma").mkdir()  # what the workers import as vilma (their folder comes first in their path)
+    (tmp_path / "vilma" / "__init__.py").write_text("raise ImportError('no vilma here')\n")
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    processes.start(*DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")
+    processes.start(*DASK, "worker", address, "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1",
+                    "--no-dashboard", cwd=tmp_path)
+    with Client(address, timeout=60) as client:
+        client.wait_for_workers(1, timeout=120)
+    assert main(["run", SHORT, "--set", "duration=3", "--scheduler", address, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "vilma run: error: the Dask workers cannot load vilma (" in err and "install the same vilma[sweep]" in err
+    assert err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
 def test_a_run_that_fails_is_a_row_with_its_error(scheduler, tmp_path):
     blocked = tmp_path / "a_file"
     blocked.write_text("not a folder")

@@ -174,7 +174,11 @@ def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: s
     """Run ``todo`` on the cluster, :data:`IN_FLIGHT` at a time, each row into ``rows`` as it comes."""
     waiting = iter(todo)
     with connect(workers, scheduler) as client, _progress(console) as bar:
-        client.register_plugin(Warm(todo[0].scenario))
+        try:
+            client.register_plugin(Warm(todo[0].scenario))
+        except Exception as e:  # the plugin did not unpickle there: a worker without vilma, or another version
+            raise OSError(f"the Dask workers cannot load vilma ({e}); install the same vilma[sweep] on every "
+                          "worker") from None
         task = bar.add_task("sweep", total=len(todo), failed=0)
         by_key, done = {}, as_completed(with_results=True, raise_errors=False)  # results fetched as they come
 
