@@ -29,7 +29,7 @@ from vilma.bus.topics import topic
 from vilma.core.messages import Image, PointCloud, SimStatus
 from vilma.record.reader import read_recording
 from vilma.record.recorder import BusRecorder, Recorder
-from vilma.record.run import RunRecorder
+from vilma.record.run_recorder import RunRecorder
 from vilma.record.world_cdr import CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, LASER_SCAN, POINT_CLOUD2
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import DriveLog
