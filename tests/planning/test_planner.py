@@ -154,6 +154,16 @@ def test_when_no_candidate_is_feasible_it_stops_at_the_comfortable_deceleration(
     assert p.frenet[-1, 0] == pytest.approx(v * v / (2 * decel)) and p.speed[-1] == pytest.approx(0.0)
 
 
+def test_a_fallback_from_walking_pace_stops_within_its_braking_distance_and_never_reverses():
+    # a stop shorter than one step: 0.15 m/s at 3 m/s^2 stops in 0.05 s, 3.75 mm on
+    v = 0.15
+    decel = CAR.actuators.stop_deceleration
+    p = plan(FrenetState(10.0, v, 0.0, 0.5), STRAIGHT, NONE, P)
+    assert p.mode == "fallback"
+    assert p.frenet[-1, 0] == pytest.approx(10.0 + v * v / (2 * decel)) and (np.diff(p.frenet[:, 0]) >= 0).all()
+    assert p.speed[-1] == pytest.approx(0.0)
+
+
 def test_a_tight_curve_beyond_the_steering_limit_is_infeasible():
     radius = 0.5 / P.max_curvature
     a = np.linspace(0.0, math.pi, 200)

@@ -425,7 +425,8 @@ def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p
 
     def stop(decel):
         lon = np.array([[state.s, v0, -0.5 * decel if v0 > 0 else 0.0, 0.0, 0.0, 0.0]])
-        return _motions(reference, lat, [min(p.lateral_durations)], lon, [max(v0 / decel, p.dt)], objects, p, True)
+        stopped = v0 / decel if v0 > 0 else p.dt  # at rest from then on (a longer polynomial would reverse)
+        return _motions(reference, lat, [min(p.lateral_durations)], lon, [stopped], objects, p, True)
 
     decel, name = p.vehicle.actuators.stop_deceleration, "comfortable"
     lat_m, lon_m, out, status = stop(decel)
