@@ -165,3 +165,35 @@ def test_a_plan_at_rest_holds_the_car_and_a_plan_without_speeds_is_refused():
     assert d.status.arrived and sim.state.x == pytest.approx(0.0, abs=1e-3)
     with pytest.raises(ValueError, match="no speeds"):
         d.drive_plan(Trajectory(np.zeros((2, 2))))
+
+
+def test_a_planners_stop_brakes_harder_than_a_paths_end_when_it_must():
+    # 10 m/s to rest in 8 m: 6.25 m/s^2, beyond the 4 m/s^2 (twice the stop deceleration) a path's end brakes at
+    sim = Simulator(SimConfig())
+    sim.reset(VehicleState(vx=10.0))
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    decel = 10.0**2 / (2 * 8.0)
+    assert 2 * d.params.stop_deceleration < decel <= sim.config.vehicle.actuators.max_decel
+    t = np.arange(31) * 0.1
+    v = np.maximum(10.0 - decel * t, 0.0)
+    x = np.where(v > 0, 10.0 * t - decel * t * t / 2, 8.0)
+    d.drive_plan(Trajectory(np.column_stack([x, np.zeros_like(x)]), v))
+    _drive(sim, d, 4.0)
+    assert d.status.arrived and sim.state.x == pytest.approx(8.0, abs=0.5)
+
+
+def test_a_stop_holds_while_the_next_plans_stop_too_and_a_moving_plan_releases_it():
+    sim = Simulator(SimConfig())
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    d.drive_plan(Trajectory(np.zeros((31, 2)), np.zeros(31)))
+    _drive(sim, d, 1.0)
+    assert d.status.arrived
+    # a creep to a stop 0.5 m ahead (its target moved by noise): the car stays where it is
+    d.drive_plan(Trajectory(np.column_stack([np.linspace(0.0, 0.5, 31), np.zeros(31)]), np.linspace(0.3, 0.0, 31)))
+    _drive(sim, d, 1.0)
+    assert d.status.arrived and abs(sim.state.x) < 1e-3
+    d.drive_plan(_planned(0.0, 3.0))
+    _drive(sim, d, 2.0)
+    assert not d.status.arrived and sim.state.x > 1.0

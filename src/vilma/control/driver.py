@@ -200,11 +200,14 @@ def _track(dc, ds, pa):
 
 @njit(cache=True)
 def _final_stop(dc, ds):
-    """Brake to stop on the last point: deceleration v^2 / (2 d), then hold."""
+    """Brake to stop on the last point: deceleration v^2 / (2 d) (at most twice the stop deceleration but on a
+    planner's stop), then hold."""
     v, d = ds.measured, max(ds.remaining, 0.05)
     if ds.arrived or abs(v) < dc.rest_speed:
         ds.arrived = True
         decel = dc.stop_deceleration
+    elif ds.mode == PLAN:  # the planner's stop, checked against the car's brakes: as hard as it needs
+        decel = v * v / (2.0 * d)
     else:
         decel = min(v * v / (2.0 * d), 2.0 * dc.stop_deceleration)
     ds.command_mode, ds.drive, ds.brake, ds.velocity_limit = FORCE, 0.0, dc.mass * decel, math.inf
@@ -335,8 +338,10 @@ class Driver:
         """Drive a planner's local trajectory ``path`` (with speeds), replacing the one driven, if any, on the go.
 
         The controllers and the driver's clock run on (a replan is not a new order); the car stops at the end only
-        when the path's own speeds end at rest (a planner's stop). Points that repeat where the plan stands still
-        are dropped; a plan of one point (the car at rest) is a stop on it.
+        when the path's own speeds end at rest (a planner's stop), braking as hard as that stop needs; a stop under
+        way or made holds while the plans that follow end at rest too (each one's end, moved by the noise of what
+        it stops behind, would otherwise start the car creeping again). Points that repeat where the plan stands
+        still are dropped; a plan of one point (the car at rest) is a stop on it.
         """
         if path.speed is None:
             raise ValueError("drive plan: the trajectory has no speeds")
@@ -346,8 +351,10 @@ class Driver:
             self._start(_Task(DriverMode.PLAN, speed=math.nan, path=moving))
         else:
             self.task.path = moving
-            ds.arrived = ds.has_progress = False  # judged again on the new path
-        ds.stopping = not moving.speed.any()  # a plan at rest all along: a stop where the car stands
+            ds.has_progress = False  # the progress is on the new path
+            if moving.speed[-1] >= self.params.rest_speed:  # it drives on: a stop under way is called off
+                ds.stopping = ds.arrived = False
+        ds.stopping |= not moving.speed.any()  # a plan at rest all along: a stop where the car stands
 
     def _start(self, task: _Task) -> None:
         self.task = task
