@@ -164,6 +164,14 @@ def test_a_fallback_from_walking_pace_stops_within_its_braking_distance_and_neve
     assert p.speed[-1] == pytest.approx(0.0)
 
 
+def test_creeping_towards_a_far_goal_the_plan_is_finite():
+    # 1e-60 m/s closing on a goal 140 m ahead, near enough to plan for at 22 m/s (66 m over the horizon and 161 m
+    # to brake): the steady slow-down to it would take 2.8e62 s
+    p = plan(FrenetState(30.0, 1e-60, 0.0, 0.0), STRAIGHT, NONE, dataclasses.replace(P, target_speed=22.0),
+             goal=170.0)
+    assert np.isfinite(p.x).all() and np.isfinite(p.speed).all() and p.mode in ("stop", "fallback")
+
+
 def test_a_tight_curve_beyond_the_steering_limit_is_infeasible():
     radius = 0.5 / P.max_curvature
     a = np.linspace(0.0, math.pi, 200)

@@ -343,7 +343,8 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         durations = list(p.position_durations)
         closing = state.s_dot - target.speed
         if closing > 0 and target.s > state.s:  # and the time a steady slow-down to the target speed closes the gap in
-            durations.append(max(2.0 * (target.s - state.s) / closing, p.dt))
+            # (no longer than the longest sampled: closing at a crawl it would overflow the polynomials)
+            durations.append(min(max(2.0 * (target.s - state.s) / closing, p.dt), max(p.position_durations)))
         T = np.repeat(np.asarray(durations), len(p.position_offsets))
         dev = np.tile(np.asarray(p.position_offsets), len(durations))
         v0, v1, b = state.s_dot, target.speed, p.vehicle.actuators.stop_deceleration

@@ -215,11 +215,14 @@ PLANNER = "werling"
 
 def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> Scenario:
     """Read and validate the scenario file ``path``, or the bundled scenario of that name (``course_30kmh_stanley``);
-    ``overrides`` maps dotted keys to YAML values (``--set``)."""
-    if Path(path).suffix == ".xml":  # a CommonRoad file: its planning problem with vilma's defaults
+    ``overrides`` maps dotted keys to YAML values (``--set``). A CommonRoad file (``.xml``) is its planning problem,
+    planned (``task: {plan: true}``) unless an override sets the task (``--set task.route=true``: the route
+    followed)."""
+    if Path(path).suffix == ".xml":  # a CommonRoad file: its planning problem planned, with vilma's defaults
         path = Path(path)
-        return parse_scenario({"world": {"commonroad": path.name}}, Source(str(path), {}), name=path.stem, file=path,
-                              overrides=overrides)
+        planned = {} if any(k.split(".")[0] == "task" for k in overrides or {}) else {"task": {"plan": True}}
+        return parse_scenario({"world": {"commonroad": path.name}, **planned}, Source(str(path), {}), name=path.stem,
+                              file=path, overrides=overrides)
     path = find_scenario(path)
     data, src = read_yaml(path)
     return parse_scenario(data, src, name=path.stem, file=path, overrides=overrides)
