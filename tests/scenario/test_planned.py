@@ -5,6 +5,7 @@ with one car of 4.5 m x 2 m in the ego's lane."""
 from __future__ import annotations
 
 import importlib.resources
+import json
 import math
 import warnings
 from pathlib import Path
@@ -18,10 +19,12 @@ from commonroad.prediction.prediction import TrajectoryPrediction
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
 from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory
+from rich.console import Console
 
+from vilma.app import batch
 from vilma.app.cli import main
 from vilma.planning import PlannerParams
-from vilma.scenario import SpecError, parse_scenario
+from vilma.scenario import SpecError, load_scenario, parse_scenario
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import run
 from vilma.vehicle.params import vilma
@@ -166,3 +169,24 @@ def test_vilma_run_exits_2_on_a_bad_perception(tmp_path, capsys):
     assert main(["run", str(f), "--no-record", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert f"{f}:2: perception: unknown perception 'radar'" in err and err.count("\n") == 1
+
+
+def test_a_commonroad_file_is_planned_unless_the_task_is_set(tmp_path):
+    xml = _road(tmp_path, 15.0, 10.0, 60.0)
+    assert load_scenario(xml).task.kind == "plan" and load_scenario(xml).perception == "truth"
+    old = load_scenario(xml, {"task.route": "true"})
+    assert old.task.kind == "route" and old.planner is None and old.perception is None
+
+
+@pytest.mark.slow
+def test_vilma_run_of_a_commonroad_file_plans_and_the_summary_names_planner_and_perception(tmp_path):
+    xml = _road(tmp_path, 15.0, 10.0, 60.0)
+    jobs = batch.plan([str(xml)], ["duration=3"])
+    results = batch.run_all(jobs, tmp_path / "out", None, Console(quiet=True), lambda _: (), record=False,
+                            plots=False)
+    console = Console(record=True, width=300)
+    console.print(batch.summary_table(jobs, results))
+    text = console.export_text()
+    assert "planned by" in text and "werling, truth perception" in text
+    m = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert m["planner"] == "werling" and m["perception"] == "truth" and m["planning_cycles"] >= 3 / 0.1
