@@ -190,3 +190,10 @@ def test_vilma_run_of_a_commonroad_file_plans_and_the_summary_names_planner_and_
     assert "planned by" in text and "werling, truth perception" in text
     m = json.loads((tmp_path / "out" / "metrics.json").read_text())
     assert m["planner"] == "werling" and m["perception"] == "truth" and m["planning_cycles"] >= 3 / 0.1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["planned_parked_car", "planned_slower_lead"])
+def test_the_bundled_planned_scenarios_meet_their_expectations(name):
+    r = run(load_scenario(name))
+    assert r.passed, r.failures

@@ -43,7 +43,11 @@ a bit, since a laser box spans only the faces the laser sees (its centre is up t
 RESYNC_SPEED = 1.0
 """A plan starts from the speed of the plan driven while the car's is within this of it [m/s]."""
 CREEP_SPEED = 0.5
-"""Below this speed [m/s] a plan keeps the car's lane offset."""
+"""Below this speed [m/s] a plan keeps the car's lane offset, and a plan that stops within :data:`STOP_REACH` is
+the driver's stop on its end (replanned each cycle from a crawl, a stop's gentle polynomial would approach its end
+ever more slowly, never there)."""
+STOP_REACH = 1.0
+"""How near [m] the end of a plan that stops is for the car at a crawl to stop on it at once."""
 PREVIEW = 1.0
 """How far ahead in the plan the speed controller aims [s]: about the lag of a speed loop (pi_ff's 1 / kp, 0.83 s,
 and its shaped reference's)."""
@@ -136,7 +140,10 @@ class Planning:
             self.fallbacks += 1
             self.reason = result.reason
         self.last = (t, result)
-        self.driver.drive_plan(_previewed(result, self.preview))
+        path = _previewed(result, self.preview)
+        if est.speed < CREEP_SPEED and result.speed[-1] < self.driver.params.rest_speed and _reach(path) < STOP_REACH:
+            path = Trajectory(path.xy, np.zeros(len(path)))  # the driver's stop on its end, now
+        self.driver.drive_plan(path)
 
     def _start(self, est: PoseEstimate, t: float, params) -> FrenetState:
         """Where the plan starts at sim time ``t`` [s]: the car's estimated position in the Frenet frame, with the
@@ -177,6 +184,11 @@ def _previewed(p: Plan, steps: int) -> Trajectory:
     brakes, instead of lagging it."""
     speed = p.speed[np.minimum(np.arange(len(p.speed)) + steps, len(p.speed) - 1)]
     return Trajectory(np.column_stack([p.x, p.y]), speed)
+
+
+def _reach(path: Trajectory) -> float:
+    """How far the end of ``path`` is from its start [m]."""
+    return float(np.hypot(*(path.xy[-1] - path.xy[0])))
 
 
 def _track(o) -> Track:
