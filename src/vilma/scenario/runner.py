@@ -22,7 +22,6 @@ from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.fields import SpecError
 from vilma.scenario.lockstep import compiled_ok, run_compiled
 from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, plain, scorecard, timing
-from vilma.scenario.planned import Planning
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
@@ -133,8 +132,8 @@ class Car:
         self.initial = initial_state(scenario, path)
         """Where the car starts."""
         self.periods, self.t_start = 0, 0.0
-        self.planning: Planning | None = None
-        """A plan task's perception and planning, once it began."""
+        self.planning = None
+        """A plan task's perception and planning (:class:`~vilma.scenario.planned.Planning`), once it began."""
 
     def start(self, sim: Simulator) -> None:
         """Drive the car on ``sim`` (opened with :attr:`config` at :attr:`initial`, as it starts) with a new log; the
@@ -154,6 +153,8 @@ class Car:
         if task is not None:
             self.path = task
         if s.task.kind == "plan":
+            from vilma.scenario.planned import Planning  # perception and planning: for a plan only
+
             self.planning = Planning(s, self.path, self.driver, sim.config)
             self.planning.cycle(self.t_start)
         self.periods = round((s.duration - self.t_start) / (period * sim.clock.step_s))

@@ -57,7 +57,6 @@ from vilma.control.driver import DriverParams
 from vilma.core.clock import Clock, RateError, seconds_to_ns
 from vilma.core.extras import require
 from vilma.localization import SOURCES
-from vilma.planning import PlannerParams
 from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
 from vilma.scenario.fields import Key, Source, SpecError, _suggest, build, convert, get, load_yaml, read_yaml
@@ -80,7 +79,8 @@ from vilma.trajectory import (
 )
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 
-if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file
+if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file; the planner for a plan
+    from vilma.planning import PlannerParams
     from vilma.world.commonroad import EgoTask
 
 
@@ -267,6 +267,7 @@ def _planner(data: dict, src: Source, task: TaskSpec, sim: SimConfig, period: fl
         if "planner" in data:
             raise src.error(("planner",), "only for a plan task: add task: {plan: true} or remove it")
         return None
+    from vilma.planning import PlannerParams  # numba and scipy.interpolate: for a plan only
     raw = data.get("planner") or {}
     for name, where in (("vehicle", "vehicle"), ("target_speed", "task.speed")):
         if isinstance(raw, dict) and name in raw:
