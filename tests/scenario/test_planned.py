@@ -99,6 +99,14 @@ def test_a_plan_on_a_straight_empty_road_completes_at_the_target_speed(tmp_path)
     assert m["planning_ms_mean"] > 0 and m["planning_ms_max"] >= m["planning_ms_mean"]
 
 
+def test_a_plan_stops_at_its_goal_on_the_route(tmp_path):
+    r = run(_scenario(tmp_path, "task: {plan: {goal: [60, 2]}, course: [[0, 0], [150, 0]], speed: 8}\nduration: 30\n"))
+    c = r.log.column
+    assert r.metrics["completed"] and math.hypot(c("x")[-1] - 60.0, c("y")[-1]) < 1.0  # where (60, 2) projects
+    with pytest.raises(SpecError, match=r"s.yaml: task: the plan.s goal \[-5.0, 0.0\] lies at the route.s start"):
+        _scenario(tmp_path, "task: {plan: {goal: [-5, 0]}, course: [[0, 0], [150, 0]], speed: 8}\n").reference_path()
+
+
 @pytest.mark.slow
 def test_a_parked_car_in_the_lane_is_never_touched_and_the_car_stops_behind_it(tmp_path):
     xml = _road(tmp_path, 15.0, 10.0, 60.0)
