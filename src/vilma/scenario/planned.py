@@ -41,7 +41,8 @@ MOT_THRESHOLD = 2.5
 """Farthest a track may be from a true object to match it in the CLEAR MOT scores [m]: half a car's length and
 a bit, since a laser box spans only the faces the laser sees (its centre is up to half the car's length off)."""
 RESYNC_SPEED = 1.0
-"""A plan starts from the speed of the plan driven while the car's is within this of it [m/s]."""
+"""A plan starts from the speed of the plan driven while the car's is within this of it [m/s]
+(:meth:`Planning._start`)."""
 CREEP_SPEED = 0.5
 """Below this speed [m/s] a plan keeps the car's lane offset, and a plan that stops within :data:`STOP_REACH` is
 the driver's stop on its end (replanned each cycle from a crawl, a stop's gentle polynomial would approach its end
@@ -77,7 +78,7 @@ class Planning:
         self.last: tuple[float, Plan] | None = None  # when the driven plan began [s], and the plan
         self.cycles = self.fallbacks = 0
         self.reason: str | None = None
-        self.spent_ms: list[float] = []
+        self.spent_ms = [0.0, 0.0]  # total and longest [ms]
         if self.kind == "laser":
             p = sim.laser
             self.bearings, self.mount = p.bearings, (*p.position[:2], p.yaw)
@@ -104,19 +105,15 @@ class Planning:
 
     def _score(self, stamp_ns: int, centre: tuple[float, float], reach: float) -> None:
         """A CLEAR MOT frame: the tracks now against the true objects within ``reach`` [m] of ``centre``."""
-        traffic = self.sim.traffic
-        if traffic is None:
-            states, near = np.zeros((0, 4)), np.zeros(0, bool)
-        else:
-            states, present = traffic.at(stamp_ns * 1e-9 + self.sim.traffic_t0)
+        ids, s = np.zeros(0, np.int64), np.zeros((0, 4))
+        if self.sim.traffic is not None:
+            states, present = self.sim.traffic.at(stamp_ns * 1e-9 + self.sim.traffic_t0)
             near = present & (np.hypot(states[:, X] - centre[0], states[:, Y] - centre[1]) <= reach)
-        s = states[near]
-        velocity = s[:, V, None] * np.column_stack([np.cos(s[:, YAW]), np.sin(s[:, YAW])])
-        tracks = self.tracks
-        self.frames.append(MotFrame(traffic.ids[near] if traffic is not None else np.zeros(0, np.int64),
-                                    s[:, [X, Y]], velocity, np.array([t.id for t in tracks], np.int64),
-                                    np.array([(t.x, t.y) for t in tracks]).reshape(-1, 2),
-                                    np.array([(t.vx, t.vy) for t in tracks]).reshape(-1, 2)))
+            ids, s = self.sim.traffic.ids[near], states[near]
+        tracks = np.array([(t.id, t.x, t.y, t.vx, t.vy) for t in self.tracks]).reshape(-1, 5)
+        self.frames.append(MotFrame(ids, s[:, [X, Y]], s[:, V, None] * np.column_stack([np.cos(s[:, YAW]),
+                                                                                        np.sin(s[:, YAW])]),
+                                    tracks[:, 0].astype(np.int64), tracks[:, 1:3], tracks[:, 3:]))
 
     def period_done(self, t: float) -> None:
         """A driver period ended at sim time ``t`` [s]: plan if a replan period is over."""
@@ -134,7 +131,8 @@ class Planning:
         params = dataclasses.replace(self.params, target_speed=self.path.speed_at(along.s))
         state = self._start(est, t, params)
         result = plan(state, self.frame, predict(self.tracks, params.times), params, goal=self.goal)
-        self.spent_ms.append((time.perf_counter() - t0) * 1e3)
+        spent = (time.perf_counter() - t0) * 1e3
+        self.spent_ms = [self.spent_ms[0] + spent, max(self.spent_ms[1], spent)]
         self.cycles += 1
         if result.mode == "fallback":
             self.fallbacks += 1
@@ -146,12 +144,12 @@ class Planning:
         self.driver.drive_plan(path)
 
     def _start(self, est: PoseEstimate, t: float, params) -> FrenetState:
-        """Where the plan starts at sim time ``t`` [s]: the car's estimated position in the Frenet frame, with the
-        speed and acceleration of the plan it drives while its speed keeps within :data:`RESYNC_SPEED` of it
-        (Werling's consistent replanning: a plan started from the measured speed alone would start behind the
-        car's controller each cycle), else the estimated speed at no acceleration. Below :data:`CREEP_SPEED` the
-        car holds its lane offset: the planner's lateral motions in time are infeasible there (a curvature over
-        speed squared), and a manoeuvre at walking pace is no manoeuvre."""
+        """Where the plan starts at sim time ``t`` [s]: the car's estimated position in the Frenet frame; its speed
+        the faster of the estimate's and the driven plan's then, with the plan's acceleration, while the two are
+        within :data:`RESYNC_SPEED` (Werling's consistent replanning: started from the estimate alone each plan would
+        start behind the speed controller; never slower than the car, which would brake late), else the estimate's
+        at no acceleration. Below :data:`CREEP_SPEED` the car holds its lane offset: the planner's lateral motions
+        in time are infeasible there (a curvature over speed squared), and a manoeuvre at walking pace is none."""
         curvature = est.yaw_rate / est.speed if abs(est.speed) > CREEP_SPEED else 0.0  # none turning on the spot
         now = self.frame.state(est.x, est.y, est.yaw, est.speed, 0.0, curvature)
         if self.last is not None:
@@ -171,9 +169,9 @@ class Planning:
     def scores(self) -> dict:
         """The scorecard's planning keys (:data:`PLANNING_KEYS`); NaN where a score is undefined."""
         mot = clear_mot(self.frames, MOT_THRESHOLD)
-        ms = np.array(self.spent_ms) if self.spent_ms else np.full(1, math.nan)
+        total, longest = self.spent_ms if self.cycles else (math.nan, math.nan)
         return dict(zip(PLANNING_KEYS, (
-            self.kind, PLANNER, self.cycles, float(ms.mean()), float(ms.max()), self.fallbacks, self.reason,
+            self.kind, PLANNER, self.cycles, total / max(self.cycles, 1), longest, self.fallbacks, self.reason,
             mot.mota, mot.motp, mot.precision, mot.recall, mot.position_rmse, mot.velocity_rmse, mot.id_switches),
             strict=True))
 
