@@ -19,6 +19,8 @@ from commonroad.prediction.prediction import TrajectoryPrediction
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
 from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rich.console import Console
 
 from vilma.app import batch
@@ -164,6 +166,17 @@ def test_bad_planning_keys_are_one_line_with_file_and_line(tmp_path, text, where
     with pytest.raises(SpecError) as e:
         _scenario(tmp_path, "task: {plan: true, course: [[0, 0], [50, 0]], speed: 5}\n" + text)
     assert str(e.value).startswith(f"{tmp_path / where}") and message in str(e.value) and "\n" not in str(e.value)
+
+
+@settings(deadline=None, max_examples=50)
+@given(key=st.sampled_from(["horizon", "dt", "replan_period", "comfort_accel", "lane_width"]),
+       value=st.one_of(st.floats(max_value=0.0, allow_nan=False), st.booleans(), st.text(max_size=5)))
+def test_any_bad_planner_number_is_one_line_at_its_section(tmp_path_factory, key, value):
+    tmp = tmp_path_factory.mktemp("planner")
+    text = f"task: {{plan: true, course: [[0, 0], [50, 0]], speed: 5}}\nplanner:\n  {key}: {json.dumps(value)}\n"
+    with pytest.raises(SpecError) as e:
+        _scenario(tmp, text)
+    assert str(e.value).startswith(f"{tmp / 's.yaml'}:") and "planner" in str(e.value) and "\n" not in str(e.value)
 
 
 def test_planning_keys_without_a_plan_are_refused(tmp_path):
