@@ -31,6 +31,9 @@ MAX_CANDIDATES = 4000
 """Most candidates a cycle may sample (lateral times longitudinal samples)."""
 MAX_STEPS = 400
 """Most time steps in a horizon."""
+SLOWDOWN_HORIZONS = 100
+"""The steady slow-down to a target is planned over at most this many horizons: longer, it keeps the speed over
+the horizon all but exactly (and its polynomial would overflow)."""
 
 
 class Status(IntEnum):
@@ -343,8 +346,9 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         durations = list(p.position_durations)
         closing = state.s_dot - target.speed
         if closing > 0 and target.s > state.s:  # and the time a steady slow-down to the target speed closes the gap in
-            # (no longer than the longest sampled: closing at a crawl it would overflow the polynomials)
-            durations.append(min(max(2.0 * (target.s - state.s) / closing, p.dt), max(p.position_durations)))
+            # (at most SLOWDOWN_HORIZONS horizons: closing at a crawl it would overflow the polynomials, or itself)
+            gap, longest = target.s - state.s, SLOWDOWN_HORIZONS * p.horizon
+            durations.append(max(2.0 * gap / closing, p.dt) if 2.0 * gap < closing * longest else longest)
         T = np.repeat(np.asarray(durations), len(p.position_offsets))
         dev = np.tile(np.asarray(p.position_offsets), len(durations))
         v0, v1, b = state.s_dot, target.speed, p.vehicle.actuators.stop_deceleration
