@@ -194,7 +194,7 @@ class Car:
     def finished(self) -> bool:
         """Whether the task is done: arrived at the end of its path (a plan: at its goal), at rest."""
         z, s = self.sim.plant, self.scenario
-        return self.follows and self.driver.status.arrived and abs(z[VX]) < s.driver.rest_speed and (
+        return self.follows and self.driver.state.arrived and abs(z[VX]) < s.driver.rest_speed and (
             self.planning is None or self.planning.at_goal(z[X], z[Y], s.metrics.end_tolerance))
 
     def drive(self, sim: Simulator, realtime: float | None, compiled: bool, loading: LoadTimer) -> RunResult:
