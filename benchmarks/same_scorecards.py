@@ -18,7 +18,8 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-TIMING_KEYS = {"wall_time_s", "loop_wall_time_s", "load_time_s", "realtime_factor", "controller_time_per_step_us"}
+TIMING_KEYS = {"wall_time_s", "loop_wall_time_s", "load_time_s", "realtime_factor", "controller_time_per_step_us",
+               "planning_ms_mean", "planning_ms_max"}
 
 
 def bundled(tree: Path) -> list[str]:

@@ -11,8 +11,10 @@ from vilma.control.speed.pi_ff import PiFfParams
 from vilma.control.speed.vilma_pid import VilmaPidParams
 from vilma.core.clock import RateError
 from vilma.sim import SimConfig, Simulator
+from vilma.trajectory import Trajectory
 from vilma.trajectory.course import spline_course
 from vilma.vehicle.params import vilma
+from vilma.vehicle.state import VehicleState
 
 
 @pytest.mark.parametrize("speed_controller", ["pi_ff", "vilma_pid"])
@@ -86,3 +88,112 @@ def test_driver_params_hold_gains_by_name_in_one_spelling():
         original.gains_of("vilma_heading")
     with pytest.raises(ValueError, match="driver gains: controller 'magic' is unknown; use one of"):
         DriverParams(gains={"magic": StanleyParams()})
+
+
+def _planned(x0: float, speed: float, seconds: float = 3.0, dt: float = 0.1):
+    """A local trajectory along +x from ``x0`` [m] at a constant ``speed`` [m/s], a point every ``dt`` [s]."""
+    t = np.arange(round(seconds / dt) + 1) * dt
+    return Trajectory(np.column_stack([x0 + speed * t, np.zeros_like(t)]), np.full(len(t), speed))
+
+
+def _drive(sim, d, seconds, replan=None):
+    """Step the loop ``seconds`` [s]; ``replan(sim)`` each 0.1 s hands the driver a new local trajectory."""
+    every = round(0.1 / d.period)
+    for k in range(round(seconds / d.period)):
+        cmd = d.update(sim.advance(d.period_ticks))
+        if cmd is not None:
+            sim.command(cmd)
+        if replan is not None and (k + 1) % every == 0:
+            replan(sim)
+
+
+def test_a_replan_keeps_the_controllers_and_the_clock_running():
+    sim = Simulator(SimConfig())
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    d.drive_plan(_planned(0.0, 5.0))
+    _drive(sim, d, 1.0)
+    speed_state, path_state, ticks = d.speed_ctrl.state.copy(), d.path_ctrl.state.copy(), int(d.state.ticks)
+    assert speed_state.any()  # the integrator has something to lose
+    d.drive_plan(_planned(sim.state.x, 5.0))
+    assert d.task.mode == DriverMode.PLAN and d.state.ticks == ticks
+    assert (d.speed_ctrl.state == speed_state).all() and (d.path_ctrl.state == path_state).all()
+
+
+def test_a_moving_local_trajectory_replanned_on_the_go_never_stops_the_car():
+    # each plan is 3 s at 6 m/s from where the car is: it ends moving, so the car drives on at its speed
+    sim = Simulator(SimConfig())
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    d.drive_plan(_planned(0.0, 6.0))
+    _drive(sim, d, 20.0, replan=lambda s: d.drive_plan(_planned(s.state.x, 6.0)))
+    assert not d.state.stopping and not d.status.arrived
+    assert sim.state.speed == pytest.approx(6.0, abs=0.1) and abs(sim.state.y) < 0.05
+
+
+def test_a_local_trajectory_that_ends_moving_is_not_stopped_at_its_end():
+    # one plan of 3 s at 6 m/s, never replanned: the driver has no more path past 18 m but no order to stop
+    sim = Simulator(SimConfig())
+    sim.reset(VehicleState(vx=6.0))
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    d.drive_plan(_planned(0.0, 6.0))
+    _drive(sim, d, 4.0)
+    assert not d.state.stopping and sim.state.x > 18.0 and sim.state.speed > 3.0
+
+
+def test_a_local_trajectory_that_ends_at_rest_stops_the_car_on_its_end():
+    # 10 m/s braking at 2 m/s^2: 25 m and 5 s to rest; the plan is that stop, with its last points repeating
+    sim = Simulator(SimConfig())
+    sim.reset(VehicleState(vx=10.0))
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    t = np.arange(71) * 0.1
+    v = np.maximum(10.0 - 2.0 * t, 0.0)
+    x = np.where(t < 5.0, 10.0 * t - t * t, 25.0)
+    d.drive_plan(Trajectory(np.column_stack([x, np.zeros_like(x)]), v))
+    _drive(sim, d, 10.0)
+    assert d.status.arrived and sim.state.x == pytest.approx(25.0, abs=1.0) and abs(sim.state.vx) < 0.05
+
+
+def test_a_plan_at_rest_holds_the_car_and_a_plan_without_speeds_is_refused():
+    sim = Simulator(SimConfig())
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    d.drive_plan(Trajectory(np.zeros((31, 2)), np.zeros(31)))  # the planner's stop where the car stands
+    _drive(sim, d, 2.0)
+    assert d.status.arrived and sim.state.x == pytest.approx(0.0, abs=1e-3)
+    with pytest.raises(ValueError, match="no speeds"):
+        d.drive_plan(Trajectory(np.zeros((2, 2))))
+
+
+def test_a_planners_stop_brakes_harder_than_a_paths_end_when_it_must():
+    # 10 m/s to rest in 8 m: 6.25 m/s^2, beyond the 4 m/s^2 (twice the stop deceleration) a path's end brakes at
+    sim = Simulator(SimConfig())
+    sim.reset(VehicleState(vx=10.0))
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    decel = 10.0**2 / (2 * 8.0)
+    assert 2 * d.params.stop_deceleration < decel <= sim.config.vehicle.actuators.max_decel
+    t = np.arange(31) * 0.1
+    v = np.maximum(10.0 - decel * t, 0.0)
+    x = np.where(v > 0, 10.0 * t - decel * t * t / 2, 8.0)
+    d.drive_plan(Trajectory(np.column_stack([x, np.zeros_like(x)]), v))
+    _drive(sim, d, 4.0)
+    assert d.status.arrived and sim.state.x == pytest.approx(8.0, abs=0.5)
+
+
+def test_a_stop_holds_while_the_next_plans_stop_too_and_a_moving_plan_releases_it():
+    sim = Simulator(SimConfig())
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    d.drive_plan(Trajectory(np.zeros((31, 2)), np.zeros(31)))
+    _drive(sim, d, 1.0)
+    assert d.status.arrived
+    # a creep to a stop 0.5 m ahead (its target moved by noise): the car stays where it is
+    d.drive_plan(Trajectory(np.column_stack([np.linspace(0.0, 0.5, 31), np.zeros(31)]), np.linspace(0.3, 0.0, 31)))
+    _drive(sim, d, 1.0)
+    assert d.status.arrived and abs(sim.state.x) < 1e-3
+    d.drive_plan(_planned(0.0, 3.0))
+    _drive(sim, d, 2.0)
+    assert not d.status.arrived and sim.state.x > 1.0

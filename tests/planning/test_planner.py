@@ -154,6 +154,32 @@ def test_when_no_candidate_is_feasible_it_stops_at_the_comfortable_deceleration(
     assert p.frenet[-1, 0] == pytest.approx(v * v / (2 * decel)) and p.speed[-1] == pytest.approx(0.0)
 
 
+def test_a_fallback_from_walking_pace_stops_within_its_braking_distance_and_never_reverses():
+    # a stop shorter than one step: 0.15 m/s at 3 m/s^2 stops in 0.05 s, 3.75 mm on
+    v = 0.15
+    decel = CAR.actuators.stop_deceleration
+    p = plan(FrenetState(10.0, v, 0.0, 0.5), STRAIGHT, NONE, P)
+    assert p.mode == "fallback"
+    assert p.frenet[-1, 0] == pytest.approx(10.0 + v * v / (2 * decel)) and (np.diff(p.frenet[:, 0]) >= 0).all()
+    assert p.speed[-1] == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize("crawl", [1e-60, 1e-310])
+def test_creeping_towards_a_far_goal_the_plan_is_finite(crawl):
+    # closing at a crawl on a goal 140 m ahead, near enough to plan for at 22 m/s (66 m over the horizon and 161 m
+    # to brake): the steady slow-down to it would take 2.8e62 s, or more than a float holds
+    p = plan(FrenetState(30.0, crawl, 0.0, 0.0), STRAIGHT, NONE, dataclasses.replace(P, target_speed=22.0),
+             goal=170.0)
+    assert np.isfinite(p.x).all() and np.isfinite(p.speed).all() and p.mode in ("stop", "fallback")
+
+
+def test_a_far_goal_at_speed_is_approached_by_the_steady_slow_down():
+    # 22 m/s, the goal 183.5 m ahead: near enough to plan for (66 m over the horizon, 161 m to brake), reached
+    # only by the slow-down over 2 * 183.5 / 22 = 16.7 s, beyond every sampled duration
+    p = plan(FrenetState(0.5, 22.0, 0.0, 0.0), STRAIGHT, NONE, dataclasses.replace(P, target_speed=22.0), goal=184.0)
+    assert p.mode == "stop" and 0 < p.speed[-1] < 22.0
+
+
 def test_a_tight_curve_beyond_the_steering_limit_is_infeasible():
     radius = 0.5 / P.max_curvature
     a = np.linspace(0.0, math.pi, 200)

@@ -28,7 +28,8 @@ def _yaml(text: str, tmp_path: Path):
 
 
 def test_a_commonroad_file_is_a_scenario_with_the_planning_problems_task():
-    s = load_scenario(TUTORIAL)
+    assert load_scenario(TUTORIAL).task.kind == "plan"  # planned by default; the route followed when set
+    s = load_scenario(TUTORIAL, {"task.route": "true"})
     assert s.task.kind == "route"
     assert (s.initial.x, s.initial.y, s.initial.yaw, s.initial.speed) == (15.0, 0.0, 0.0, 22.0)  # its initialState
     assert (s.driver.speed_controller, s.driver.path_controller, s.sim.model) == ("pi_ff", "stanley", "single_track")
@@ -82,7 +83,7 @@ def test_the_run_writes_its_drive_as_a_solution_commonroad_io_reads_back(tmp_pat
     from commonroad.common.solution import CommonRoadSolutionReader, VehicleModel, VehicleType
 
     out = tmp_path / "out"
-    assert main(["run", str(TUTORIAL), "--out", str(out), "--no-record"]) == 0
+    assert main(["run", str(TUTORIAL), "--out", str(out), "--no-record", "--set", "task.route=true"]) == 0
     solution = CommonRoadSolutionReader.open(str(out / "solution.xml"))
     assert str(solution.scenario_id) == "ZAM_Tutorial-1_1_T-1"
     (pp,) = solution.planning_problem_solutions

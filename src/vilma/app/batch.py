@@ -226,19 +226,25 @@ def scorecard_table(result: RunResult) -> Table:
 
 
 def summary_table(jobs: list[Job], results: list[RunResult]) -> Table:
-    """One row per run: the :data:`SUMMARY` keys and pass or fail."""
+    """One row per run: the :data:`SUMMARY` keys and pass or fail (and which planner and perception drove a
+    planned run)."""
     table = Table(title="vilma run: summary")
     table.add_column("run")
     for _, heading in SUMMARY:
         table.add_column(Text(heading), justify="right")
     table.add_column("pass", justify="right")
+    planned = any(r.metrics.get("planner") for r in results)
+    if planned:  # which planner and perception drove
+        table.add_column("planned by")
     why = any(r.metrics["incomplete_reason"] for r in results)
     if why:
         table.add_column("why not done")
     for job, r in zip(jobs, results, strict=True):
         name = r.scenario.name + (f" [{job.label}]" if job.label else "")
-        table.add_row(Text(name), *(_fmt(r.metrics[k]) for k, _ in SUMMARY), "yes" if r.passed else "NO",
-                      *([Text(r.metrics["incomplete_reason"] or "")] if why else []))
+        m = r.metrics
+        by = f"{m['planner']}, {m['perception']} perception" if m.get("planner") else "-"
+        table.add_row(Text(name), *(_fmt(m[k]) for k, _ in SUMMARY), "yes" if r.passed else "NO",
+                      *([Text(by)] if planned else []), *([Text(m["incomplete_reason"] or "")] if why else []))
     return table
 
 

@@ -2,8 +2,9 @@
 
 Modes as the original GUI offers them: manual (no commands), set speed,
 hold the current speed, go to a point, follow a trajectory from its first
-point to its end and stop there at rest. The speed and path controllers
-run at their own periods (each a whole multiple of the physics step,
+point to its end and stop there at rest; and vilma's own: drive a planner's
+moving local trajectory (:meth:`Driver.drive_plan`). The speed and path
+controllers run at their own periods (each a whole multiple of the physics step,
 checked); :meth:`Driver.update` is called every :attr:`Driver.period` with
 the sensor readings of that period and returns the command to send.
 
@@ -47,6 +48,7 @@ class DriverMode(StrEnum):
     HOLD_SPEED = "hold_speed"
     GO_TO_POINT = "go_to_point"
     FOLLOW = "follow"
+    PLAN = "plan"
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -125,7 +127,7 @@ def make_controller(params: DriverParams, kind: str, vehicle: VehicleParams) -> 
 
 MODES = tuple(DriverMode)
 """Mode ids of the compiled driver: the index in this tuple."""
-MANUAL, FOLLOW = MODES.index(DriverMode.MANUAL), MODES.index(DriverMode.FOLLOW)
+MANUAL, FOLLOW, PLAN = (MODES.index(m) for m in (DriverMode.MANUAL, DriverMode.FOLLOW, DriverMode.PLAN))
 LONGITUDINAL = {v: k for k, v in MODE_IDS.items()}
 """Compiled longitudinal mode id -> :class:`Longitudinal`."""
 
@@ -171,9 +173,16 @@ class DriverConsts(NamedTuple):
 @njit(cache=True)
 def target_speed(ds, pa):
     """The speed the driver aims at now [m/s]: ordered, or the path's at the progress made."""
-    if ds.mode == FOLLOW and math.isnan(ds.speed):
+    if (ds.mode == FOLLOW or ds.mode == PLAN) and math.isnan(ds.speed):
         return path_speed_at(pa, ds.progress if ds.has_progress else 0.0)
     return ds.speed
+
+
+@njit(cache=True)
+def _stops(ds, pa, rest_speed):
+    """Whether the path ends in a stop: always, but for a planner's local trajectory, which may end moving (the
+    next plan goes on from it)."""
+    return ds.mode != PLAN or path_speed_at(pa, pa.s[pa.s.shape[0] - 1]) < rest_speed
 
 
 @njit(cache=True)
@@ -185,17 +194,20 @@ def _track(dc, ds, pa):
     ds.has_progress, ds.index, ds.progress, ds.remaining, ds.cross = True, i, s, left, cross
     v = ds.measured
     braking = v * v / (2.0 * dc.stop_deceleration)
-    if not ds.stopping and left <= braking + v * dc.period:
+    if not ds.stopping and left <= braking + v * dc.period and _stops(ds, pa, dc.rest_speed):
         ds.stopping = True
 
 
 @njit(cache=True)
 def _final_stop(dc, ds):
-    """Brake to stop on the last point: deceleration v^2 / (2 d), then hold."""
+    """Brake to stop on the last point: deceleration v^2 / (2 d) (at most twice the stop deceleration but on a
+    planner's stop), then hold."""
     v, d = ds.measured, max(ds.remaining, 0.05)
     if ds.arrived or abs(v) < dc.rest_speed:
         ds.arrived = True
         decel = dc.stop_deceleration
+    elif ds.mode == PLAN:  # the planner's stop, checked against the car's brakes: as hard as it needs
+        decel = v * v / (2.0 * d)
     else:
         decel = min(v * v / (2.0 * d), 2.0 * dc.stop_deceleration)
     ds.command_mode, ds.drive, ds.brake, ds.velocity_limit = FORCE, 0.0, dc.mass * decel, math.inf
@@ -218,7 +230,7 @@ def driver_step(dc, ds, pa, has_path, sc, ss, pc, ps):
         if run_path:
             steer, passed_end = path_step(pc, ps, pa, ds.x, ds.y, ds.yaw, ds.pose_speed, ds.yaw_rate)
             ds.steer = steer
-            if passed_end:  # the controller has no more path (Turn-Wheels passed the last point)
+            if passed_end and _stops(ds, pa, dc.rest_speed):  # no more path (Turn-Wheels passed the last point)
                 ds.stopping = True
         _track(dc, ds, pa)
     else:
@@ -322,6 +334,28 @@ class Driver:
         profiled = speed_profile(path, speed, self.params.max_lateral_accel, self.params.stop_deceleration)
         self._start(_Task(DriverMode.FOLLOW, speed=math.nan, path=profiled))
 
+    def drive_plan(self, path: Trajectory) -> None:
+        """Drive a planner's local trajectory ``path`` (with speeds), replacing the one driven, if any, on the go.
+
+        The controllers and the driver's clock run on (a replan is not a new order); the car stops at the end only
+        when the path's own speeds end at rest (a planner's stop), braking as hard as that stop needs; a stop under
+        way or made holds while the plans that follow end at rest too (each one's end, moved by the noise of what
+        it stops behind, would otherwise start the car creeping again). Points that repeat where the plan stands
+        still are dropped; a plan of one point (the car at rest) is a stop on it.
+        """
+        if path.speed is None:
+            raise ValueError("drive plan: the trajectory has no speeds")
+        ds = self.state
+        moving = _moving(path, ds.yaw)
+        if self.task.mode != DriverMode.PLAN:
+            self._start(_Task(DriverMode.PLAN, speed=math.nan, path=moving))
+        else:
+            self.task.path = moving
+            ds.has_progress = False  # the progress is on the new path
+            if moving.speed[-1] >= self.params.rest_speed:  # it drives on: a stop under way is called off
+                ds.stopping = ds.arrived = False
+        ds.stopping |= not moving.speed.any()  # a plan at rest all along: a stop where the car stands
+
     def _start(self, task: _Task) -> None:
         self.task = task
         self.speed_ctrl.reset()
@@ -376,6 +410,18 @@ class Driver:
         target = target_speed(ds, (t.path or _NO_PATH).arrays) if t.mode != DriverMode.MANUAL else 0.0
         return DriverStatus(self.stamp_ns, t.mode.value, float(target), float(ds.measured), index,
                             float(progress), float(remaining), float(cross), bool(ds.arrived), t.error)
+
+
+def _moving(path: Trajectory, yaw: float) -> Trajectory:
+    """``path`` without the points that repeat (1 mm apart or less; the last of each run kept, with its speed); a
+    path of one point gets a second 1 m ahead along ``yaw`` [rad], both at rest."""
+    xy, speed = path.xy, path.speed
+    keep = np.append(np.hypot(*np.diff(xy, axis=0).T) > 1e-3, True)
+    xy, speed = xy[keep], speed[keep]
+    if len(xy) == 1:
+        xy = np.vstack([xy, xy[0] + (math.cos(yaw), math.sin(yaw))])
+        speed = np.zeros(2)
+    return Trajectory(xy, speed)
 
 
 def _finite(v: float, name: str) -> float:

@@ -31,6 +31,9 @@ MAX_CANDIDATES = 4000
 """Most candidates a cycle may sample (lateral times longitudinal samples)."""
 MAX_STEPS = 400
 """Most time steps in a horizon."""
+SLOWDOWN_HORIZONS = 100
+"""The steady slow-down to a target is planned over at most this many horizons: longer, it keeps the speed over
+the horizon all but exactly (and its polynomial would overflow)."""
 
 
 class Status(IntEnum):
@@ -343,7 +346,9 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         durations = list(p.position_durations)
         closing = state.s_dot - target.speed
         if closing > 0 and target.s > state.s:  # and the time a steady slow-down to the target speed closes the gap in
-            durations.append(max(2.0 * (target.s - state.s) / closing, p.dt))
+            # (at most SLOWDOWN_HORIZONS horizons: closing at a crawl it would overflow the polynomials, or itself)
+            gap, longest = target.s - state.s, SLOWDOWN_HORIZONS * p.horizon
+            durations.append(max(2.0 * gap / closing, p.dt) if 2.0 * gap < closing * longest else longest)
         T = np.repeat(np.asarray(durations), len(p.position_offsets))
         dev = np.tile(np.asarray(p.position_offsets), len(durations))
         v0, v1, b = state.s_dot, target.speed, p.vehicle.actuators.stop_deceleration
@@ -425,7 +430,8 @@ def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p
 
     def stop(decel):
         lon = np.array([[state.s, v0, -0.5 * decel if v0 > 0 else 0.0, 0.0, 0.0, 0.0]])
-        return _motions(reference, lat, [min(p.lateral_durations)], lon, [max(v0 / decel, p.dt)], objects, p, True)
+        stopped = v0 / decel if v0 > 0 else p.dt  # at rest from then on (a longer polynomial would reverse)
+        return _motions(reference, lat, [min(p.lateral_durations)], lon, [stopped], objects, p, True)
 
     decel, name = p.vehicle.actuators.stop_deceleration, "comfortable"
     lat_m, lon_m, out, status = stop(decel)

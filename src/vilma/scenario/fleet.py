@@ -96,7 +96,7 @@ def _path(paths: dict, scenario: Scenario) -> Trajectory | None:
     """The scenario's reference path, made once for the cars whose task, files and road (and, for a route, the
     driver's limits, which time it) are the same."""
     s = scenario
-    key = (s.task, s.file, id(s.road), s.driver if s.task.kind == "route" else None)
+    key = (s.task, s.file, id(s.road), s.driver if s.task.kind in ("route", "plan") else None)
     if key not in paths:
         paths[key] = s.reference_path()
     return paths[key]

@@ -24,7 +24,7 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
-from vilma.control.driver import MANUAL, Driver, driver_step, target_speed
+from vilma.control.driver import MANUAL, Driver, DriverMode, driver_step, target_speed
 from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
 from vilma.localization import Ekf, TruthEstimator
@@ -54,12 +54,13 @@ def compiled_ok(sim: Simulator, driver: Driver) -> bool:
     The driver must steer either by the exact pose, the pose and velocity sensors noise-free and sampling at
     driver period ends (their period a divisor or a multiple of the driver's), or by the EKF with the IMU,
     wheel speeds and GPS on the car and its speed (not the original's formula); the actuators have no
-    dead time, the watchdog not fire between two periods, and reactive traffic step at the driver period.
+    dead time, the watchdog not fire between two periods, and reactive traffic step at the driver period; a
+    driver on a planner's local trajectories needs the Python loop (the planner replans between its periods).
     """
     p, r = driver.period_ticks, sim.config.reactive
     wd = sim.clock.ticks_for(sim.config.watchdog_timeout)
-    return sim.compiled_ok and _source_ok(sim, driver) and (wd == 0 or wd > p) and \
-        (r is None or sim.clock.ticks_for(r.period) == p)
+    return driver.task.mode != DriverMode.PLAN and sim.compiled_ok and _source_ok(sim, driver) and \
+        (wd == 0 or wd > p) and (r is None or sim.clock.ticks_for(r.period) == p)
 
 
 def _source_ok(sim: Simulator, driver: Driver) -> bool:

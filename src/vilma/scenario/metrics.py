@@ -94,7 +94,7 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
     us = c("controller_us")
     if len(us) and not np.isnan(us).all():
         out["controller_time_per_step_us"] = float(np.nanmean(us))
-    return {k: _plain(v) for k, v in out.items()}
+    return {k: plain(v) for k, v in out.items()}
 
 
 def _road_checks(scenario: Scenario, log: DriveLog, out: dict) -> list[str]:
@@ -121,7 +121,7 @@ def timing(sim_time: float, wall: float, loop: float | None, load: float | None)
     """The wall-clock keys: ``wall`` [s] the whole command's share, ``loop`` [s] the closed loop's own time
     (``realtime_factor`` is sim time over it), ``load`` [s] the one-off loading of compiled code."""
     factor = sim_time / loop if loop else None
-    return {k: _plain(v) for k, v in (("wall_time_s", wall), ("loop_wall_time_s", loop), ("load_time_s", load),
+    return {k: plain(v) for k, v in (("wall_time_s", wall), ("loop_wall_time_s", loop), ("load_time_s", load),
                                       ("realtime_factor", factor))}
 
 
@@ -202,7 +202,7 @@ def _rms(a: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(a))))
 
 
-def _plain(v):
+def plain(v):
     """JSON-ready: NaN and infinity become None (a key that cannot be measured), numpy scalars floats."""
     if isinstance(v, bool | str) or v is None:
         return v

@@ -21,13 +21,13 @@ from vilma.control.driver import Driver
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.fields import SpecError
 from vilma.scenario.lockstep import compiled_ok, run_compiled
-from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, scorecard, timing
+from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, plain, scorecard, timing
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
 from vilma.sim import Pacer, SimConfig, Simulator
 from vilma.trajectory import Trajectory
-from vilma.vehicle.state import VX, VehicleState
+from vilma.vehicle.state import VX, YAW, VehicleState, X, Y
 
 
 def initial_state(scenario: Scenario, path: Trajectory | None) -> VehicleState:
@@ -132,6 +132,8 @@ class Car:
         self.initial = initial_state(scenario, path)
         """Where the car starts."""
         self.periods, self.t_start = 0, 0.0
+        self.planning = None
+        """A plan task's perception and planning (:class:`~vilma.scenario.planned.Planning`), once it began."""
 
     def start(self, sim: Simulator) -> None:
         """Drive the car on ``sim`` (opened with :attr:`config` at :attr:`initial`, as it starts) with a new log; the
@@ -150,6 +152,11 @@ class Car:
         self.t_start = sim.time_ns * 1e-9
         if task is not None:
             self.path = task
+        if s.task.kind == "plan":
+            from vilma.scenario.planned import Planning  # perception and planning: for a plan only
+
+            self.planning = Planning(s, self.path, self.driver, sim.config)
+            self.planning.cycle(self.t_start)
         self.periods = round((s.duration - self.t_start) / (period * sim.clock.step_s))
 
     @property
@@ -164,6 +171,9 @@ class Car:
         captures = self.sim.take_captures()  # camera images, laser scans, object lists: handed on, never kept
         for o in self.observers if captures else ():
             o.add_captures(captures)
+        if self.planning is not None and captures:
+            z = self.sim.plant
+            self.planning.perceive(captures, self.driver.estimator.estimate, (z[X], z[Y], z[YAW]))
 
     def step(self, readings: dict[str, Readings]) -> None:
         """One driver period in Python: the driver takes the readings, its command goes to the car, a log row."""
@@ -178,10 +188,14 @@ class Car:
                       *((est.x, est.y, est.yaw) if est is not None else (math.nan,) * 3),
                       *((cmd.steer, cmd.drive, cmd.brake) if cmd is not None else (math.nan,) * 3), spent))
         self.on_block(readings)
+        if self.planning is not None:
+            self.planning.period_done(sim.time_ns * 1e-9)
 
     def finished(self) -> bool:
-        """Whether the task is done: arrived at the end of its path, at rest."""
-        return self.follows and self.driver.status.arrived and abs(self.sim.plant[VX]) < self.scenario.driver.rest_speed
+        """Whether the task is done: arrived at the end of its path (a plan: at its goal), at rest."""
+        z, s = self.sim.plant, self.scenario
+        return self.follows and self.driver.state.arrived and abs(z[VX]) < s.driver.rest_speed and (
+            self.planning is None or self.planning.at_goal(z[X], z[Y], s.metrics.end_tolerance))
 
     def drive(self, sim: Simulator, realtime: float | None, compiled: bool, loading: LoadTimer) -> RunResult:
         """The run of :func:`run` on ``sim``: start, step until the task is done or time is up, score."""
@@ -214,6 +228,8 @@ class Car:
         metrics = scorecard(self.log, scenario, self.path, self.t_start,
                             broke_down=WATCHDOG_STOP if sim.watchdog_tripped else None)
         metrics.update(loop_wall_time_s=loop)
+        if self.planning is not None:
+            metrics.update((k, plain(v)) for k, v in self.planning.scores().items())
         if scenario.road is None:  # a road's collisions are the benchmark's (the scorecard's)
             metrics["collisions"] = sim.collisions[0]
         return RunResult(scenario, metrics, expectation_failures(metrics, scenario), self.log, self.path,
@@ -237,6 +253,8 @@ def start_task(driver: Driver, scenario: Scenario, path: Trajectory | None) -> T
     """Give the driver its task; returns the path it drives when it makes one (go to a point)."""
     t = scenario.task
     try:
+        if t.kind == "plan":
+            return None  # the plan's cycles drive it (Planning)
         if t.kind == "speed":
             driver.set_speed(t.speed)
         elif t.kind == "go_to":

@@ -16,10 +16,15 @@ SCORECARD_KEYS = (
     "speed_error_rms_mps", "steering_rate_rms_radps", "lateral_accel_max_mps2", "longitudinal_jerk_rms_mps3",
     "pose_error_rms_m", "collisions", "goal_reached", "time_to_goal_s", "traffic", "collisions_checked",
     "off_road", "min_distance_to_traffic_m", "min_time_to_collision_s",
+    "perception", "planner", "planning_cycles", "planner_fallbacks", "planner_reason", "mota", "motp_m",
+    "detection_precision", "detection_recall", "tracking_position_rmse_m", "tracking_velocity_rmse_mps",
+    "identity_switches",
     "wall_time_s", "loop_wall_time_s", "load_time_s", "realtime_factor", "controller_time_per_step_us",
+    "planning_ms_mean", "planning_ms_max",
 )
-"""The keys of ``metrics.json``, in order (see :mod:`vilma.scenario.metrics`)."""
-TIMING_KEYS = SCORECARD_KEYS[-5:]
+"""The keys of ``metrics.json``, in order (see :mod:`vilma.scenario.metrics`; the planning and perception keys of a
+``plan`` task: :mod:`vilma.scenario.planned`)."""
+TIMING_KEYS = SCORECARD_KEYS[-7:]
 """The keys measured on the wall clock: the only ones two runs of one scenario may differ in."""
 
 

@@ -27,7 +27,11 @@ Top-level keys (all optional but ``task``):
 - ``speed_log``: a speed log of the original program to overlay and compare (``data/SpeedLog10.txt``).
 - ``traffic``: with ``world: {commonroad: file.xml}``, ``recorded`` (default: as in the file) or ``reactive``
   (IDM along the recorded paths behind the car ahead, the ego included: :mod:`vilma.world.reactive`).
-- ``task``: see :class:`~vilma.scenario.task.TaskSpec`. ``initial``: see
+- ``task``: see :class:`~vilma.scenario.task.TaskSpec`. With ``task: {plan: ...}``: ``planner``, the
+  :class:`~vilma.planning.PlannerParams` fields but ``vehicle`` and ``target_speed`` (the car's and the task's;
+  ``replan_period`` 0.1 s by default, a whole number of driver periods), and ``perception``: ``truth`` (the
+  ``objects`` sensor's readings, the sensor on with its defaults if the scenario has none) or ``laser`` (the
+  ``laser`` sensor's scans segmented, boxed and tracked). ``initial``: see
   :class:`~vilma.scenario.task.InitialSpec`. ``duration``: the longest
   drive [s], at most :data:`~vilma.scenario.drive_log.MAX_ROWS` driver periods (the run keeps a log row
   a period: a day at the default 50 Hz driver, 12 h at 100 Hz). ``metrics``: see
@@ -45,6 +49,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import yaml
 
 from vilma.control import registry
@@ -59,6 +64,7 @@ from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS, Bound, Metrics
 from vilma.scenario.simulation import ROAD_KEYS, read_sim
 from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
+from vilma.sensors.objects import ObjectsParams
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
 from vilma.trajectory import (
@@ -73,7 +79,8 @@ from vilma.trajectory import (
 )
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 
-if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file
+if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file; the planner for a plan
+    from vilma.planning import PlannerParams
     from vilma.world.commonroad import EgoTask
 
 
@@ -107,17 +114,29 @@ class Scenario:
     traffic: str = "recorded"
     """How a road's traffic drives: ``recorded`` (as in the file) or ``reactive`` (IDM along the recorded paths,
     :mod:`vilma.world.reactive`)."""
+    planner: PlannerParams | None = None
+    """The local planner of a ``plan`` task (None for the others)."""
+    perception: str | None = None
+    """What a ``plan`` task perceives with: ``truth`` (the objects sensor) or ``laser`` (None for the others)."""
 
     def reference_path(self) -> Trajectory | None:
-        """The path the task follows (loaded, densified, smoothed, resampled), or None for a speed task."""
+        """The path the task follows (loaded, densified, smoothed, resampled), or None for a speed task; a plan's
+        route with its speeds, ending at the plan's goal."""
         t = self.task
         if t.kind == "speed":
             return None
         if t.kind == "go_to":
             return None  # the driver plans it from where the car is
+        if t.kind == "plan":
+            return self._plan_route()
         if t.kind == "route":
             return self._route()
-        if t.kind == "course":
+        return self._path()
+
+    def _path(self) -> Trajectory:
+        """The ``course`` or ``follow`` path, densified, smoothed, resampled."""
+        t = self.task
+        if t.course is not None:
             path = _course(t.course)
         else:
             try:
@@ -146,9 +165,31 @@ class Scenario:
                                 tuple(Arrival(*w) for w in road.arrivals))
         return path if timed is None else timed
 
+    def _plan_route(self) -> Trajectory:
+        """A plan's route: the CommonRoad route (``route``, or none of ``follow`` and ``course`` given) or the path,
+        at the task's speed or its own, lowered in curves, cut where the goal projects on it."""
+        t, d = self.task, self.driver
+        routed = t.route or (t.course is None and t.follow is None)
+        try:
+            path = self._route() if routed else speed_profile(self._path(), t.speed, d.max_lateral_accel,
+                                                              d.stop_deceleration)
+            return path if t.plan.goal is None else cut_at(path, t.plan.goal)
+        except ValueError as e:
+            raise SpecError(f"{self.file or self.name}: task: {e}") from None
+
     def trajectory_file(self) -> Path:
         """The ``follow`` file, resolved against the scenario's folder."""
         return beside(self.file, self.task.follow)
+
+
+def cut_at(path: Trajectory, point: tuple[float, float]) -> Trajectory:
+    """``path`` (with speeds) up to where ``point`` [m] projects on it."""
+    p = path.project(*point)
+    if p.s <= 0:
+        raise ValueError(f"the plan's goal {list(point)} lies at the route's start: give a goal along the route")
+    before = path.s < p.s
+    return Trajectory(np.vstack([path.xy[before], (p.x, p.y)]),
+                      np.append(path.speed[before], path.speed_at(p.s)))
 
 
 def beside(file: Path | None, name: str) -> Path:
@@ -161,20 +202,27 @@ TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "ca
             "integrator",
             "step", "seed",
             "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
-            "task", "initial", "duration", "metrics", "expect", "speed_log", "traffic")
+            "task", "initial", "duration", "metrics", "expect", "speed_log", "traffic", "planner", "perception")
 
 
 TRAFFIC = ("recorded", "reactive")
 """The ways a CommonRoad world's traffic drives (``traffic``)."""
+PERCEPTION = ("truth", "laser")
+"""What a plan perceives with (``perception``)."""
+PLANNER = "werling"
+"""The local planner that drives a ``plan`` task (:func:`vilma.planning.plan`), as the scorecard names it."""
 
 
 def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> Scenario:
     """Read and validate the scenario file ``path``, or the bundled scenario of that name (``course_30kmh_stanley``);
-    ``overrides`` maps dotted keys to YAML values (``--set``)."""
-    if Path(path).suffix == ".xml":  # a CommonRoad file: its planning problem with vilma's defaults
+    ``overrides`` maps dotted keys to YAML values (``--set``). A CommonRoad file (``.xml``) is its planning problem,
+    planned (``task: {plan: true}``) unless an override sets the task (``--set task.route=true``: the route
+    followed)."""
+    if Path(path).suffix == ".xml":  # a CommonRoad file: its planning problem planned, with vilma's defaults
         path = Path(path)
-        return parse_scenario({"world": {"commonroad": path.name}}, Source(str(path), {}), name=path.stem, file=path,
-                              overrides=overrides)
+        planned = {} if any(k.split(".")[0] == "task" for k in overrides or {}) else {"task": {"plan": True}}
+        return parse_scenario({"world": {"commonroad": path.name}, **planned}, Source(str(path), {}), name=path.stem,
+                              file=path, overrides=overrides)
     path = find_scenario(path)
     data, src = read_yaml(path)
     return parse_scenario(data, src, name=path.stem, file=path, overrides=overrides)
@@ -201,11 +249,52 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
 
         sim = dataclasses.replace(sim, traffic=road.traffic, traffic_t0=road.time_step * road.dt,
                                   road=road_view(road).lanelets if sim.model == MUJOCO else ())
+    planner, perception = _planner(data, src, task, sim, period), _perception(data, src, task, sim)
+    if perception == "truth" and sim.objects is None:  # a plan perceives: truth is the objects sensor's
+        sim = dataclasses.replace(sim, objects=ObjectsParams())
     return Scenario(
         name=name, description=description, file=file, sim=sim, driver=driver, task=task,
         initial=_initial(data, src, top, road), duration=_duration(data, src, period),
         metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
-        speed_log=get(data, src, ("speed_log",), str, None), road=road, traffic=_traffic(data, src, road))
+        speed_log=get(data, src, ("speed_log",), str, None), road=road, traffic=_traffic(data, src, road),
+        planner=planner, perception=perception)
+
+
+def _planner(data: dict, src: Source, task: TaskSpec, sim: SimConfig, period: float) -> PlannerParams | None:
+    """``planner``: a plan task's :class:`~vilma.planning.PlannerParams` for the scenario's car, its replan period
+    a whole number of driver periods of ``period`` [s]."""
+    if task.plan is None:
+        if "planner" in data:
+            raise src.error(("planner",), "only for a plan task: add task: {plan: true} or remove it")
+        return None
+    from vilma.planning import PlannerParams  # numba and scipy.interpolate: for a plan only
+    raw = data.get("planner") or {}
+    for name, where in (("vehicle", "vehicle"), ("target_speed", "task.speed")):
+        if isinstance(raw, dict) and name in raw:
+            raise src.error(("planner", name), f"set by the scenario's {where}; remove it here")
+    params = build(PlannerParams, raw, src, ("planner",), PlannerParams(vehicle=sim.vehicle, replan_period=0.1))
+    cycles = params.replan_period / period
+    if abs(cycles - round(cycles)) > 1e-9:
+        raise src.error(("planner", "replan_period"), f"{params.replan_period:g} s is not a whole number of driver "
+                                                      f"periods of {period:g} s; make it one")
+    return params
+
+
+def _perception(data: dict, src: Source, task: TaskSpec, sim: SimConfig) -> str | None:
+    """``perception``: ``truth`` (default) or ``laser`` (which needs the ``laser`` sensor), for a plan task."""
+    if task.plan is None:
+        if "perception" in data:
+            raise src.error(("perception",), "only for a plan task: add task: {plan: true} or remove it")
+        return None
+    value = get(data, src, ("perception",), str, "truth")
+    if value not in PERCEPTION:
+        raise src.error(("perception",), f"unknown perception {value!r}; use one of {', '.join(PERCEPTION)}")
+    if value == "laser" and sim.laser is None:
+        raise src.error(("perception",), "laser perception needs the laser sensor: add 'laser: true'")
+    if value == "laser" and sim.model == MUJOCO:
+        raise src.error(("perception",), "laser perception reads the flat-ground laser: give another plant than "
+                                         f"{MUJOCO}")
+    return value
 
 
 def _traffic(data: dict, src: Source, road: EgoTask | None) -> str:
@@ -306,9 +395,12 @@ def _road_keys(world: Any) -> dict:
 def _road(data: dict, src: Source, task: TaskSpec, file: Path | None) -> EgoTask | None:
     """The planning problem's task from ``world.commonroad`` (a file beside ``file``) for a ``route`` task."""
     road = _road_keys(data.get("world"))
+    routed = task.route or (task.plan is not None and task.course is None and task.follow is None)
     if not road:
-        if task.route:
-            raise src.error(("task", "route"), "a route needs a CommonRoad scenario: world: {commonroad: file.xml}")
+        if routed:
+            raise src.error(("task", "route" if task.route else "plan"),
+                        "a route needs a CommonRoad scenario: world: {commonroad: file.xml}, or give a plan follow "
+                        "or course")
         return None
     if "commonroad" not in road:
         raise src.error(("world", "planning_problem"), "a planning problem needs its file: world: {commonroad: "
@@ -320,7 +412,7 @@ def _road(data: dict, src: Source, task: TaskSpec, file: Path | None) -> EgoTask
     pid = get(road, src, ("world", "planning_problem"), int, None)
     try:
         scenario = load(xml)
-        return scenario.task(pid, task.speed) if task.route else None
+        return scenario.task(pid, task.speed) if routed else None
     except CommonRoadError as e:
         raise SpecError(str(e)) from None
 
@@ -358,7 +450,8 @@ def _expect(raw: Any, src: Source) -> dict[str, Bound | bool]:
     if not isinstance(raw, dict):
         raise src.error(("expect",), "expected a mapping such as {lateral_error_rms_m: {max: 0.1}}")
     out: dict[str, Bound | bool] = {}
-    keys = [k for k in SCORECARD_KEYS if k not in (*TIMING_KEYS, "incomplete_reason", "traffic")]
+    keys = [k for k in SCORECARD_KEYS if k not in (*TIMING_KEYS, "incomplete_reason", "traffic", "perception",
+                                                   "planner", "planner_reason")]
     for k, v in raw.items():
         if k in TIMING_KEYS:
             raise src.error(("expect", k), "wall-clock figures vary with the machine and are not pass criteria; "
@@ -453,6 +546,8 @@ def to_yaml(scenario: Scenario) -> str:
         "duration": s.duration, "metrics": plain(s.metrics),
         **({"speed_log": str(beside(s.file, s.speed_log).resolve())} if s.speed_log else {}),
         **({"traffic": s.traffic} if s.road is not None else {}),
+        **({"planner": {k: v for k, v in plain(s.planner).items() if k not in ("vehicle", "target_speed")},
+            "perception": s.perception} if s.planner is not None else {}),
         "expect": {k: (v if isinstance(v, bool) else {b: x for b, x in plain(v).items() if x is not None})
                    for k, v in s.expect.items()},
     }

@@ -29,9 +29,18 @@ class SmoothSpec:
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class PlanSpec:
+    """The ``plan`` task: perceive, predict and plan locally along a route (``follow``, ``course``, or a
+    CommonRoad world's route) to a goal, stopping there; ``plan: true`` for the defaults."""
+
+    goal: tuple[float, float] | None = None
+    """Stop at this point [m] (where it projects on the route); default: the route's end."""
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class TaskSpec:
-    """What the driver does. With none of ``go_to``, ``follow``, ``course``, ``route``: hold ``speed`` straight
-    ahead."""
+    """What the driver does. With none of ``go_to``, ``follow``, ``course``, ``route``, ``plan``: hold ``speed``
+    straight ahead."""
 
     speed: float | None = None
     """Target speed [m/s], at most the car's top speed; with ``follow`` it may be left out to use the file's own
@@ -52,12 +61,18 @@ class TaskSpec:
     """Smooth the path as the paper (``true`` for the original's parameters)."""
     resample: float | None = None
     """Resample the path at this spacing [m] (after densify and smooth)."""
+    plan: PlanSpec | None = None
+    """Drive by the local planner along the route given (``follow``, ``course``, ``route``; a CommonRoad world's
+    route without one) at ``speed`` (or the route's speeds), around what perception sees."""
 
     def __post_init__(self) -> None:
         given = [k for k in ("go_to", "follow", "course", "route") if getattr(self, k) not in (None, False)]
         if len(given) > 1:
             raise ValueError(f"give one of go_to, follow, course, not {' and '.join(given)}")
-        if self.speed is None and not (self.follow or self.route):
+        if self.plan is not None and self.go_to is not None:
+            raise ValueError("a plan drives along a route (follow, course or route), not to a go_to point: give the "
+                             "point as plan: {goal: [x, y]}")
+        if self.speed is None and not (self.follow or self.route or (self.plan and not self.course)):
             raise ValueError("speed is missing: give the target speed in m/s")
         if self.speed is not None and not self.speed > 0:
             raise ValueError(f"speed must be > 0 m/s, got {self.speed}")
@@ -71,7 +86,9 @@ class TaskSpec:
 
     @property
     def kind(self) -> str:
-        """``speed``, ``go_to``, ``follow``, ``course`` or ``route``."""
+        """``speed``, ``go_to``, ``follow``, ``course``, ``route`` or ``plan``."""
+        if self.plan is not None:
+            return "plan"
         if self.route:
             return "route"
         return next((k for k in ("go_to", "follow", "course") if getattr(self, k) is not None), "speed")

@@ -1,0 +1,220 @@
+"""``task: {plan: ...}``: the car drives by its own perception and local plan; the scorecard says how it perceived
+and planned. The roads are CommonRoad's tutorial road (three straight lanes along +x, lane centres y = 0, 3.5, 7)
+with one car of 4.5 m x 2 m in the ego's lane."""
+
+from __future__ import annotations
+
+import importlib.resources
+import json
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from commonroad.geometry.shape import Rectangle
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.prediction.prediction import TrajectoryPrediction
+from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
+from commonroad.scenario.state import CustomState, InitialState
+from commonroad.scenario.trajectory import Trajectory
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rich.console import Console
+
+from vilma.app import batch
+from vilma.app.cli import main
+from vilma.planning import PlannerParams
+from vilma.scenario import SpecError, load_scenario, parse_scenario
+from vilma.scenario.fields import load_yaml
+from vilma.scenario.runner import run
+from vilma.vehicle.params import vilma
+from vilma.world.commonroad import load
+
+TUTORIAL = Path(str(importlib.resources.files("vilma") / "scenarios/data/commonroad/ZAM_Tutorial-1_1_T-1.xml"))
+CAR_LENGTH, CAR_WIDTH = 4.5, 2.0
+EGO = vilma()
+D0 = PlannerParams().follow_distance  # Werling's gap to a lead at rest, bumper to bumper [m]
+TAU = PlannerParams().time_gap  # and its growth with the lead's speed [s]
+
+
+def _road(tmp_path: Path, ego_x: float, ego_speed: float, car_x: float, car_speed: float = 0.0) -> Path:
+    """The tutorial road with the ego at ``ego_x`` [m] at ``ego_speed`` [m/s] and one car at ``car_x``, parked or
+    recorded for 30 s at ``car_speed`` [m/s], both in the lane y = 0 heading +x."""
+    road = load(TUTORIAL)
+    sc = road.scenario
+    for o in list(sc.obstacles):
+        sc.remove_obstacle(o)
+    pp = next(iter(road.planning_problems.values()))
+    pp.initial_state.position, pp.initial_state.velocity = np.array([ego_x, 0.0]), ego_speed
+    shape = Rectangle(CAR_LENGTH, CAR_WIDTH)
+    init = InitialState(time_step=0, position=np.array([car_x, 0.0]), orientation=0.0, velocity=car_speed,
+                        acceleration=0.0, yaw_rate=0.0, slip_angle=0.0)
+    if car_speed == 0:
+        sc.add_objects(StaticObstacle(sc.generate_object_id(), ObstacleType.PARKED_VEHICLE, shape, init))
+    else:
+        states = [CustomState(time_step=k, position=np.array([car_x + car_speed * k * sc.dt, 0.0]), orientation=0.0,
+                              velocity=car_speed) for k in range(1, 301)]
+        sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
+                                       TrajectoryPrediction(Trajectory(1, states), shape)))
+    out = tmp_path / "road.xml"
+    with warnings.catch_warnings():  # commonroad-io's protobuf writer warns of deprecated calls on import
+        warnings.simplefilter("ignore")
+        from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
+
+        CommonRoadFileWriter(sc, PlanningProblemSet([pp]), author="vilma tests", affiliation="", source="",
+                             tags=set()).write_to_file(str(out), OverwriteExistingFile.ALWAYS)
+    return out
+
+
+def _scenario(tmp_path: Path, text: str):
+    data, src = load_yaml(text, str(tmp_path / "s.yaml"))
+    return parse_scenario(data, src, file=tmp_path / "s.yaml")
+
+
+def _ego_polygons(log) -> list[shapely.Polygon]:
+    """The ego's outline at each logged pose (its body centred ``body_offset`` ahead of the centre of mass)."""
+    c = log.column
+    out = []
+    for x, y, yaw in zip(c("x"), c("y"), c("yaw"), strict=True):
+        cx, cy = x + EGO.body_offset * math.cos(yaw), y + EGO.body_offset * math.sin(yaw)
+        box = shapely.box(-EGO.length / 2, -EGO.width / 2, EGO.length / 2, EGO.width / 2)
+        out.append(shapely.affinity.translate(shapely.affinity.rotate(box, yaw, use_radians=True), cx, cy))
+    return out
+
+
+def _parked(x: float) -> shapely.Polygon:
+    return shapely.box(x - CAR_LENGTH / 2, -CAR_WIDTH / 2, x + CAR_LENGTH / 2, CAR_WIDTH / 2)
+
+
+def test_a_plan_on_a_straight_empty_road_completes_at_the_target_speed(tmp_path):
+    # 8 m/s from rest: reached within 16 m at the planner's 2 m/s^2; the stop at the goal is planned from where
+    # keeping the speed over the 3 s horizon and braking at 3 m/s^2 would reach it, 8 * 3 + 8^2 / 3 = 45 m before
+    r = run(_scenario(tmp_path, "task: {plan: true, course: [[0, 0], [150, 0]], speed: 8}\nduration: 40\n"))
+    m, c = r.metrics, r.log.column
+    assert m["completed"] and m["end_error_m"] < 1.0
+    cruise = (c("x") > 40) & (c("x") < 150 - 45 - 5)
+    assert np.abs(c("vx")[cruise] - 8.0).max() < 0.3
+    assert m["perception"] == "truth" and m["planner"] == "werling" and m["planning_cycles"] > 0
+    assert m["mota"] is None and m["identity_switches"] == 0  # nothing to perceive
+    assert m["planning_ms_mean"] > 0 and m["planning_ms_max"] >= m["planning_ms_mean"]
+
+
+def test_a_plan_stops_at_its_goal_on_the_route(tmp_path):
+    r = run(_scenario(tmp_path, "task: {plan: {goal: [60, 2]}, course: [[0, 0], [150, 0]], speed: 8}\nduration: 30\n"))
+    c = r.log.column
+    assert r.metrics["completed"] and math.hypot(c("x")[-1] - 60.0, c("y")[-1]) < 1.0  # where (60, 2) projects
+    with pytest.raises(SpecError, match=r"s.yaml: task: the plan.s goal \[-5.0, 0.0\] lies at the route.s start"):
+        _scenario(tmp_path, "task: {plan: {goal: [-5, 0]}, course: [[0, 0], [150, 0]], speed: 8}\n").reference_path()
+
+
+@pytest.mark.slow
+def test_a_parked_car_in_the_lane_is_never_touched_and_the_car_stops_behind_it(tmp_path):
+    xml = _road(tmp_path, 15.0, 10.0, 60.0)
+    r = run(_scenario(tmp_path, f"world: {{commonroad: {xml.name}}}\ntask: {{plan: true, speed: 10}}\n"
+                                "planner: {lateral_offsets: [0, 3.5]}\nduration: 12\n"))
+    parked = _parked(60.0)
+    gaps = [p.distance(parked) for p in _ego_polygons(r.log)]
+    assert min(gaps) > 0  # never overlaps it
+    c = r.log.column
+    stopped_behind = c("x")[-1] < 60.0 and abs(c("vx")[-1]) < r.scenario.driver.rest_speed
+    passed = c("x")[-1] > 60.0 + CAR_LENGTH / 2 + EGO.length
+    assert stopped_behind or passed
+    assert r.metrics["collisions"] == 0 and r.metrics["detection_recall"] == 1.0
+
+
+@pytest.mark.slow
+def test_with_no_free_candidate_the_car_stops_and_the_scorecard_says_why(tmp_path):
+    # 10 m/s with the parked car's rear 12 m ahead of the ego's front: stopping D0 behind it takes 7 m, beyond the
+    # comfortable 3 m/s^2 (16.7 m to rest); the emergency 8 m/s^2 stops in 6.25 m, clear of it
+    front = EGO.body_offset + EGO.length / 2
+    car_x = 15.0 + front + 12.0 + CAR_LENGTH / 2
+    assert 10.0**2 / (2 * EGO.actuators.max_decel) < 12.0 - 1.0  # less the 1 m driven before the car is first seen
+    xml = _road(tmp_path, 15.0, 10.0, car_x)
+    r = run(_scenario(tmp_path, f"world: {{commonroad: {xml.name}}}\ntask: {{plan: true, speed: 10}}\n"
+                                "planner: {lateral_offsets: [0]}\nduration: 5\n"))
+    m = r.metrics
+    assert m["planner_fallbacks"] >= 1 and m["planner_reason"].startswith("no free candidate")
+    assert m["collisions"] == 0 and abs(r.log.column("vx")[-1]) < r.scenario.driver.rest_speed
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("perception", ["truth", "laser"])
+def test_behind_a_slower_lead_car_it_follows_at_a_safe_gap_and_perception_is_scored(tmp_path, perception):
+    lead = 5.0
+    xml = _road(tmp_path, 15.0, 10.0, 45.0, lead)
+    r = run(_scenario(tmp_path, f"world: {{commonroad: {xml.name}}}\ntask: {{plan: true, speed: 10}}\n"
+                                f"planner: {{lateral_offsets: [0]}}\nlaser: true\nperception: {perception}\n"
+                                "duration: 15\n"))
+    m = r.metrics
+    assert m["perception"] == perception and m["collisions"] == 0
+    assert m["min_distance_to_traffic_m"] >= D0 + TAU * lead - 1.0  # Werling's gap, less a tracking allowance
+    assert 0.0 <= m["mota"] <= 1.0 and m["detection_recall"] > 0.5
+    assert m["detection_precision"] > 0.5 and m["identity_switches"] == 0
+
+
+@pytest.mark.parametrize(("text", "where", "message"), [
+    ("perception: radar\n", "s.yaml:2", "unknown perception 'radar'; use one of truth, laser"),
+    ("planner: {horizon: -1}\n", "s.yaml:2", "planner horizon must be a finite number > 0"),
+    ("perception: laser\n", "s.yaml:2", "laser perception needs the laser sensor"),
+    ("planner: {dt: 0.05, replan_period: 0.05}\npath_controller: {type: stanley, period: 0.04}\n", "s.yaml:2",
+     "0.05 s is not a whole number of driver periods of 0.04 s"),
+    ("planner: {target_speed: 3}\n", "s.yaml:2", "set by the scenario's task.speed"),
+])
+def test_bad_planning_keys_are_one_line_with_file_and_line(tmp_path, text, where, message):
+    with pytest.raises(SpecError) as e:
+        _scenario(tmp_path, "task: {plan: true, course: [[0, 0], [50, 0]], speed: 5}\n" + text)
+    assert str(e.value).startswith(f"{tmp_path / where}") and message in str(e.value) and "\n" not in str(e.value)
+
+
+@settings(deadline=None, max_examples=50)
+@given(key=st.sampled_from(["horizon", "dt", "replan_period", "comfort_accel", "lane_width"]),
+       value=st.one_of(st.floats(max_value=0.0, allow_nan=False), st.booleans(), st.text(max_size=5)))
+def test_any_bad_planner_number_is_one_line_at_its_section(tmp_path_factory, key, value):
+    tmp = tmp_path_factory.mktemp("planner")
+    text = f"task: {{plan: true, course: [[0, 0], [50, 0]], speed: 5}}\nplanner:\n  {key}: {json.dumps(value)}\n"
+    with pytest.raises(SpecError) as e:
+        _scenario(tmp, text)
+    assert str(e.value).startswith(f"{tmp / 's.yaml'}:") and "planner" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_planning_keys_without_a_plan_are_refused(tmp_path):
+    with pytest.raises(SpecError, match=r"s.yaml:2: perception: only for a plan task"):
+        _scenario(tmp_path, "task: {speed: 5}\nperception: truth\n")
+
+
+def test_vilma_run_exits_2_on_a_bad_perception(tmp_path, capsys):
+    f = tmp_path / "bad.yaml"
+    f.write_text("task: {plan: true, course: [[0, 0], [50, 0]], speed: 5}\nperception: radar\n")
+    assert main(["run", str(f), "--no-record", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"{f}:2: perception: unknown perception 'radar'" in err and err.count("\n") == 1
+
+
+def test_a_commonroad_file_is_planned_unless_the_task_is_set(tmp_path):
+    xml = _road(tmp_path, 15.0, 10.0, 60.0)
+    assert load_scenario(xml).task.kind == "plan" and load_scenario(xml).perception == "truth"
+    old = load_scenario(xml, {"task.route": "true"})
+    assert old.task.kind == "route" and old.planner is None and old.perception is None
+
+
+@pytest.mark.slow
+def test_vilma_run_of_a_commonroad_file_plans_and_the_summary_names_planner_and_perception(tmp_path):
+    xml = _road(tmp_path, 15.0, 10.0, 60.0)
+    jobs = batch.plan([str(xml)], ["duration=3"])
+    results = batch.run_all(jobs, tmp_path / "out", None, Console(quiet=True), lambda _: (), record=False,
+                            plots=False)
+    console = Console(record=True, width=300)
+    console.print(batch.summary_table(jobs, results))
+    text = console.export_text()
+    assert "planned by" in text and "werling, truth perception" in text
+    m = json.loads((tmp_path / "out" / "metrics.json").read_text())
+    assert m["planner"] == "werling" and m["perception"] == "truth" and m["planning_cycles"] >= 3 / 0.1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["planned_parked_car", "planned_slower_lead"])
+def test_the_bundled_planned_scenarios_meet_their_expectations(name):
+    r = run(load_scenario(name))
+    assert r.passed, r.failures
