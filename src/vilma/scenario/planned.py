@@ -32,7 +32,8 @@ from vilma.perception import (
     segment,
 )
 from vilma.planning import FrenetFrame, FrenetState, Plan, plan
-from vilma.scenario.spec import PLANNER, Scenario
+from vilma.scenario.plan_keys import PLANNER
+from vilma.scenario.spec import Scenario
 from vilma.sim import SimConfig
 from vilma.trajectory import Trajectory
 from vilma.world.states import YAW, V, X, Y

@@ -42,6 +42,7 @@ Top-level keys (all optional but ``task``):
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from dataclasses import dataclass, field
@@ -49,7 +50,6 @@ from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import yaml
 
 from vilma.control import registry
@@ -60,6 +60,7 @@ from vilma.localization import SOURCES
 from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
 from vilma.scenario.fields import Key, Source, SpecError, _suggest, build, convert, get, load_yaml, read_yaml
+from vilma.scenario.plan_keys import cut_at, read_perception, read_planner
 from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS, Bound, MetricsSpec
 from vilma.scenario.simulation import ROAD_KEYS, read_sim
 from vilma.scenario.task import InitialSpec, TaskSpec
@@ -182,16 +183,6 @@ class Scenario:
         return beside(self.file, self.task.follow)
 
 
-def cut_at(path: Trajectory, point: tuple[float, float]) -> Trajectory:
-    """``path`` (with speeds) up to where ``point`` [m] projects on it."""
-    p = path.project(*point)
-    if p.s <= 0:
-        raise ValueError(f"the plan's goal {list(point)} lies at the route's start: give a goal along the route")
-    before = path.s < p.s
-    return Trajectory(np.vstack([path.xy[before], (p.x, p.y)]),
-                      np.append(path.speed[before], path.speed_at(p.s)))
-
-
 def beside(file: Path | None, name: str) -> Path:
     """``name`` resolved against the folder of ``file`` (unless absolute)."""
     p = Path(name).expanduser()
@@ -207,10 +198,6 @@ TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "ca
 
 TRAFFIC = ("recorded", "reactive")
 """The ways a CommonRoad world's traffic drives (``traffic``)."""
-PERCEPTION = ("truth", "laser")
-"""What a plan perceives with (``perception``)."""
-PLANNER = "werling"
-"""The local planner that drives a ``plan`` task (:func:`vilma.planning.plan`), as the scorecard names it."""
 
 
 def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> Scenario:
@@ -249,7 +236,7 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
 
         sim = dataclasses.replace(sim, traffic=road.traffic, traffic_t0=road.time_step * road.dt,
                                   road=road_view(road).lanelets if sim.model == MUJOCO else ())
-    planner, perception = _planner(data, src, task, sim, period), _perception(data, src, task, sim)
+    planner, perception = read_planner(data, src, task, sim, period), read_perception(data, src, task, sim)
     if perception == "truth" and sim.objects is None:  # a plan perceives: truth is the objects sensor's
         sim = dataclasses.replace(sim, objects=ObjectsParams())
     return Scenario(
@@ -258,43 +245,6 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
         metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
         speed_log=get(data, src, ("speed_log",), str, None), road=road, traffic=_traffic(data, src, road),
         planner=planner, perception=perception)
-
-
-def _planner(data: dict, src: Source, task: TaskSpec, sim: SimConfig, period: float) -> PlannerParams | None:
-    """``planner``: a plan task's :class:`~vilma.planning.PlannerParams` for the scenario's car, its replan period
-    a whole number of driver periods of ``period`` [s]."""
-    if task.plan is None:
-        if "planner" in data:
-            raise src.error(("planner",), "only for a plan task: add task: {plan: true} or remove it")
-        return None
-    from vilma.planning import PlannerParams  # numba and scipy.interpolate: for a plan only
-    raw = data.get("planner") or {}
-    for name, where in (("vehicle", "vehicle"), ("target_speed", "task.speed")):
-        if isinstance(raw, dict) and name in raw:
-            raise src.error(("planner", name), f"set by the scenario's {where}; remove it here")
-    params = build(PlannerParams, raw, src, ("planner",), PlannerParams(vehicle=sim.vehicle, replan_period=0.1))
-    cycles = params.replan_period / period
-    if abs(cycles - round(cycles)) > 1e-9:
-        raise src.error(("planner", "replan_period"), f"{params.replan_period:g} s is not a whole number of driver "
-                                                      f"periods of {period:g} s; make it one")
-    return params
-
-
-def _perception(data: dict, src: Source, task: TaskSpec, sim: SimConfig) -> str | None:
-    """``perception``: ``truth`` (default) or ``laser`` (which needs the ``laser`` sensor), for a plan task."""
-    if task.plan is None:
-        if "perception" in data:
-            raise src.error(("perception",), "only for a plan task: add task: {plan: true} or remove it")
-        return None
-    value = get(data, src, ("perception",), str, "truth")
-    if value not in PERCEPTION:
-        raise src.error(("perception",), f"unknown perception {value!r}; use one of {', '.join(PERCEPTION)}")
-    if value == "laser" and sim.laser is None:
-        raise src.error(("perception",), "laser perception needs the laser sensor: add 'laser: true'")
-    if value == "laser" and sim.model == MUJOCO:
-        raise src.error(("perception",), "laser perception reads the flat-ground laser: give another plant than "
-                                         f"{MUJOCO}")
-    return value
 
 
 def _traffic(data: dict, src: Source, road: EgoTask | None) -> str:
@@ -472,7 +422,7 @@ def apply_overrides(data: dict, src: Source, overrides: dict[str, str]) -> tuple
     """``data`` with each dotted key set to its YAML value; errors name the ``--set`` they came from."""
     if not overrides:
         return data, src
-    data = _deep_copy(data)
+    data = copy.deepcopy(data)
     lines = dict(src.lines)
     for dotted_key, text in overrides.items():
         label = f"--set {dotted_key}={text}"
@@ -497,14 +447,6 @@ def apply_overrides(data: dict, src: Source, overrides: dict[str, str]) -> tuple
         node[parts[-1]] = value
         lines[tuple(parts)] = label
     return data, Source(src.name, lines)
-
-
-def _deep_copy(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _deep_copy(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_deep_copy(v) for v in value]
-    return value
 
 
 def to_yaml(scenario: Scenario) -> str:
