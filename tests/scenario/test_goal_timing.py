@@ -3,7 +3,6 @@ timed so that the existing controllers arrive in the windows (checked by the goa
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from commonroad.scenario.scenario import Scenario, ScenarioID
 from commonroad.scenario.state import CustomState, InitialState
 
+from tests.scenario.commonroad_files import write_commonroad
 from vilma.scenario import parse_scenario
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import run
@@ -42,14 +42,7 @@ def _road(tmp_path: Path, time: tuple[int, int], speed: tuple[float, float] | No
     init = InitialState(time_step=0, position=np.array([START_X, 0.0]), orientation=0.0, velocity=SPEED,
                         yaw_rate=0.0, slip_angle=0.0)
     pp = PlanningProblem(1, init, GoalRegion([CustomState(**goal)]))
-    out = tmp_path / "timing.xml"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
-
-        CommonRoadFileWriter(sc, PlanningProblemSet([pp]), author="vilma tests", affiliation="", source="",
-                             tags=set()).write_to_file(str(out), OverwriteExistingFile.ALWAYS)
-    return out
+    return write_commonroad(sc, PlanningProblemSet([pp]), tmp_path / "timing.xml")
 
 
 def _scenario(xml: Path):

@@ -7,7 +7,6 @@ from __future__ import annotations
 import importlib.resources
 import json
 import math
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rich.console import Console
 
+from tests.scenario.commonroad_files import write_commonroad
 from vilma.app import batch
 from vilma.app.cli import main
 from vilma.planning import PlannerParams
@@ -58,14 +58,7 @@ def _road(tmp_path: Path, ego_x: float, ego_speed: float, car_x: float, car_spee
                               velocity=car_speed) for k in range(1, 301)]
         sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
                                        TrajectoryPrediction(Trajectory(1, states), shape)))
-    out = tmp_path / "road.xml"
-    with warnings.catch_warnings():  # commonroad-io's protobuf writer warns of deprecated calls on import
-        warnings.simplefilter("ignore")
-        from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
-
-        CommonRoadFileWriter(sc, PlanningProblemSet([pp]), author="vilma tests", affiliation="", source="",
-                             tags=set()).write_to_file(str(out), OverwriteExistingFile.ALWAYS)
-    return out
+    return write_commonroad(sc, PlanningProblemSet([pp]), tmp_path / "road.xml")
 
 
 def _scenario(tmp_path: Path, text: str):

@@ -4,7 +4,6 @@ by the Intelligent Driver Model when reactive; the key is for CommonRoad worlds 
 from __future__ import annotations
 
 import importlib.resources
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
 from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory
 
+from tests.scenario.commonroad_files import write_commonroad
 from vilma.scenario import SpecError, parse_scenario, runner
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.fields import load_yaml
@@ -48,14 +48,7 @@ def _rear_ended(tmp_path: Path) -> Path:
                         acceleration=0.0, yaw_rate=0.0, slip_angle=0.0)
     sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
                                    TrajectoryPrediction(Trajectory(1, states), shape)))
-    out = tmp_path / "rear_ended.xml"
-    with warnings.catch_warnings():  # commonroad-io's protobuf writer warns of deprecated calls on import
-        warnings.simplefilter("ignore")
-        from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
-
-        CommonRoadFileWriter(sc, PlanningProblemSet([pp]), author="vilma tests", affiliation="", source="",
-                             tags=set()).write_to_file(str(out), OverwriteExistingFile.ALWAYS)
-    return out
+    return write_commonroad(sc, PlanningProblemSet([pp]), tmp_path / "rear_ended.xml")
 
 
 def _scenario(tmp_path: Path, extra: str):
