@@ -84,6 +84,21 @@ def test_a_sweep_on_a_real_scheduler_is_each_run_alone(scheduler, tmp_path):
     assert {p.name for p in tmp_path.glob("box_*.png")} == {f"box_{k}.png" for k in drawn} and drawn
 
 
+def test_runs_go_in_chunks_that_leave_each_worker_four_tasks():
+    assert sweep.chunk_size(200, 2) == sweep.CHUNK  # 200 runs: full chunks, 25 tasks for 2 workers
+    assert sweep.chunk_size(24, 2) == 3  # 8 tasks, 4 a worker
+    assert sweep.chunk_size(7, 2) == 1 and sweep.chunk_size(3, 0) == 1  # never empty, a scheduler without workers
+
+
+@pytest.mark.slow
+def test_a_chunked_sweep_is_each_run_alone_in_order(scheduler, monkeypatch):
+    monkeypatch.setattr(sweep, "chunk_size", lambda runs, workers: 4)  # chunks of 4 and 2
+    runs = _runs(speeds=(5,), seeds=range(6))
+    table = sweep.sweep(runs, scheduler=scheduler)
+    assert list(table["key"]) == [r.key for r in runs] and table["error"].isna().all()
+    _same_as_alone(table)
+
+
 @pytest.mark.slow
 def test_a_killed_worker_loses_no_run_and_repeats_none(scheduler, tmp_path, monkeypatch, processes):
     victim = _worker(processes, scheduler, "victim")
@@ -191,7 +206,7 @@ def test_a_lost_scheduler_keeps_the_finished_runs_and_exits_2(tmp_path, processe
 @pytest.mark.slow
 def test_the_cluster_holds_at_most_in_flight_runs(scheduler, monkeypatch):
     def held(dask_scheduler) -> int:
-        return sum(str(k).startswith("vilma-run-") for k in dask_scheduler.tasks)
+        return sum(int(str(k).split("-")[2]) for k in dask_scheduler.tasks if str(k).startswith("vilma-run-"))
 
     counts = []
     add = sweep.Rows.add

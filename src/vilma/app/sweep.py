@@ -43,6 +43,9 @@ CONNECT_TIMEOUT = 5.0
 """How long to wait for a scheduler to answer [s]."""
 IN_FLIGHT = 256
 """Runs handed to the cluster ahead of the results (the rest wait here: the scheduler's memory stays bounded)."""
+CHUNK = 8
+"""Runs one Dask task makes at most: a run of a bundled course takes about 10 ms, and Dask's own cost a task is of
+that order (``benchmarks/sweep_dask.py``), so short runs go in chunks."""
 ENGINE = ("worker", "error")
 """The columns the engine adds after the scorecard."""
 ROWS, PARQUET, CSV = "rows.jsonl", "results.parquet", "results.csv"
@@ -169,41 +172,58 @@ def sweep(runs: str | Path | Sequence[SweepRun], out: str | Path | None = None, 
     return table
 
 
+def run_chunk(jobs: list[tuple[Scenario, str | None]]) -> list[dict[str, Any]]:
+    """Runs one after another on a worker (:func:`run_remote` each): one Dask task for a chunk of runs."""
+    return [run_remote(scenario, keep) for scenario, keep in jobs]
+
+
+def chunk_size(runs: int, workers: int) -> int:
+    """Runs a task makes: up to :data:`CHUNK`, fewer when the sweep is small, so that each worker gets four tasks."""
+    return max(1, min(CHUNK, runs // (4 * max(workers, 1))))
+
+
 def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: str | None,
              keep_files: str | Path | None, console: Console) -> None:
-    """Run ``todo`` on the cluster, :data:`IN_FLIGHT` at a time, each row into ``rows`` as it comes."""
-    waiting = iter(todo)
+    """Run ``todo`` on the cluster in chunks (:func:`chunk_size`), :data:`IN_FLIGHT` runs at a time, each row into
+    ``rows`` as its chunk comes."""
     with connect(workers, scheduler) as client, _progress(console) as bar:
         try:
             client.register_plugin(Warm(todo[0].scenario))
         except Exception as e:  # the plugin did not unpickle there: a worker without vilma, or another version
             raise OSError(f"the Dask workers cannot load vilma ({e}); install the same vilma[sweep] on every "
                           "worker") from None
+        size = chunk_size(len(todo), len(client.scheduler_info()["workers"]))
+        waiting = (todo[i:i + size] for i in range(0, len(todo), size))
         task = bar.add_task("sweep", total=len(todo), failed=0)
         by_key, done = {}, as_completed(with_results=True, raise_errors=False)  # results fetched as they come
 
         def submit(n: int) -> None:
-            for r in itertools.islice(waiting, n):
-                keep = str(Path(keep_files) / r.key) if keep_files is not None else None
-                f = client.submit(run_remote, r.scenario, keep, key=f"vilma-run-{r.key}", pure=False, retries=0)
-                by_key[f.key] = r
+            for chunk in itertools.islice(waiting, n):
+                jobs = [(r.scenario, str(Path(keep_files) / r.key) if keep_files is not None else None)
+                        for r in chunk]
+                f = client.submit(run_chunk, jobs, key=f"vilma-run-{len(chunk)}-{chunk[0].key}", pure=False,
+                                  retries=0)
+                by_key[f.key] = chunk
                 done.add(f)
 
-        submit(IN_FLIGHT)
-        failed = 0
-        for i, (f, result) in enumerate(done, 1):
-            r = by_key.pop(f.key)
+        submit(max(1, IN_FLIGHT // size))
+        failed, i = 0, 0
+        for f, results in done:
+            chunk = by_key.pop(f.key)
             if f.status == "cancelled":
                 raise ConnectionError(f"lost the Dask scheduler ({scheduler or 'of the local cluster'})")
-            if f.status == "error":  # a run that killed its workers (Dask tried it on others first)
-                result = {**dict.fromkeys(SCORECARD_KEYS), "worker": None, "error": f"{result}"}
+            if f.status == "error":  # a chunk that killed its workers (Dask tried it on others first)
+                results = [{**dict.fromkeys(SCORECARD_KEYS), "worker": None, "error": f"{results}"}] * len(chunk)
             f.release()
-            failed += result["error"] is not None
-            rows.add({**r.row(), **result})
-            bar.update(task, advance=1, failed=failed)
-            if not console.is_terminal:  # a log or a pipe: a line a run instead of the bar
-                console.print(Text(f"[{i}/{len(todo)}] {r.label} {' '.join(f'{k}={v}' for k, v in r.values)} seed "
-                                   f"{r.seed}: {result['error'] or 'done'}"))
+            for r, result in zip(chunk, results, strict=True):
+                i += 1
+                failed += result["error"] is not None
+                rows.add({**r.row(), **result})
+                if not console.is_terminal:  # a log or a pipe: a line a run instead of the bar
+                    console.print(Text(f"[{i}/{len(todo)}] {r.label} "
+                                       f"{' '.join(f'{k}={v}' for k, v in r.values)} seed {r.seed}: "
+                                       f"{result['error'] or 'done'}"))
+            bar.update(task, advance=len(chunk), failed=failed)
             submit(1)
 
 
