@@ -117,6 +117,16 @@ def _sweep(args: argparse.Namespace) -> int:
     return sweep_command(args, _console(args))
 
 
+def _tune(args: argparse.Namespace) -> int:
+    """``vilma tune TUNE.yaml``: Optuna's search on Dask."""
+    from vilma.core.extras import require
+
+    require("sweep", "vilma tune")
+    from vilma.app.tune import tune_command
+
+    return tune_command(args, _console(args))
+
+
 def _trajectory(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -297,6 +307,16 @@ def _add_runs(sub) -> None:
     w.add_argument("--no-plots", action="store_true", help="draw no box plots")
     _add_engine_options(w)
     w.set_defaults(func=_sweep)
+    t = sub.add_parser("tune", help="search scenario values (gains) for a scorecard objective under constraints with "
+                       "Optuna on Dask: the trials, best.yaml")
+    t.add_argument("tune", metavar="TUNE.yaml", help="the tune file (scenarios, params, objective, constraints, "
+                   "trials, seed)")
+    t.add_argument("--out", metavar="DIR", help="where the trials, plot and best.yaml go (default tunes/<TUNE>/)")
+    e = t.add_mutually_exclusive_group()
+    e.add_argument("--workers", type=count, metavar="N", help="run on a local Dask cluster of N processes (default "
+                   "one a core)")
+    e.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
+    t.set_defaults(func=_tune)
 
 
 def _add_engine_options(q, only: str = "") -> None:

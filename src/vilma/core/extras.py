@@ -7,7 +7,7 @@ import importlib
 
 EXTRAS = {"gui": ("PySide6", "pyqtgraph"), "3d": ("mujoco",), "foxglove": ("foxglove",),
           "roads": ("commonroad", "commonroad_route_planner", "commonroad_dc"),
-          "sweep": ("distributed", "pandas", "pyarrow")}
+          "sweep": ("distributed", "pandas", "pyarrow", "optuna")}
 """The extras of ``pyproject.toml`` and the modules each brings; ``vilma[all]`` has them all."""
 
 
