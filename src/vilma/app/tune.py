@@ -121,9 +121,10 @@ def read_tune(path: str | Path) -> TunePlan:
     for k in data:
         if k not in KEYS:
             raise src.error((k,), f"unknown key{_suggest(str(k), dict.fromkeys(KEYS))}")
-    for k in ("scenarios", "params", "objective"):
+    for k, example in (("scenarios", "[pi_ff_speed_10]"), ("params", "{speed_controller.kp: {uniform: [0.5, 2]}}"),
+                       ("objective", "{minimize: speed_error_rms_mps}")):
         if k not in data:
-            raise src.error((), f"missing {k}: see `vilma tune --help` for a tune file's keys")
+            raise src.error((), f"missing {k}: add e.g. {k}: {example}")
     key, direction, aggregate = _objective(data["objective"], src)
     plan = TunePlan(tuple(_scenarios(data["scenarios"], src, Path(path).parent)), _params(data["params"], src), key,
                     direction, aggregate, _constraints(data.get("constraints") or {}, src),
