@@ -78,6 +78,21 @@ def test_a_constraint_no_trial_meets_gives_no_best_and_exit_1(tmp_path, capsys, 
 
 
 @pytest.mark.slow
+def test_ctrl_c_keeps_the_finished_trials(tmp_path, monkeypatch):
+    tell = tune._tell
+
+    def tell_then_ctrl_c(study, plan, trial, row):
+        tell(study, plan, trial, row)
+        if row["number"] == 1:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(tune, "_tell", tell_then_ctrl_c)
+    with pytest.raises(KeyboardInterrupt, match=r"^interrupted: 1 of 4 trials kept in "):
+        tune.tune(_file(tmp_path, GAINS + "trials: 4\n"), tmp_path / "out", workers=1)
+    assert list(pd.read_csv(tmp_path / "out" / tune.CSV)["number"]) == [0]
+
+
+@pytest.mark.slow
 def test_a_key_the_scenario_does_not_measure_fails_each_trial(tmp_path):
     # a straight speed task has no path: its scorecard leaves the lateral error empty
     path = _file(tmp_path, GAINS.replace("speed_error_rms_mps", "lateral_error_rms_m") + "trials: 2\n")

@@ -51,6 +51,8 @@ def test_the_core_runs_a_scenario_without_the_extras(tmp_path):
     (["run", "pi_ff_speed_5", "--foxglove", "--realtime", "1", "--no-record"],
      "vilma run: error: the live Foxglove view needs the 'foxglove' extra (foxglove is not installed): "
      "pip install 'vilma[foxglove]'"),
+    (["tune", "t.yaml"], "vilma tune: error: vilma tune needs the 'sweep' extra (distributed is not installed): "
+                         "pip install 'vilma[sweep]'"),
 ])
 def test_a_command_that_needs_a_missing_extra_says_which_in_one_line(args, line, tmp_path):
     r = _vilma_without_extras(*args, *(["--out", str(tmp_path / "o")] if args[0] == "run" else []))

@@ -266,6 +266,10 @@ def tune(plan: str | Path | TunePlan, out: str | Path | None = None, *, workers:
                                        f"{plan.key} {row['objective']:.6g}{'' if row['feasible'] else ' infeasible'}"
                                        if row["error"] is None else f"[{len(rows)}/{plan.trials}] trial "
                                        f"{row['number']}: {row['error']}"))
+    except (KeyboardInterrupt, ConnectionError) as e:
+        why = f"{e}" if isinstance(e, ConnectionError) else "interrupted"
+        kept = f": {len(rows)} of {plan.trials} trials kept in {out}"
+        raise type(e)(why + (kept if out is not None else "")) from None
     finally:
         table = trials_table(plan, rows)
         if out is not None and rows:
@@ -292,7 +296,7 @@ def _evaluate(client, plan: TunePlan, trials: Sequence) -> list[dict]:
             rows.append(_row(plan, trial.number, values, [], futures))
             continue
         if any(f.status == "cancelled" for f in futures):
-            raise ConnectionError("lost the Dask scheduler")
+            raise ConnectionError(f"lost the Dask scheduler ({client.scheduler.address})")
         results = [f.result() if f.status == "finished" else {"error": f"{f.exception()}"} for f in futures]
         errors = [f"{label}: {r['error']}" for label, r in zip(plan.scenarios, results, strict=True) if r["error"]]
         rows.append(_row(plan, trial.number, values, results, errors[0] if errors else None))
