@@ -262,10 +262,7 @@ def tune(plan: str | Path | TunePlan, out: str | Path | None = None, *, workers:
                 for trial, row in zip(trials, _evaluate(client, plan, trials), strict=True):
                     _tell(study, plan, trial, row)
                     rows.append(row)
-                    console.print(Text(f"[{len(rows)}/{plan.trials}] trial {row['number']}: "
-                                       f"{plan.key} {row['objective']:.6g}{'' if row['feasible'] else ' infeasible'}"
-                                       if row["error"] is None else f"[{len(rows)}/{plan.trials}] trial "
-                                       f"{row['number']}: {row['error']}"))
+                    console.print(Text(f"[{len(rows)}/{plan.trials}] trial {row['number']}: {_outcome(plan, row)}"))
     except (KeyboardInterrupt, ConnectionError) as e:
         why = f"{e}" if isinstance(e, ConnectionError) else "interrupted"
         kept = f": {len(rows)} of {plan.trials} trials kept in {out}"
@@ -275,6 +272,13 @@ def tune(plan: str | Path | TunePlan, out: str | Path | None = None, *, workers:
         if out is not None and rows:
             write_tune(plan, table, out)
     return table
+
+
+def _outcome(plan: TunePlan, row: dict) -> str:
+    """What a trial came to, in a few words."""
+    if row["error"] is not None:
+        return row["error"]
+    return f"{plan.key} {row['objective']:.6g}{'' if row['feasible'] else ', breaks a constraint'}"
 
 
 def _evaluate(client, plan: TunePlan, trials: Sequence) -> list[dict]:
@@ -410,6 +414,8 @@ def tune_command(args, console: Console) -> int:
     console.print(f"vilma tune: {plan.trials} trials of {len(plan.scenarios)} scenarios on "
                   f"{args.scheduler or 'a local Dask cluster'}, table in {out}", highlight=False)
     table = tune(plan, out, workers=args.workers, scheduler=args.scheduler, console=console)
+    for error in table["error"].dropna().unique()[:10]:
+        console.print(Text(f"FAIL: {error}"), style="red")
     best = best_trial(plan, table)
     if best is None:
         failed = int(table["error"].notna().sum())
