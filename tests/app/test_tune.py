@@ -19,12 +19,13 @@ from vilma.scenario.spec import load_scenario
 
 DASK = (sys.executable, "-m", "dask")
 SHORT = "pi_ff_speed_10"
-"""A bundled speed step, cut to 5 s in these tunes."""
+"""A bundled speed step to 10 m/s, cut to 4 to 6 s in these tunes."""
 GAINS = (f"scenarios: [{SHORT}]\n"
          "params:\n"
-         "  duration: {choice: [5]}\n"
+         "  duration: {int: [4, 6]}\n"
          "  speed_controller.kp: {uniform: [0.3, 3]}\n"
          "  speed_controller.ki: {loguniform: [0.05, 1]}\n"
+         "  initial.speed: {choice: [0, 2]}\n"
          "objective: {minimize: speed_error_rms_mps}\n")
 """A tune of the speed loop's gains, without constraints, trials and seed."""
 
@@ -47,8 +48,9 @@ def test_the_best_trial_is_the_best_feasible_one_and_best_yaml_scores_it(tmp_pat
     best_score = table.loc[table["feasible"], "objective"].min()
     scenario = load_scenario(str(tmp_path / "out" / tune.BEST))
     best = table[table["objective"] == best_score].iloc[0]
-    assert (scenario.driver.gains_of("pi_ff").kp, scenario.driver.gains_of("pi_ff").ki, scenario.duration) == (
-        best["speed_controller.kp"], best["speed_controller.ki"], 5)
+    gains = scenario.driver.gains_of("pi_ff")
+    assert (gains.kp, gains.ki, scenario.duration, scenario.initial.speed) == (
+        best["speed_controller.kp"], best["speed_controller.ki"], best["duration"], best["initial.speed"])
     assert run(scenario).metrics["speed_error_rms_mps"] == best_score  # one scenario: its mean is its value
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "out" / tune.PARQUET), table, check_dtype=False)
     assert len(pd.read_csv(tmp_path / "out" / tune.CSV)) == 5 and (tmp_path / "out" / tune.HISTORY).stat().st_size
@@ -66,7 +68,7 @@ def test_the_same_seed_on_one_worker_searches_the_same_values(tmp_path):
 @pytest.mark.slow
 def test_a_constraint_no_trial_meets_gives_no_best_and_exit_1(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    # from rest to 10 m/s the speed error is 10 m/s at the start: its RMS over the run is never 0
+    # from 0 or 2 m/s to 10 m/s the speed error starts at 8 m/s or more: its RMS over the run is never 0
     _file(tmp_path, GAINS + "constraints: {speed_error_rms_mps: {max: 0}}\ntrials: 3\n")
     assert main(["tune", "t.yaml", "--workers", "1", "--out", "out"]) == 1
     err = capsys.readouterr().err
@@ -117,7 +119,7 @@ def test_a_tune_on_a_real_scheduler_and_worker(tmp_path):
 
 
 @pytest.mark.parametrize(("text", "message"), [
-    (GAINS + "trails: 3\n", "t.yaml:7: trails: unknown key; did you mean 'trials'?"),
+    (GAINS + "trails: 3\n", "t.yaml:8: trails: unknown key; did you mean 'trials'?"),
     (GAINS.replace("uniform: [0.3, 3]", "uniform: [3, 0.3]"),
      "t.yaml:4: params.speed_controller.kp.uniform: expected [low, high], low < high, got [3, 0.3]"),
     (GAINS.replace("loguniform: [0.05, 1]", "loguniform: [0, 1]"),
@@ -127,13 +129,13 @@ def test_a_tune_on_a_real_scheduler_and_worker(tmp_path):
     (GAINS.replace("{uniform: [0.3, 3]}", "{gauss: [1, 2]}"),
      "t.yaml:4: params.speed_controller.kp.gauss: unknown search space"),
     (GAINS.replace("speed_error_rms_mps", "speed_eror_rms_mps"),
-     "t.yaml:6: objective.minimize: not a number of the scorecard; did you mean 'speed_error_rms_mps'?"),
+     "t.yaml:7: objective.minimize: not a number of the scorecard; did you mean 'speed_error_rms_mps'?"),
     (GAINS.replace("speed_error_rms_mps}", "speed_error_rms_mps, aggregate: median}"),
-     "t.yaml:6: objective.aggregate: expected one of mean, max, got 'median'"),
+     "t.yaml:7: objective.aggregate: expected one of mean, max, got 'median'"),
     (GAINS + "constraints: {speed_overshoot_pct: {max: 1, top: 2}}\n",
-     "t.yaml:7: constraints.speed_overshoot_pct.top: expected bounds {min: a, max: b}"),
-    (GAINS + "constraints: {overshoot: {max: 1}}\n", "t.yaml:7: constraints.overshoot: not a scorecard key"),
-    (GAINS + "trials: 0\n", "t.yaml:7: trials: expected a whole number from 1 to 10000, got 0"),
+     "t.yaml:8: constraints.speed_overshoot_pct.top: expected bounds {min: a, max: b}"),
+    (GAINS + "constraints: {overshoot: {max: 1}}\n", "t.yaml:8: constraints.overshoot: not a scorecard key"),
+    (GAINS + "trials: 0\n", "t.yaml:8: trials: expected a whole number from 1 to 10000, got 0"),
     (GAINS.replace("{uniform: [0.3, 3]}", "{uniform: [-1, 3]}"),  # an end of the space the controller refuses
      "t.yaml:4: " + f"{load_scenario(SHORT).file}:6: speed_controller: pi_ff kp must be a finite number >= 0, got -1"),
     (GAINS.replace(f"[{SHORT}]", "[nope]"), "nope: no such file, nor a bundled scenario"),
