@@ -102,6 +102,19 @@ class Warm(WorkerPlugin):
             run(dataclasses.replace(s, duration=min(s.duration, 1.0), expect={}))
 
 
+def warm(client: Client, scenario: Scenario) -> None:
+    """Have every worker compile vilma's code once (:class:`Warm`), on ``scenario``.
+
+    Raises:
+        OSError: the workers cannot load vilma (the plugin does not unpickle there).
+    """
+    try:
+        client.register_plugin(Warm(scenario))
+    except Exception as e:  # a worker without vilma, or another version of it
+        raise OSError(f"the Dask workers cannot load vilma ({e}); install the same vilma[sweep] on every "
+                      "worker") from None
+
+
 def run_remote(scenario: Scenario, keep: str | None = None) -> dict[str, Any]:
     """One run on a worker: its scorecard, the worker, the error if it failed (every scorecard key then None, but
     ``wall_time_s``); with ``keep``, its files go into that folder."""
@@ -187,11 +200,7 @@ def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: s
     """Run ``todo`` on the cluster in chunks (:func:`chunk_size`), :data:`IN_FLIGHT` runs at a time, each row into
     ``rows`` as its chunk comes."""
     with connect(workers, scheduler) as client, _progress(console) as bar:
-        try:
-            client.register_plugin(Warm(todo[0].scenario))
-        except Exception as e:  # the plugin did not unpickle there: a worker without vilma, or another version
-            raise OSError(f"the Dask workers cannot load vilma ({e}); install the same vilma[sweep] on every "
-                          "worker") from None
+        warm(client, todo[0].scenario)
         size = chunk_size(len(todo), len(client.scheduler_info()["workers"]))
         waiting = (todo[i:i + size] for i in range(0, len(todo), size))
         task = bar.add_task("sweep", total=len(todo), failed=0)

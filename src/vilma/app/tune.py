@@ -34,7 +34,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from vilma.app.sweep import Warm, connect, dask_logs, run_remote
+from vilma.app.sweep import connect, dask_logs, run_remote, warm
 from vilma.app.sweep_plan import _scenarios
 from vilma.core.files import atomic_path
 from vilma.scenario.fields import Source, SpecError, _suggest, read_yaml
@@ -251,11 +251,7 @@ def tune(plan: str | Path | TunePlan, out: str | Path | None = None, *, workers:
     rows: list[dict] = []
     try:
         with connect(workers, scheduler) as client:
-            try:
-                client.register_plugin(Warm(load_scenario(plan.scenarios[0])))
-            except Exception as e:  # as in a sweep: the workers cannot unpickle vilma's plugin
-                raise OSError(f"the Dask workers cannot load vilma ({e}); install the same vilma[sweep] on every "
-                              "worker") from None
+            warm(client, load_scenario(plan.scenarios[0]))
             batch = max(1, len(client.scheduler_info()["workers"]))
             while len(rows) < plan.trials:
                 trials = [study.ask() for _ in range(min(batch, plan.trials - len(rows)))]
