@@ -24,8 +24,6 @@ from typing import Any
 import pandas as pd
 from distributed import Client, LocalCluster, as_completed, get_worker
 from distributed.diagnostics.plugin import WorkerPlugin
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 from rich.console import Console
 from rich.progress import BarColumn, Progress, ProgressColumn, TaskProgressColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
@@ -35,6 +33,7 @@ from vilma.app.sweep_plan import IDENTITY, SweepRun, plan_sets, read_sweep
 from vilma.core.files import atomic_path
 from vilma.record.run import record_run
 from vilma.scenario.fields import SpecError
+from vilma.scenario.report import agg_figure, write_png
 from vilma.scenario.runner import run
 from vilma.scenario.scorecard import SCORECARD_KEYS
 from vilma.scenario.spec import Scenario
@@ -43,6 +42,8 @@ CONNECT_TIMEOUT = 5.0
 """How long to wait for a scheduler to answer [s]."""
 IN_FLIGHT = 256
 """Runs handed to the cluster ahead of the results (the rest wait here: the scheduler's memory stays bounded)."""
+PNG_DPI = 100
+"""Pixels per inch of a sweep's and a tune's plots."""
 CHUNK = 8
 """Runs one Dask task makes at most: a run of a bundled course takes about 10 ms, and Dask's own cost a task is of
 that order (``benchmarks/sweep_dask.py``), so short runs go in chunks."""
@@ -311,15 +312,15 @@ def _read_rows(path: Path) -> dict[str, dict]:
     return rows
 
 
-def write_table(table: pd.DataFrame, out: Path) -> None:
-    """``results.parquet`` and ``results.csv`` in ``out``, each whole or not at all."""
-    with atomic_path(out / CSV) as tmp:
+def write_table(table: pd.DataFrame, out: Path, csv: str = CSV, parquet_name: str = PARQUET) -> None:
+    """``table`` as ``csv`` and ``parquet_name`` in ``out`` (a sweep's ``results.*``), each whole or not at all."""
+    with atomic_path(out / csv) as tmp:
         table.to_csv(tmp, index=False)
     parquet = table.copy()
     for c in parquet.columns:  # a column of words and numbers (a swept value) as text
         if pd.api.types.is_object_dtype(parquet[c]) and parquet[c].map(type).nunique() > 1 + parquet[c].isna().any():
             parquet[c] = parquet[c].map(lambda v: v if v is None else str(v))
-    with atomic_path(out / PARQUET) as tmp:
+    with atomic_path(out / parquet_name) as tmp:
         parquet.to_parquet(tmp, index=False)
 
 
@@ -339,18 +340,14 @@ def draw_boxes(table: pd.DataFrame, out: Path) -> list[Path]:
         data = {n: v for n, v in data.items() if len(v)}
         if not data:
             continue
-        fig = Figure(figsize=(max(6.0, 0.6 * len(data) + 2), 5))
-        FigureCanvasAgg(fig)
+        fig = agg_figure(max(6.0, 0.6 * len(data) + 2), 5, dpi=PNG_DPI)
         ax = fig.add_subplot()
         ax.boxplot(list(data.values()), tick_labels=list(data))
         ax.set_ylabel(key)
         ax.set_title(f"{key} per group ({len(table)} runs)")
         ax.tick_params(axis="x", labelrotation=30)
         fig.tight_layout()
-        path = out / f"box_{key}.png"
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png")
-        written.append(path)
+        written.append(write_png(fig, out / f"box_{key}.png", PNG_DPI))
     return written
 
 

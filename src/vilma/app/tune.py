@@ -28,16 +28,15 @@ from typing import Any
 
 import pandas as pd
 from distributed import wait
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from vilma.app.sweep import connect, dask_logs, run_remote, warm
+from vilma.app.sweep import PNG_DPI, connect, dask_logs, run_remote, warm, write_table
 from vilma.app.sweep_plan import _scenarios
 from vilma.core.files import atomic_path
 from vilma.scenario.fields import Source, SpecError, _suggest, read_yaml
+from vilma.scenario.report import agg_figure, write_png
 from vilma.scenario.scorecard import SCORECARD_KEYS
 from vilma.scenario.spec import load_scenario, to_yaml
 
@@ -362,17 +361,11 @@ def write_tune(plan: TunePlan, table: pd.DataFrame, out: Path) -> None:
     """``trials.csv``, ``trials.parquet`` and ``history.png`` in ``out``, and ``best.yaml`` if a trial is feasible;
     each file whole or not at all."""
     out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out / CSV) as tmp:
-        table.to_csv(tmp, index=False)
-    parquet = table.copy()
-    for p in plan.params:  # a choice of words and numbers as text
-        if p.space == "choice" and len({type(a) for a in p.args}) > 1:
-            parquet[p.key] = parquet[p.key].map(str)
+    numbers = table.copy()
     for c in plan.constraints:  # a worst value that is sometimes missing (a failed trial): a number or none
         if c.equal is None:
-            parquet[c.key] = pd.to_numeric(parquet[c.key])
-    with atomic_path(out / PARQUET) as tmp:
-        parquet.to_parquet(tmp, index=False)
+            numbers[c.key] = pd.to_numeric(numbers[c.key])
+    write_table(numbers, out, CSV, PARQUET)  # a choice of words and numbers goes as text
     draw_history(plan, table, out / HISTORY)
     best = best_trial(plan, table)
     if best is not None:
@@ -383,8 +376,7 @@ def write_tune(plan: TunePlan, table: pd.DataFrame, out: Path) -> None:
 
 def draw_history(plan: TunePlan, table: pd.DataFrame, path: Path) -> None:
     """The objective of each trial (feasible as dots, infeasible as crosses) and the best feasible so far."""
-    fig = Figure(figsize=(8, 5))
-    FigureCanvasAgg(fig)
+    fig = agg_figure(8, 5, dpi=PNG_DPI)
     ax = fig.add_subplot()
     ok = table["feasible"].astype(bool)
     score = table["objective"].astype(float)
@@ -398,8 +390,7 @@ def draw_history(plan: TunePlan, table: pd.DataFrame, path: Path) -> None:
     ax.set_title(f"vilma tune: {plan.direction} {plan.key}, {len(table)} trials")
     ax.legend()
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
+    write_png(fig, path, PNG_DPI)
 
 
 def tune_command(args, console: Console) -> int:

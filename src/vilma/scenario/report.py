@@ -32,13 +32,26 @@ LEFT, RIGHT, RIGHT_TWIN, BOTTOM = 0.9, 0.2, 0.8, 0.55
 TITLE, LEGEND_ROW, GAP = 0.45, 0.2, 0.15
 
 
+def agg_figure(width: float, height: float, dpi: float = DPI) -> Figure:
+    """A ``width`` x ``height`` [in] figure on its own Agg canvas (no pyplot: a figure costs no global state)."""
+    fig = Figure(figsize=(width, height), dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def write_png(fig: Figure, path: Path, dpi: float = DPI) -> Path:
+    """Draw ``fig`` into the PNG ``path``, whole or not at all; returns ``path``."""
+    with atomic_path(path) as tmp:
+        # fast zlib: a third of the time of the default level for files a little larger
+        fig.savefig(tmp, dpi=dpi, format="png", pil_kwargs={"compress_level": 1})
+    return path
+
+
 def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """Write the plots (:data:`vilma.scenario.folder.PLOTS`) into ``out_dir``; ``speed_log`` (times [s], speeds
     [m/s]) is overlaid on the speed."""
     for name, fig in figures(result, speed_log).items():
-        with atomic_path(out_dir / name) as tmp:
-            # fast zlib: a third of the time of the default level for files a little larger
-            fig.savefig(tmp, dpi=DPI, format="png", pil_kwargs={"compress_level": 1})
+        write_png(fig, out_dir / name)
 
 
 def figures(result: RunResult, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, Figure]:
@@ -131,8 +144,7 @@ def _effort_figure(result: RunResult, t: np.ndarray, speed: np.ndarray, col) -> 
 
 def _figure(width: float, height: float, title: str, rows: int = 1) -> tuple[Figure, list[Axes]]:
     """A ``width`` x ``height`` [in] figure on its own Agg canvas, titled, with ``rows`` axes stacked sharing x."""
-    fig = Figure(figsize=(width, height), dpi=DPI)
-    FigureCanvasAgg(fig)
+    fig = agg_figure(width, height)
     fig.suptitle(title, y=1 - 0.1 / height, va="top")  # 0.1 in below the top edge
     return fig, list(fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0])
 
