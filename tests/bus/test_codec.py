@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import typing
 
 import msgspec
 import pytest
@@ -44,8 +45,10 @@ def test_every_topic_type_round_trips():
         fields = {f.name: f.default for f in msgspec.structs.fields(cls) if f.default is not msgspec.NODEFAULT}
         required = [f for f in msgspec.structs.fields(cls) if f.default is msgspec.NODEFAULT
                     and f.default_factory is msgspec.NODEFAULT]
-        sample = {f.name: {int: 1, float: 1.5, str: "x", bool: True}.get(getattr(f.type, "__origin__", f.type), 1)
-                  for f in required}  # (a capped str is Annotated[str, ...])
+        bare = [getattr(f.type, "__origin__", f.type) for f in required]  # (a capped str is Annotated[str, ...])
+        scalars = {int: 1, float: 1.5, str: "x", bool: True}
+        sample = {f.name: [1.5] if typing.get_origin(b) is list else scalars.get(b, 1)
+                  for f, b in zip(required, bare, strict=True)}
         msg = cls(**{**fields, **sample})
         assert encode(decode(encode(msg), message_type(topic(name)))) == encode(msg)
 

@@ -4,7 +4,8 @@
 what the simulator's sensors of the same name measure; ``cmd`` the actuator
 commands; ``driver/status`` and ``driver/cmd`` the self-driver's state and
 orders; ``sim/status`` and ``sim/cmd`` the simulator's; ``objects`` the objects
-sensor's lists (of varying length, so not a sensor topic). The 3D plant's world
+sensor's lists (of varying length, so not a sensor topic); ``perception/objects`` the
+objects a planned car perceives and ``planning/plan`` its planning cycles. The 3D plant's world
 sensors add ``camera/<name>`` (and ``camera/<name>/depth``) images and the
 ``laser`` point cloud.
 """
@@ -32,6 +33,8 @@ TOPICS: dict[str, type[m.Message]] = {
     "sim/status": m.SimStatus,
     "sim/cmd": m.SimControl,
     "objects": m.ObjectList,
+    "perception/objects": m.TrackList,
+    "planning/plan": m.LocalPlan,
 }
 """Every topic of a car -> the message type it carries (requests on ``*/cmd`` are answered with a Reply)."""
 WORLD_TOPICS: dict[str, type[m.Message]] = {"camera": m.Image, "laser": m.PointCloud}

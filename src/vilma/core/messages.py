@@ -280,3 +280,64 @@ class ObjectList(Message, frozen=True):
     """The objects within the objects sensor's reach (the scenario's true obstacles, with noise)."""
 
     objects: list[ObjectState] = []
+
+
+MAX_TRACKS = 256
+"""The most tracked objects in one :class:`TrackList`."""
+MAX_PLAN_PATHS = 512
+"""The most paths (drawn candidates, predictions) in one :class:`LocalPlan`."""
+MAX_PATH_POINTS = 1000
+"""The most points in one planned, candidate or predicted path."""
+
+_Floats = Annotated[list[float], msgspec.Meta(max_length=MAX_PATH_POINTS)]
+
+
+class TrackedObject(msgspec.Struct, frozen=True):
+    """One object as the car's perception tracks it, world frame: its track id, box centre [m], orientation [rad],
+    velocity [m/s], box length and width [m], the covariance of (x, y, vx, vy) row by row (16 values, SI units
+    squared), and how long it has been tracked [s]."""
+
+    id: int
+    x: float
+    y: float
+    yaw: float
+    vx: float
+    vy: float
+    length: float
+    width: float
+    covariance: Annotated[list[float], msgspec.Meta(max_length=16)]
+    age: float
+
+
+class TrackList(Message, frozen=True):
+    """The objects the car perceives (``perception/objects``): its tracks, from the laser or the objects sensor."""
+
+    source: str
+    """``laser`` or ``truth``: what the objects were perceived with."""
+    objects: Annotated[list[TrackedObject], msgspec.Meta(max_length=MAX_TRACKS)] = []
+
+
+class PlannedPath(msgspec.Struct, frozen=True):
+    """A path of a plan [m]: a candidate (``status`` 0 free, 1 infeasible, 2 colliding; ``id`` -1) or an object's
+    predicted future (``id`` its track, ``status`` 0), at the plan's times."""
+
+    id: int
+    status: int
+    x: _Floats
+    y: _Floats
+
+
+class LocalPlan(Message, frozen=True):
+    """A planning cycle (``planning/plan``): the trajectory chosen, from the cycle's time on at steps of ``dt`` [s]
+    (positions [m], speeds [m/s]), its ``mode`` (``velocity``, ``follow``, ``stop`` or ``fallback``) and
+    ``reason`` (why the fallback), a sample of the candidates evaluated and the predicted futures of the
+    objects."""
+
+    mode: str
+    reason: str
+    dt: float
+    x: _Floats
+    y: _Floats
+    speed: _Floats
+    candidates: Annotated[list[PlannedPath], msgspec.Meta(max_length=MAX_PLAN_PATHS)] = []
+    predictions: Annotated[list[PlannedPath], msgspec.Meta(max_length=MAX_PLAN_PATHS)] = []
