@@ -1,6 +1,8 @@
 """Local motion planning: the Frenet frame of a reference path, boundary-value polynomials, the sampling planner."""
 
 from vilma.planning.frenet import FrenetFrame, FrenetState
+from vilma.planning.messages import local_plan, track_list
 from vilma.planning.planner import Candidates, Plan, PlannerParams, Status, plan
 
-__all__ = ["Candidates", "FrenetFrame", "FrenetState", "Plan", "PlannerParams", "Status", "plan"]
+__all__ = ["Candidates", "FrenetFrame", "FrenetState", "Plan", "PlannerParams", "Status", "local_plan", "plan",
+           "track_list"]
