@@ -87,26 +87,37 @@ def test_on_a_curve_the_plan_follows_the_reference_at_its_curvature():
     assert p.curvature == pytest.approx(1 / radius, rel=1e-3) and p.speed == pytest.approx(P.target_speed)
 
 
-def test_with_a_stopped_car_in_the_lane_it_stops_behind_it_or_changes_lane_and_never_overlaps_it():
+def test_with_a_stopped_car_in_the_lane_and_the_next_lane_free_it_passes_and_never_overlaps_it():
     def objects(t):
         return _box(40.0, 0.0, 0.0)[None]
 
     plans = _drive(FrenetState(0.0, 10.0, 0.0, 0.0), 15.0, objects)
     _assert_never_overlaps(plans, objects)
     _assert_within_limits(plans)
+    passing = [p for _, p in plans if abs(p.x[0] - 40.0) < 4.5]  # beside the stopped car
+    assert passing and all(abs(abs(p.y[0]) - LANE) < 0.2 for p in passing)  # in the next lane's centre
+    last = plans[-1][1]
+    assert last.x[0] > 100.0 and last.y[0] == pytest.approx(0.0, abs=0.05)  # back in its lane, far past it
+
+
+def test_with_a_stopped_car_in_the_lane_and_the_next_lanes_taken_it_stops_behind_it():
+    def objects(t):
+        return np.stack([_box(40.0, 0.0, 0.0), _box(36.0, LANE, 0.0), _box(36.0, -LANE, 0.0)])
+
+    plans = _drive(FrenetState(0.0, 10.0, 0.0, 0.0), 15.0, objects)
+    _assert_never_overlaps(plans, objects)
+    _assert_within_limits(plans)
     last = plans[-1][1]
     gap = 40.0 - 4.5 / 2 - (last.x[0] + CAR.body_offset + CAR.length / 2)
-    changed = abs(abs(last.y[0]) - LANE) < 0.05 and last.x[0] > 45.0
-    stopped = last.speed[0] < 1e-3 and gap == pytest.approx(P.follow_distance, abs=0.1)
-    assert changed or stopped
+    assert last.speed[0] < 1e-3 and gap == pytest.approx(P.follow_distance, abs=0.1)
 
 
-def test_behind_a_slower_lead_with_the_other_lane_blocked_it_follows_at_d0_plus_tau_v():
+def test_behind_a_slower_lead_with_the_other_lanes_blocked_it_follows_at_d0_plus_tau_v():
     v_lead = 8.0
     params = dataclasses.replace(P, target_speed=15.0)
 
     def objects(t):
-        return np.stack([_box(50.0, 0.0, v_lead, t), _box(50.0, LANE, v_lead, t)])
+        return np.stack([_box(50.0, d, v_lead, t) for d in (0.0, LANE, -LANE)])
 
     plans = _drive(FrenetState(0.0, 12.0, 0.0, 0.0), 40.0, objects, params=params)
     _assert_never_overlaps(plans, objects)

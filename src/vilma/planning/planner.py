@@ -171,6 +171,8 @@ class Plan:
         curvature [1/m]; frenet: (n_t, 6) s, s_dot, s_ddot, d, d_dot, d_ddot (:class:`FrenetState` fields).
         cost: of the chosen candidate (inf for the fallback). mode: ``velocity``, ``follow``, ``stop`` or
         ``fallback``. candidates: every candidate evaluated. reason: why the plan is the fallback ('' if not).
+        lateral: the chosen lateral motion's end offset [m] and duration [s] (for the next cycle to continue it:
+        ``keep`` of :func:`plan`); None for the fallback.
     """
 
     t: np.ndarray
@@ -185,6 +187,7 @@ class Plan:
     mode: str
     candidates: Candidates
     reason: str = ""
+    lateral: tuple[float, float] | None = None
 
     def state_at(self, time: float) -> FrenetState:
         """The plan's Frenet state at ``time`` [s] after its start (the nearest step): where the next cycle starts
@@ -307,12 +310,11 @@ class _Target(NamedTuple):
     speed: float
 
 
-def _lead_target(state: FrenetState, frame: FrenetFrame, objects: np.ndarray, p: PlannerParams) -> _Target | None:
-    """Werling's following target behind the nearest object ahead within half a lane of the car's offset."""
-    if objects.shape[0] == 0:
-        return None
-    s, d = frame.to_frenet(objects[:, :2, 0], objects[:, :2, 1])
-    ahead = (np.abs(d[:, 0] - state.d) < 0.5 * p.lane_width) & (s[:, 0] > state.s)
+def _lead_target(state: FrenetState, s: np.ndarray, d: np.ndarray, objects: np.ndarray, lane: float,
+                 p: PlannerParams) -> _Target | None:
+    """Werling's following target behind the nearest object ahead within half a lane of the offset ``lane`` [m];
+    ``s``, ``d`` (n_obj, 2): the objects' Frenet coordinates now and a step later."""
+    ahead = (np.abs(d[:, 0] - lane) < 0.5 * p.lane_width) & (s[:, 0] > state.s)
     if not ahead.any():
         return None
     i = np.flatnonzero(ahead)[np.argmin(s[ahead, 0])]
@@ -357,15 +359,20 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
             end = np.maximum(end, state.s + (v0 * v0 - v1 * v1) / (2.0 * b) + v1 * np.maximum(T - (v0 - v1) / b, 0))
         coeffs = quintic(state.s, state.s_dot, state.s_ddot, end, v1, 0.0, T)
         miss = p.position_weight * (end - target.s - v1 * T) ** 2
+        if target.mode == "follow":  # the speed given up behind a slower lead, so that passing it competes
+            miss = miss + p.speed_weight * max(p.target_speed - v1, 0.0) ** 2
     return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + miss
 
 
-def _lateral(state: FrenetState, p: PlannerParams):
-    """Lateral quintics (n, 6), their durations (n,) and costs (n,)."""
-    T = np.repeat(np.asarray(p.lateral_durations), len(p.lateral_offsets))
-    d1 = np.tile(np.asarray(p.lateral_offsets), len(p.lateral_durations))
+def _lateral(state: FrenetState, offsets: list[float], p: PlannerParams, keep: tuple[float, float] | None):
+    """Lateral quintics (n, 6) to the end ``offsets`` [m], their durations (n,), costs (n,) and end offsets (n,);
+    and ``keep`` (end offset [m], duration [s]) if its offset is among them."""
+    T = np.repeat(np.asarray(p.lateral_durations), len(offsets))
+    d1 = np.tile(np.asarray(offsets), len(p.lateral_durations))
+    if keep is not None and keep[0] in offsets:
+        T, d1 = np.append(T, keep[1]), np.append(d1, keep[0])
     coeffs = quintic(state.d, state.d_dot, state.d_ddot, d1, 0.0, 0.0, T)
-    return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + p.offset_weight * d1**2
+    return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + p.offset_weight * d1**2, d1
 
 
 def _motions(frame, lat, lat_T, lon, lon_T, objects, p, check_all=False):
@@ -390,33 +397,56 @@ def _check(state: FrenetState, objects: np.ndarray, p: PlannerParams) -> np.ndar
 
 
 def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerParams,
-         goal: float | None = None) -> Plan:
+         goal: float | None = None, keep: tuple[float, float] | None = None) -> Plan:
     """Plan from the car's ``state`` along ``reference`` among predicted ``objects`` (n_obj, n_t, 5: x, y [m],
     yaw [rad], length, width [m] at ``params.times``), stopping at arc length ``goal`` [m] if given.
 
-    The longitudinal mode: following the nearest object ahead within half a lane of the car, or stopping at the
-    goal, whichever target is nearer, once the car keeping its speed would come within its braking distance of
-    it over the horizon; velocity keeping otherwise. The lateral motion is planned in time (Werling's
-    high-speed mode), so that at walking pace a lane change comes out infeasible by its curvature.
+    ``keep``, a lateral motion's end offset [m] (one of the planner's) and the time left to it [s], is the lane
+    change under way: sampled besides the lateral durations, and chosen while any of its candidates is free, so
+    that a lane change once begun is finished unless it would collide (started over each cycle, its end would be
+    ever a whole duration away, and the car would creep across while each plan is checked as a swift one).
+
+    Each lateral end offset has its longitudinal mode: following the nearest object ahead within half a lane of
+    that offset, or stopping at the goal, whichever target is nearer, once the car keeping its speed would come
+    within its braking distance of it over the horizon; velocity keeping otherwise. So a lane change past a
+    slower or stopped lead keeps its speed, and competes with following the lead by the speed that gives up. The
+    lateral motion is planned in time (Werling's high-speed mode), so that at walking pace a lane change comes
+    out infeasible by its curvature.
     """
     objects = _check(state, objects, params)
-    targets = [t for t in (_lead_target(state, reference, objects, params),
-                           None if goal is None else _Target("stop", float(goal), 0.0))
-               if t is not None and _binds(t, state, params)]
-    target = min(targets, key=lambda t: t.s + t.speed * params.horizon, default=None)
-    lat, lat_T, lat_cost = _lateral(state, params)
-    lon, lon_T, lon_cost = _longitudinal(state, target, params)
-    lat_m, lon_m, out, status = _motions(reference, lat, lat_T, lon, lon_T, objects, params)
-    cost = (params.lateral_weight * lat_cost[:, None] + params.longitudinal_weight * lon_cost[None, :]).ravel()
+    stop = None if goal is None else _Target("stop", float(goal), 0.0)
+    s, d = reference.to_frenet(objects[:, :2, 0], objects[:, :2, 1]) if len(objects) else (None, None)
+    lanes: dict[_Target | None, list[float]] = {}  # each target, and the end offsets that plan for it
+    kept = []  # the candidates of the lateral motion to keep, in each group
+    for lane in dict.fromkeys(params.lateral_offsets):
+        lead = None if s is None else _lead_target(state, s, d, objects, lane, params)
+        targets = [t for t in (lead, stop) if t is not None and _binds(t, state, params)]
+        lanes.setdefault(min(targets, key=lambda t: t.s + t.speed * params.horizon, default=None), []).append(lane)
+    groups = []
+    for target, offsets in lanes.items():
+        lat, lat_T, lat_cost, lat_end = _lateral(state, offsets, params, keep)
+        lon, lon_T, lon_cost = _longitudinal(state, target, params)
+        lat_m, lon_m, out, status = _motions(reference, lat, lat_T, lon, lon_T, objects, params)
+        cost = (params.lateral_weight * lat_cost[:, None] + params.longitudinal_weight * lon_cost[None, :]).ravel()
+        groups.append((target, lat_m, lon_m, out, status, cost, np.column_stack([lat_end, lat_T])))
+        kept.append(np.zeros((len(lat_T), len(lon_T)), bool))
+        kept[-1][-1] = keep is not None and keep[0] in offsets  # (_lateral appends it)
+    out, status, cost = (np.concatenate([g[k] for g in groups], axis=1 if k == 3 else 0) for k in (3, 4, 5))
     candidates = Candidates(out[0], out[1], status, cost)
     free = np.flatnonzero(status == Status.FEASIBLE)
+    kept = np.concatenate([k.ravel() for k in kept])[free]
+    free = free[kept] if kept.any() else free
     if len(free) == 0:
         return _fallback(state, reference, objects, params, candidates)
-    c = int(free[np.argmin(cost[free])])
-    i, j = divmod(c, lon.shape[0])
+    chosen = int(free[np.argmin(cost[free])])
+    starts = np.cumsum([0] + [len(g[4]) for g in groups])
+    g = int(np.searchsorted(starts, chosen, "right")) - 1
+    (target, lat_m, lon_m), lateral = groups[g][:3], groups[g][6]
+    i, j = divmod(chosen - int(starts[g]), lon_m.shape[1])
     frenet = np.column_stack([lon_m[0, j], lon_m[1, j], lon_m[2, j], lat_m[0, i], lat_m[1, i], lat_m[2, i]])
-    return Plan(params.times, *out[:, c], frenet, float(cost[c]), "velocity" if target is None else target.mode,
-                candidates)
+    return Plan(params.times, *out[:, chosen], frenet, float(cost[chosen]),
+                "velocity" if target is None else target.mode, candidates,
+                lateral=(float(lateral[i, 0]), float(lateral[i, 1])))
 
 
 def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p: PlannerParams,

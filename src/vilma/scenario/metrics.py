@@ -9,9 +9,10 @@ a ``speed`` task, a constant target from rest, as the paper's Figure 11.
 ``completed`` says the task was done, judged on the track alone (:func:`completion`):
 a speed task when the run lasted without breaking down; a go-to when the car came
 to rest within ``MetricsSpec.end_tolerance`` of the target; a path when, besides,
-it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`); a CommonRoad route
-when, besides, the car was in the planning problem's goal region (``goal_reached``, by the goal's own
-check, :meth:`~vilma.world.commonroad.EgoTask.goal_time`; ``time_to_goal_s`` from the initial state).
+it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`; not a plan, which leaves its
+route to pass); a CommonRoad route when, besides, the car was in the planning problem's goal region (a plan: instead
+of coming to rest at the route's end past it) (``goal_reached``, by the goal's own check,
+:meth:`~vilma.world.commonroad.EgoTask.goal_time`; ``time_to_goal_s`` from the initial state).
 A route is also scored as CommonRoad's benchmark scores it (:mod:`vilma.world.benchmark`): ``collisions``
 (how many of the file's obstacles, moving along their recordings or, with ``traffic: reactive``, where IDM
 drove them, the car's outline touched), ``off_road``
@@ -146,11 +147,13 @@ def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Traject
         out["path_progress"] = covered / path.length if path.length > 0 else 1.0
         out["waypoints_skipped"] = int(len(reached) - reached.sum())
         target = "target" if kind == "go_to" else "end of the path"
-        if kind != "go_to" and out["path_progress"] < m.min_progress:
+        if kind not in ("go_to", "plan") and out["path_progress"] < m.min_progress:
             why.append(f"covered {out['path_progress']:.0%} of the path within {m.path_tolerance:g} m "
                        f"(needs {m.min_progress:.0%}), skipping {out['waypoints_skipped']} of {len(reached)} "
                        "waypoints")
-        if end > m.end_tolerance:
+        if kind == "plan" and goal_reached is not None:
+            pass  # a planning problem's goal region judges the plan, not the route's end past it
+        elif end > m.end_tolerance:
             why.append(f"ended {end:.3g} m from the {target} (tolerance {m.end_tolerance:g} m)")
         elif abs(vx[-1]) >= scenario.driver.rest_speed:
             why.append(f"still moving at {abs(vx[-1]):.3g} m/s at the {target} when the run ended")

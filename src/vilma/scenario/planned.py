@@ -44,6 +44,13 @@ a bit, since a laser box spans only the faces the laser sees (its centre is up t
 RESYNC_SPEED = 1.0
 """A plan starts from the speed of the plan driven while the car's is within this of it [m/s]
 (:meth:`Planning._start`)."""
+KEEP_OFFSET = 0.1
+"""A plan whose lateral motion ends this much farther from the route than the car is [m] is a lane change under
+way, which the next plan keeps (:meth:`Planning._start`); one back towards the route is planned afresh each cycle
+(the lane it leaves was free)."""
+RESYNC_OFFSET = 0.5
+"""A plan starts from the lane offset of the plan driven while the car's is within this of it [m]
+(:meth:`Planning._start`)."""
 CREEP_SPEED = 0.5
 """Below this speed [m/s] a plan keeps the car's lane offset, and a plan that stops within :data:`STOP_REACH` is
 the driver's stop on its end (replanned each cycle from a crawl, a stop's gentle polynomial would approach its end
@@ -128,10 +135,9 @@ class Planning:
         if est is None:
             return
         t0 = time.perf_counter()
-        along = self.path.project(est.x, est.y)
-        params = dataclasses.replace(self.params, target_speed=self.path.speed_at(along.s))
-        state = self._start(est, t, params)
-        result = plan(state, self.frame, predict(self.tracks, params.times), params, goal=self.goal)
+        params = dataclasses.replace(self.params, target_speed=self._speed_ahead(est.x, est.y))
+        state, keep = self._start(est, t, params)
+        result = plan(state, self.frame, predict(self.tracks, params.times), params, goal=self.goal, keep=keep)
         spent = (time.perf_counter() - t0) * 1e3
         self.spent_ms = [self.spent_ms[0] + spent, max(self.spent_ms[1], spent)]
         self.cycles += 1
@@ -144,24 +150,43 @@ class Planning:
             path = Trajectory(path.xy, np.zeros(len(path)))  # the driver's stop on its end, now
         self.driver.drive_plan(path)
 
-    def _start(self, est: PoseEstimate, t: float, params) -> FrenetState:
+    def _speed_ahead(self, x: float, y: float) -> float:
+        """The route's speed for the car at ``(x, y)`` [m] [m/s]: the lowest from which it brakes at its comfortable
+        deceleration to the route's speed at every point ahead (so it slows before a bend or a lower limit, not
+        in it)."""
+        s, speed = self.path.s, self.path.speed
+        k = min(int(np.searchsorted(s, self.path.project(x, y).s)), len(s) - 1)
+        b = self.params.vehicle.actuators.stop_deceleration
+        return float(np.sqrt(np.maximum(speed[k:], 0.0) ** 2 + 2.0 * b * (s[k:] - s[k])).min())
+
+    def _start(self, est: PoseEstimate, t: float, params) -> tuple[FrenetState, tuple[float, float] | None]:
         """Where the plan starts at sim time ``t`` [s]: the car's estimated position in the Frenet frame; its speed
         the faster of the estimate's and the driven plan's then, with the plan's acceleration, while the two are
         within :data:`RESYNC_SPEED` (Werling's consistent replanning: started from the estimate alone each plan would
         start behind the speed controller; never slower than the car, which would brake late), else the estimate's
-        at no acceleration. Below :data:`CREEP_SPEED` the car holds its lane offset: the planner's lateral motions
-        in time are infeasible there (a curvature over speed squared), and a manoeuvre at walking pace is none."""
+        at no acceleration; its lane offset and its rates the driven plan's while within :data:`RESYNC_OFFSET` of
+        the estimate's, and then the rest of a lane change away from the route to continue (``keep`` of
+        :func:`plan`, :data:`KEEP_OFFSET`), else a lane change, started over each cycle from where the path
+        controller lags it, would never get on. Below
+        :data:`CREEP_SPEED` the car holds its lane offset: the planner's lateral motions in time are infeasible
+        there (a curvature over speed squared), and a manoeuvre at walking pace is none."""
         curvature = est.yaw_rate / est.speed if abs(est.speed) > CREEP_SPEED else 0.0  # none turning on the spot
         now = self.frame.state(est.x, est.y, est.yaw, est.speed, 0.0, curvature)
+        keep = None
         if self.last is not None:
             began, last = self.last
             planned = last.state_at(t - began)
             if abs(planned.s_dot - now.s_dot) <= RESYNC_SPEED:  # never slower than the car: it would brake late
                 now = now._replace(s_dot=max(planned.s_dot, now.s_dot), s_ddot=planned.s_ddot)
+            if abs(planned.d - now.d) <= RESYNC_OFFSET:
+                now = now._replace(d=planned.d, d_dot=planned.d_dot, d_ddot=planned.d_ddot)
+                if last.lateral is not None and last.lateral[1] - (t - began) >= params.dt and \
+                        abs(last.lateral[0]) > abs(now.d) + KEEP_OFFSET:
+                    keep = (last.lateral[0], last.lateral[1] - (t - began))
         if now.s_dot < CREEP_SPEED:
             offsets = np.asarray(params.lateral_offsets)
-            now = now._replace(d=float(offsets[np.argmin(np.abs(offsets - now.d))]), d_dot=0.0, d_ddot=0.0)
-        return now
+            now, keep = now._replace(d=float(offsets[np.argmin(np.abs(offsets - now.d))]), d_dot=0.0, d_ddot=0.0), None
+        return now, keep
 
     def at_goal(self, x: float, y: float, tolerance: float) -> bool:
         """Whether ``(x, y)`` [m] is within ``tolerance`` [m] of the goal."""
