@@ -2,7 +2,7 @@
 
 from vilma.planning.frenet import FrenetFrame, FrenetState
 from vilma.planning.messages import local_plan, track_list
-from vilma.planning.planner import Candidates, Plan, PlannerParams, Status, plan
+from vilma.planning.planner import Candidates, Plan, PlannerParams, RoadBounds, Status, plan
 
-__all__ = ["Candidates", "FrenetFrame", "FrenetState", "Plan", "PlannerParams", "Status", "local_plan", "plan",
-           "track_list"]
+__all__ = ["Candidates", "FrenetFrame", "FrenetState", "Plan", "PlannerParams", "RoadBounds", "Status", "local_plan",
+           "plan", "track_list"]

@@ -59,13 +59,13 @@ class PlannerParams:
     """Time between planning cycles [s], a whole number of ``dt``."""
     lateral_offsets: tuple[float, ...] = (-3.5, -1.0, 0.0, 1.0, 3.5)
     """End offsets from the reference [m], left positive (the neighbour lanes' centres among them)."""
-    lateral_durations: tuple[float, ...] = (2.0, 2.5, 3.0)
+    lateral_durations: tuple[float, ...] = (1.5, 2.0, 2.5, 3.0)
     """Durations of the lateral manoeuvres [s]."""
     target_speed: float = 10.0
     """Desired speed of velocity keeping [m/s]."""
     speed_offsets: tuple[float, ...] = (-2.0, -1.0, 0.0, 1.0)
     """End speeds sampled around the target speed [m/s] (each limited to what the comfortable accelerations
-    reach within the duration)."""
+    reach within the duration); besides, one braking hard for each duration."""
     speed_durations: tuple[float, ...] = (1.5, 2.25, 3.0)
     """Durations of the velocity-keeping quartics [s]."""
     position_offsets: tuple[float, ...] = (-3.0, -2.0, -1.0, -0.5, 0.0)
@@ -80,16 +80,23 @@ class PlannerParams:
     """Werling's ``tau``: the gap grows by this time times the lead's speed [s]."""
     lane_width: float = 3.5
     """An object is a lead when its centre is less than half this from the car's offset [m] and ahead."""
+    max_lateral_accel: float = 6.0
+    """Most lateral acceleration a candidate may ask for [m/s^2]: an evasive manoeuvre well within the tyres'
+    grip (friction 1: 9.8 m/s^2), where the path controller still tracks it."""
     comfort_accel: float = 2.0
     """Acceleration a velocity-keeping end speed is planned with at most [m/s^2]."""
     margin: float = 0.2
-    """Added to each side of the car's box in the collision check [m]."""
+    """Added to each side of the car's box in the collision check and against the road's edges [m]."""
     jerk_weight: float = 0.1
     """Werling's ``k_j``: weight of the integral of the squared jerk [s^5/m^2]."""
     time_weight: float = 1.0
     """``k_t``: weight of a manoeuvre's duration [1/s]."""
     offset_weight: float = 1.0
     """``k_d``: weight of the squared end offset from the reference [1/m^2]."""
+    deviation_weight: float = 2.0
+    """Weight of the mean squared offset from the reference over the horizon [1/m^2] (beyond Werling's costs):
+    so that the car comes back to the reference soon once past an obstacle, not at the slow pace that costs
+    least in jerk and time."""
     speed_weight: float = 1.0
     """``k_v``: weight of the squared miss of the target speed [s^2/m^2]."""
     position_weight: float = 1.0
@@ -107,8 +114,9 @@ class PlannerParams:
                 raise ValueError(f"planner {name} is empty; give at least one value")
         check_numbers(self, "planner", positive=("horizon", "dt", "replan_period", "lateral_durations",
                                                  "speed_durations", "position_durations", "lane_width",
-                                                 "comfort_accel"))
+                                                 "comfort_accel", "max_lateral_accel"))
         for name in ("target_speed", "follow_distance", "time_gap", "margin", "jerk_weight", "time_weight",
+                     "deviation_weight",
                      "offset_weight", "speed_weight", "position_weight", "lateral_weight", "longitudinal_weight"):
             if getattr(self, name) < 0:
                 raise ValueError(f"planner {name} must be >= 0, got {getattr(self, name)!r}")
@@ -144,7 +152,7 @@ class PlannerParams:
     def candidate_count(self) -> int:
         """Most candidates a cycle evaluates."""
         lateral = len(self.lateral_offsets) * len(self.lateral_durations)
-        return lateral * max(len(self.speed_offsets) * len(self.speed_durations),
+        return lateral * max((len(self.speed_offsets) + 1) * len(self.speed_durations),
                              len(self.position_offsets) * (len(self.position_durations) + 1))
 
     @property
@@ -201,6 +209,19 @@ class Plan:
         return Trajectory(np.column_stack([self.x, self.y]), self.speed)
 
 
+class RoadBounds(NamedTuple):
+    """The road's edges along a reference path: at arc lengths ``s`` (m,) [m], the offsets of its ``left`` and
+    ``right`` edges (m,) [m] (left positive; -inf, inf where unbounded). A candidate whose car box crosses them is
+    infeasible."""
+
+    s: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+
+
+NO_ROAD = RoadBounds(np.zeros(0), np.zeros(0), np.zeros(0))
+
+
 class _Car(NamedTuple):
     half_length: float
     half_width: float
@@ -208,6 +229,7 @@ class _Car(NamedTuple):
     max_curvature: float
     max_accel: float
     max_decel: float
+    max_lateral_accel: float
 
 
 @njit(cache=True)
@@ -261,10 +283,11 @@ def _near(objects, out, checked, reach):
 
 
 @njit(cache=True)
-def _combine(fa, lat, lon, objects, car, margin, check_all, out, status):
+def _combine(fa, lat, lon, objects, car, margin, road, check_all, out, status):
     """Every lateral (3, n_lat, n_t) with every longitudinal (3, n_lon, n_t) motion: Cartesian motion into
     ``out`` (6, n_lat * n_lon, n_t: x, y, yaw, speed, accel, curvature) and the :class:`Status` of each
-    (the infeasible checked for collisions too with ``check_all``)."""
+    (the infeasible checked for collisions too with ``check_all``); off the :class:`RoadBounds` ``road`` is
+    infeasible."""
     n_lat, n_lon, n_t = lat.shape[1], lon.shape[1], lat.shape[2]
     ref = np.empty((n_lon, n_t, 5))
     for j in range(n_lon):
@@ -283,8 +306,17 @@ def _combine(fa, lat, lon, objects, car, margin, check_all, out, status):
                 out[1, c, k] = ref[j, k, 1] + d * math.cos(theta)
                 out[2, c, k], out[3, c, k], out[4, c, k], out[5, c, k] = yaw, v, a, kappa
                 if (s_dot < -1e-6 or 1.0 - kr * d <= 0.0 or abs(kappa) > car.max_curvature
-                        or a > car.max_accel or a < -car.max_decel):
+                        or a > car.max_accel or a < -car.max_decel or abs(kappa) * v * v > car.max_lateral_accel):
                     ok = False
+                elif road.s.shape[0] > 0:  # the box's extent across the reference, against the road's edges
+                    phi = yaw - theta
+                    centre = d + car.offset * math.sin(phi)
+                    half = (car.half_width + margin) * abs(math.cos(phi)) + (car.half_length + margin) * abs(
+                        math.sin(phi))
+                    s = lon[0, j, k]
+                    if centre + half > np.interp(s, road.s, road.left) or centre - half < np.interp(s, road.s,
+                                                                                                  road.right):
+                        ok = False
             status[c] = 0 if ok else 1
     checked = (status == 0) | check_all
     near = _near(objects, out, checked, abs(car.offset) + math.hypot(car.half_length + margin, car.half_width + margin))
@@ -299,7 +331,7 @@ def _combine(fa, lat, lon, objects, car, margin, check_all, out, status):
 def _car(p: PlannerParams) -> _Car:
     v = p.vehicle
     return _Car(0.5 * v.length, 0.5 * v.width, v.body_offset, p.max_curvature, v.actuators.max_accel,
-                v.actuators.max_decel)
+                v.actuators.max_decel, p.max_lateral_accel)
 
 
 class _Target(NamedTuple):
@@ -341,6 +373,10 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         want = np.tile(p.target_speed + np.asarray(p.speed_offsets), len(p.speed_durations))
         reach = np.clip(want, state.s_dot - p.vehicle.actuators.stop_deceleration * T,
                         state.s_dot + p.comfort_accel * T)
+        # and for each duration a hard slow-down, to swerve and brake at once (a quartic from and to no acceleration
+        # peaks at 1.5 times its mean: 1.5 x 0.6 = 90 % of the car's deceleration)
+        T = np.append(T, p.speed_durations)
+        reach = np.append(reach, state.s_dot - 0.6 * p.vehicle.actuators.max_decel * np.asarray(p.speed_durations))
         v1 = np.maximum(reach, 0.0)
         coeffs = quartic(state.s, state.s_dot, state.s_ddot, v1, 0.0, T)
         miss = p.speed_weight * (v1 - p.target_speed) ** 2
@@ -375,12 +411,12 @@ def _lateral(state: FrenetState, offsets: list[float], p: PlannerParams, keep: t
     return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + p.offset_weight * d1**2, d1
 
 
-def _motions(frame, lat, lat_T, lon, lon_T, objects, p, check_all=False):
+def _motions(frame, lat, lat_T, lon, lon_T, objects, p, road=NO_ROAD, check_all=False):
     t = p.times
     lat_m, lon_m = evaluate(lat, lat_T, t)[:3], evaluate(lon, lon_T, t)[:3]
     n = lat_m.shape[1] * lon_m.shape[1]
     out, status = np.empty((6, n, len(t))), np.empty(n, dtype=np.int8)
-    _combine(frame.arrays, lat_m, lon_m, objects, _car(p), p.margin, check_all, out, status)
+    _combine(frame.arrays, lat_m, lon_m, objects, _car(p), p.margin, road, check_all, out, status)
     return lat_m, lon_m, out, status
 
 
@@ -397,14 +433,16 @@ def _check(state: FrenetState, objects: np.ndarray, p: PlannerParams) -> np.ndar
 
 
 def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerParams,
-         goal: float | None = None, keep: tuple[float, float] | None = None) -> Plan:
+         goal: float | None = None, keep: tuple[float, float] | None = None, road: RoadBounds = NO_ROAD) -> Plan:
     """Plan from the car's ``state`` along ``reference`` among predicted ``objects`` (n_obj, n_t, 5: x, y [m],
-    yaw [rad], length, width [m] at ``params.times``), stopping at arc length ``goal`` [m] if given.
+    yaw [rad], length, width [m] at ``params.times``), stopping at arc length ``goal`` [m] if given, within the
+    ``road``'s edges if given.
 
     ``keep``, a lateral motion's end offset [m] (one of the planner's) and the time left to it [s], is the lane
-    change under way: sampled besides the lateral durations, and chosen while any of its candidates is free, so
-    that a lane change once begun is finished unless it would collide (started over each cycle, its end would be
-    ever a whole duration away, and the car would creep across while each plan is checked as a swift one).
+    change under way, sampled besides the lateral durations (Werling's consistent replanning). One leading away
+    from the reference (a pass) is chosen while any of its candidates is free, so that it is finished unless it
+    would collide: started over each cycle, its end would be ever a whole duration away, and the car would creep
+    across while each plan is checked as a swift one.
 
     Each lateral end offset has its longitudinal mode: following the nearest object ahead within half a lane of
     that offset, or stopping at the goal, whichever target is nearer, once the car keeping its speed would come
@@ -426,7 +464,8 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     for target, offsets in lanes.items():
         lat, lat_T, lat_cost, lat_end = _lateral(state, offsets, params, keep)
         lon, lon_T, lon_cost = _longitudinal(state, target, params)
-        lat_m, lon_m, out, status = _motions(reference, lat, lat_T, lon, lon_T, objects, params)
+        lat_m, lon_m, out, status = _motions(reference, lat, lat_T, lon, lon_T, objects, params, road)
+        lat_cost = lat_cost + params.deviation_weight * (lat_m[0] ** 2).mean(axis=1)
         cost = (params.lateral_weight * lat_cost[:, None] + params.longitudinal_weight * lon_cost[None, :]).ravel()
         groups.append((target, lat_m, lon_m, out, status, cost, np.column_stack([lat_end, lat_T])))
         kept.append(np.zeros((len(lat_T), len(lon_T)), bool))
@@ -435,7 +474,8 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     candidates = Candidates(out[0], out[1], status, cost)
     free = np.flatnonzero(status == Status.FEASIBLE)
     kept = np.concatenate([k.ravel() for k in kept])[free]
-    free = free[kept] if kept.any() else free
+    if kept.any() and abs(keep[0]) > abs(state.d):
+        free = free[kept]
     if len(free) == 0:
         return _fallback(state, reference, objects, params, candidates)
     chosen = int(free[np.argmin(cost[free])])
@@ -461,7 +501,7 @@ def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p
     def stop(decel):
         lon = np.array([[state.s, v0, -0.5 * decel if v0 > 0 else 0.0, 0.0, 0.0, 0.0]])
         stopped = v0 / decel if v0 > 0 else p.dt  # at rest from then on (a longer polynomial would reverse)
-        return _motions(reference, lat, [min(p.lateral_durations)], lon, [stopped], objects, p, True)
+        return _motions(reference, lat, [min(p.lateral_durations)], lon, [stopped], objects, p, check_all=True)
 
     decel, name = p.vehicle.actuators.stop_deceleration, "comfortable"
     lat_m, lon_m, out, status = stop(decel)

@@ -31,7 +31,7 @@ from vilma.perception import (
     scan_points,
     segment,
 )
-from vilma.planning import FrenetFrame, FrenetState, Plan, plan
+from vilma.planning import FrenetFrame, FrenetState, Plan, RoadBounds, plan
 from vilma.scenario.plan_keys import PLANNER
 from vilma.scenario.spec import Scenario
 from vilma.sim import SimConfig
@@ -45,9 +45,8 @@ RESYNC_SPEED = 1.0
 """A plan starts from the speed of the plan driven while the car's is within this of it [m/s]
 (:meth:`Planning._start`)."""
 KEEP_OFFSET = 0.1
-"""A plan whose lateral motion ends this much farther from the route than the car is [m] is a lane change under
-way, which the next plan keeps (:meth:`Planning._start`); one back towards the route is planned afresh each cycle
-(the lane it leaves was free)."""
+"""A plan whose lateral motion ends farther than this from the car [m] is a lane change under way, which the next
+plan may keep (:meth:`Planning._start`)."""
 RESYNC_OFFSET = 0.5
 """A plan starts from the lane offset of the plan driven while the car's is within this of it [m]
 (:meth:`Planning._start`)."""
@@ -77,6 +76,7 @@ class Planning:
         self.params, self.kind, self.sim, self.driver, self.path = scenario.planner, scenario.perception, sim, \
             driver, path
         self.frame = FrenetFrame(path)
+        self.road = RoadBounds(path.s, *scenario.road.network.lateral_bounds(path.xy)) if scenario.road else None
         (self.goal,), _ = self.frame.to_frenet([path.xy[-1, 0]], [path.xy[-1, 1]])
         self.every, self.periods = round(self.params.replan_period / driver.period), 0
         self.preview = round(PREVIEW / self.params.dt)
@@ -137,7 +137,8 @@ class Planning:
         t0 = time.perf_counter()
         params = dataclasses.replace(self.params, target_speed=self._speed_ahead(est.x, est.y))
         state, keep = self._start(est, t, params)
-        result = plan(state, self.frame, predict(self.tracks, params.times), params, goal=self.goal, keep=keep)
+        result = plan(state, self.frame, predict(self.tracks, params.times), params, goal=self.goal, keep=keep,
+                      **({} if self.road is None else {"road": self.road}))
         spent = (time.perf_counter() - t0) * 1e3
         self.spent_ms = [self.spent_ms[0] + spent, max(self.spent_ms[1], spent)]
         self.cycles += 1
@@ -165,9 +166,9 @@ class Planning:
         within :data:`RESYNC_SPEED` (Werling's consistent replanning: started from the estimate alone each plan would
         start behind the speed controller; never slower than the car, which would brake late), else the estimate's
         at no acceleration; its lane offset and its rates the driven plan's while within :data:`RESYNC_OFFSET` of
-        the estimate's, and then the rest of a lane change away from the route to continue (``keep`` of
-        :func:`plan`, :data:`KEEP_OFFSET`), else a lane change, started over each cycle from where the path
-        controller lags it, would never get on. Below
+        the estimate's, and then the rest of a lane change under way (``keep`` of :func:`plan`,
+        :data:`KEEP_OFFSET`), else a lane change, started over each cycle from where the path controller lags it,
+        would never get on. Below
         :data:`CREEP_SPEED` the car holds its lane offset: the planner's lateral motions in time are infeasible
         there (a curvature over speed squared), and a manoeuvre at walking pace is none."""
         curvature = est.yaw_rate / est.speed if abs(est.speed) > CREEP_SPEED else 0.0  # none turning on the spot
@@ -181,7 +182,7 @@ class Planning:
             if abs(planned.d - now.d) <= RESYNC_OFFSET:
                 now = now._replace(d=planned.d, d_dot=planned.d_dot, d_ddot=planned.d_ddot)
                 if last.lateral is not None and last.lateral[1] - (t - began) >= params.dt and \
-                        abs(last.lateral[0]) > abs(now.d) + KEEP_OFFSET:
+                        abs(last.lateral[0] - now.d) > KEEP_OFFSET:
                     keep = (last.lateral[0], last.lateral[1] - (t - began))
         if now.s_dot < CREEP_SPEED:
             offsets = np.asarray(params.lateral_offsets)

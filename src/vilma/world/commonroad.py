@@ -30,7 +30,7 @@ with warnings.catch_warnings():  # commonroad-io's generated protobuf modules us
     from commonroad.scenario.traffic_sign_interpreter import TrafficSignInterpreter
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
     from commonroad_route_planner.route_planner import RoutePlanner
-    from shapely import Point, contains_xy, unary_union
+    from shapely import LineString, Point, contains_xy, unary_union
 
 from vilma.world.traffic import Traffic, traffic
 
@@ -73,6 +73,22 @@ class RoadNetwork:
         d = self._road.boundary.distance(p)
         return d if self._road.covers(p) else -d
 
+    def lateral_bounds(self, xy: np.ndarray, reach: float = 30.0) -> tuple[np.ndarray, np.ndarray]:
+        """Offsets [m] of the road's left and right edges (the outline of all lanelets) from each point of a path
+        (n, 2) [m], along its left normal (left positive, right negative), looked for within ``reach`` [m]; -inf, inf
+        at a point off the road (no bound there)."""
+        xy = np.asarray(xy, float)
+        tangent = np.gradient(xy, axis=0)
+        normal = np.column_stack([-tangent[:, 1], tangent[:, 0]]) / np.hypot(*tangent.T)[:, None]
+        left, right = np.full(len(xy), np.inf), np.full(len(xy), -np.inf)
+        for i, (p, n) in enumerate(zip(xy, normal, strict=True)):
+            across = self._road.intersection(LineString([p - reach * n, p + reach * n]))
+            for piece in getattr(across, "geoms", [across]):
+                if piece.length > 0 and piece.distance(Point(p)) < 1e-6:  # the stretch of road through the point
+                    t = (np.asarray(piece.coords) - p) @ n
+                    left[i], right[i] = t.max(), t.min()
+        return left, right
+
     def speed_limit(self, lanelet_id: int) -> float | None:
         """The lanelet's speed limit [m/s] from its traffic signs, or None if it has none."""
         return self._signs.speed_limit(frozenset([lanelet_id]))
@@ -111,6 +127,8 @@ class EgoTask:
     """commonroad-io's scenario (road network and obstacles), for the benchmark's checks."""
     traffic: Traffic = field(compare=False, repr=False)
     """The scenario's obstacles on the sim clock."""
+    network: RoadNetwork = field(compare=False, repr=False)
+    """The road network, for the road's edges."""
 
     def samples(self, t: np.ndarray) -> np.ndarray:
         """The rows of a drive sampled at times ``t`` [s] from the initial state that fall on the scenario's time
@@ -180,7 +198,7 @@ class RoadScenario:
                        y=float(s0.position[1]), yaw=float(s0.orientation), speed=v0, path=xy, path_speed=v,
                        goal=pp.goal, arrivals=_arrivals(pp.goal, xy, int(s0.time_step), float(self.scenario.dt)),
                        time_step=int(s0.time_step), dt=float(self.scenario.dt),
-                       scenario=self.scenario, traffic=traffic(self.scenario))
+                       scenario=self.scenario, traffic=traffic(self.scenario), network=self.network)
 
     def _planning_problem(self, pid: int | None) -> PlanningProblem:
         ids = ", ".join(map(str, self.planning_problems)) or "none"
