@@ -14,9 +14,9 @@ stops leaves nothing stale behind.
 
 from __future__ import annotations
 
-import json
 import math
 
+import msgspec
 import numpy as np
 
 from vilma.core.messages import LocalPlan, Message, TrackList
@@ -93,4 +93,4 @@ PLANNING_SCENES = {OBJECTS_SCENE: tracks_scene, PLAN_SCENE: plan_scene}
 
 def scene_json(name: str, msg: Message) -> bytes:
     """The update of scene topic ``name`` from ``msg``, JSON."""
-    return json.dumps(PLANNING_SCENES[name](msg)).encode()
+    return msgspec.json.encode(PLANNING_SCENES[name](msg))  # a plan's is 100 kB: a quarter of json.dumps's time
