@@ -40,7 +40,8 @@ from vilma.trajectory import SpeedRecorder, TrajectoryRecorder
 
 log = logging.getLogger(__name__)
 
-WATCHED = ("pose", "velocity", "gps", "imu", "wheel_speed", "actuators", "cmd", "sim/status", "driver/status")
+WATCHED = ("pose", "velocity", "gps", "imu", "wheel_speed", "actuators", "cmd", "sim/status", "driver/status",
+           "perception/objects", "planning/plan")
 """Topics the GUI subscribes to."""
 
 HISTORY_COLUMNS = {

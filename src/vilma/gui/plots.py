@@ -24,6 +24,7 @@ from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import QFileDialog, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from vilma.gui.bridge import HISTORY_COLUMNS, BusBridge
+from vilma.gui.plan_layer import PlanLayer
 from vilma.gui.road_layer import RoadLayer
 from vilma.gui.waypoints import WaypointModel
 
@@ -32,6 +33,8 @@ if TYPE_CHECKING:
 
 PATH_POINTS = 6_000
 """Most points of the car's path drawn at once (a stride above that)."""
+PLAN_TOPICS = ("perception/objects", "planning/plan")
+"""Topics drawn on the map as they come (their latest message)."""
 
 
 def peak_decimate(t: np.ndarray, y: np.ndarray, t0: float, t1: float, buckets: int) -> tuple[np.ndarray, np.ndarray]:
@@ -121,6 +124,7 @@ class PlotWindow(QWidget):
                                              skipFiniteCheck=True)
         self.car_curve.setZValue(self.trajectory_curve.zValue() + 1)
         self.road = RoadLayer(self.path_plot, road) if road is not None else None
+        self.plan = PlanLayer(self.path_plot)
         self.speed_plot = g.addPlot(row=0, col=1, title=legend_title(
             "Speed", ((0, 0, 230), "─", "speed"), ((220, 0, 0), "╌", "target")))
         self.speed_plot.setLabel("left", "speed", units="m/s")
@@ -185,6 +189,16 @@ class PlotWindow(QWidget):
         if name == "reset":
             self.bridge.taken(name)
             self.refresh(force=True)
+        elif name in PLAN_TOPICS:
+            self.bridge.taken(name)
+            if not self.paused and self.isVisible():
+                self._show_plan()
+
+    def _show_plan(self) -> None:
+        """The latest tracks and plan on the map, if recent in the sim time of the latest pose."""
+        get = self.bridge.latest.get
+        pose = get("pose")
+        self.plan.show(get("perception/objects"), get("planning/plan"), pose.stamp_ns if pose is not None else None)
 
     def _zoomed(self, *_) -> None:
         if not self._drawing:
@@ -228,6 +242,7 @@ class PlotWindow(QWidget):
         path = h["path"].view()
         x, y, connect = self._path_points(path)
         self.car_curve.setData(x, y, connect=connect)
+        self._show_plan()
         if self.road is not None and len(path):
             self.road.show_at(float(path[-1, 0]))
         t0, t1, buckets = self._time_span()

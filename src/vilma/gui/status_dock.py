@@ -28,6 +28,7 @@ GROUPS: tuple[tuple[str, tuple[tuple[str, str], ...]], ...] = (
     ("Simulation", (("sim.link", "link"), ("sim.time", "sim time [s]"), ("sim.rtf", "real-time factor"),
                     ("sim.watchdog", "watchdog"), ("sim.autonomous", "commands from"),
                     ("driver.mode", "driver mode"))),
+    ("Planning", (("plan.mode", "plan mode"), ("plan.tracks", "tracked objects"))),
 )
 """Group title -> (key, label) of each value shown."""
 
@@ -69,6 +70,7 @@ class StatusDock(QDockWidget):
         scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
         body.setMinimumWidth(body.sizeHint().width() + 60)  # room for the values
         scroll.setMinimumWidth(body.minimumWidth() + 20)
+        self.labels["plan.mode"].setWordWrap(True)  # a fallback's reason is a sentence
         self.setWidget(scroll)
         self.timer = QTimer(self)
         self.timer.timeout.connect(self.refresh)
@@ -119,3 +121,7 @@ class StatusDock(QDockWidget):
             self._set("sim.autonomous", "driver" if s.autonomous else "manual")
         if (d := get("driver/status")) is not None:
             self._set("driver.mode", d.mode + (" (arrived)" if d.arrived else "") + (f": {d.error}" if d.error else ""))
+        if (p := get("planning/plan")) is not None:
+            self._set("plan.mode", p.mode + (f": {p.reason}" if p.reason else ""))
+        if (t := get("perception/objects")) is not None:
+            self._set("plan.tracks", f"{len(t.objects)} ({t.source})")

@@ -24,9 +24,10 @@ from vilma.core.closing import Closeable
 from vilma.core.extras import require
 from vilma.core.messages import Message
 from vilma.core.net import is_loopback
-from vilma.record.recorder import LIVE_TOPICS, msgspec_row
+from vilma.record.plan_scene import PLANNING_SCENES
+from vilma.record.recorder import LIVE_TOPICS, json_messages, msgspec_row
 from vilma.record.road_scene import SCENE_SCHEMA, SCENE_TOPICS, SCENE_UPDATE, SceneFeed
-from vilma.record.schemas import COMPANIONS, channels, encode_struct, numeric_layouts, struct_schema
+from vilma.record.schemas import COMPANIONS, channels, numeric_layouts, struct_schema
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
     WorldMessageError,
@@ -94,7 +95,7 @@ class FoxgloveLive(Closeable):
         if ch is None:
             lay = self._layouts.get(name) or self._world.get(name)
             schema_name, schema = ((lay.schema_name, lay.schema) if lay is not None
-                                   else (SCENE_UPDATE, SCENE_SCHEMA) if name in SCENE_TOPICS
+                                   else (SCENE_UPDATE, SCENE_SCHEMA) if name in SCENE_TOPICS or name in PLANNING_SCENES
                                    else (f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name])))
             cdr = name in self._layouts
             ch = self._fox.Channel(f"vilma/{self.car}/{name}", message_encoding="cdr" if cdr else "json",
@@ -124,7 +125,8 @@ class FoxgloveLive(Closeable):
                 for c in channels(name):
                     self._channel(c).log(self._layouts[c].encode_one(msg.stamp_ns, values), log_time=msg.stamp_ns)
             else:
-                self._channel(name).log(encode_struct(msg), log_time=msg.stamp_ns)
+                for c, data in json_messages(name, msg):
+                    self._channel(c).log(data, log_time=msg.stamp_ns)
                 if name == "sim/status":
                     self.server.broadcast_time(msg.stamp_ns)
                     if self._scene is not None:

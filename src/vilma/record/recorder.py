@@ -27,6 +27,7 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS, topic
 from vilma.core.closing import Closeable
 from vilma.core.messages import Message
 from vilma.record.mcap_file import ChunkPolicy, McapFile, RecordError
+from vilma.record.plan_scene import PLANNING_SCENES, scene_json
 from vilma.record.road_scene import (
     ROAD,
     SCENE_SCHEMA,
@@ -122,7 +123,7 @@ class Recorder(Closeable):
             elif name in self._world_types:
                 kind = self._world_types[name]
                 cid = f.add_channel(key, kind, SCHEMAS[kind], encoding="cdr")
-            elif name in SCENE_TOPICS:
+            elif name in SCENE_TOPICS or name in PLANNING_SCENES:
                 cid = f.add_channel(key, SCENE_UPDATE, SCENE_SCHEMA)
             else:
                 cid = f.add_channel(key, f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name]))
@@ -166,7 +167,9 @@ class Recorder(Closeable):
                     f.write(self._channel(f, c), msg.stamp_ns, self._layouts[c].encode_one(msg.stamp_ns, values),
                             close_chunk=k == len(written))
             else:
-                f.write(self._channel(f, name), msg.stamp_ns, encode_struct(msg))
+                written = json_messages(name, msg)
+                for k, (c, data) in enumerate(written, 1):  # a message and the scene drawn from it in one chunk
+                    f.write(self._channel(f, c), msg.stamp_ns, data, close_chunk=k == len(written))
         self._guard(put)
 
     def _add_world(self, name: str, msg: Message) -> None:
@@ -217,6 +220,12 @@ class Recorder(Closeable):
         """Finish the file (summary and footer); closing again does nothing."""
         self._guard(lambda f: f.close())
         self._file = None
+
+
+def json_messages(name: str, msg: Message) -> list[tuple[str, bytes]]:
+    """The JSON messages (topic, payload) written from ``msg`` of topic ``name``: itself, and the scene drawn from
+    it (:mod:`vilma.record.plan_scene`)."""
+    return [(c, encode_struct(msg) if c == name else scene_json(c, msg)) for c in channels(name)]
 
 
 def msgspec_row(msg: Message) -> list[float]:

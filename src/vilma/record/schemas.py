@@ -71,10 +71,12 @@ DRIVE_LOG = "drive_log"
 """The runner's topic: one :data:`~vilma.scenario.drive_log.COLUMNS` row a control period (true plant + driver)."""
 TF = "tf"
 """The car's frame in the map (``foxglove_msgs/msg/FrameTransform``), derived from ``pose``."""
+OBJECTS_SCENE, PLAN_SCENE = "perception/objects/scene", "planning/plan/scene"
+"""The tracks and the plans drawn as Foxglove scene primitives (:mod:`vilma.record.plan_scene`)."""
 COMPANIONS = {"pose": ("pose/euler", TF), "velocity": ("velocity/world",), "gps": ("gps/enu",),
-              "odometry": ("odometry/euler",)}
+              "odometry": ("odometry/euler",), "perception/objects": (OBJECTS_SCENE,), "planning/plan": (PLAN_SCENE,)}
 """Topic -> the topics written beside it from each of its messages (what its standard type cannot carry
-exactly, and ``tf``)."""
+exactly, ``tf``, and the scenes drawing the tracks and plans)."""
 
 _SEPARATOR = "=" * 80
 _TIME = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec"
