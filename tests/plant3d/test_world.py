@@ -10,6 +10,7 @@ import pytest
 
 from tests.plant3d.test_plant import hold_speed
 from vilma.core.messages import ActuatorCommand, Longitudinal
+from vilma.perception import SegmentParams, segment
 from vilma.plant3d.plant import MujocoPlant
 from vilma.plant3d.world import Box, Bump, Cone, Ramp, World
 from vilma.scenario import SpecError, load_scenario, to_yaml
@@ -106,8 +107,8 @@ def test_hitting_a_cone_counts_it_by_name():
 
 
 def test_a_world_needs_the_3d_plant_and_valid_elements():
-    with pytest.raises(ValueError, match="needs the 3D plant"):
-        SimConfig(world=World(cones=(Cone(pos=(1.0, 1.0)),)))
+    with pytest.raises(ValueError, match="ramps or bumps needs the 3D plant"):
+        SimConfig(world=World(bumps=(Bump(pos=(1.0, 1.0)),)))
     with pytest.raises(ValueError, match="box size must be a finite number > 0"):
         Box(pos=(0.0, 0.0, 0.0), size=(1.0, -1.0, 1.0))
     with pytest.raises(ValueError, match="ramp height must be a finite number"):
@@ -143,11 +144,80 @@ def test_a_scenario_places_the_world_and_scores_collisions(tmp_path):
     assert result.failures == ["collisions: 1 is outside max 0"]
 
 
-def test_a_world_on_the_planar_plant_is_refused_at_its_line(tmp_path):
+def test_ramps_on_the_planar_plant_are_refused_at_their_line(tmp_path):
     f = tmp_path / "flat.yaml"
-    f.write_text("task: {speed: 3}\nworld:\n  cones: [{pos: [12, 0]}]\n", encoding="utf-8")
-    with pytest.raises(SpecError, match=r"flat.yaml:2: world: .*needs the 3D plant"):
+    f.write_text("task: {speed: 3}\nworld:\n  ramps: [{start: [12, 0]}]\n", encoding="utf-8")
+    with pytest.raises(SpecError, match=r"flat.yaml:2: world: .*ramps or bumps needs the 3D plant"):
         load_scenario(f)
     f.write_text("plant: mujoco\ntask: {speed: 3}\nworld:\n  cones: [{pos: [12, 0], radius: -1}]\n", encoding="utf-8")
     with pytest.raises(SpecError, match=r"flat.yaml:4: world.cones\[0\]: cone radius must be a finite number > 0"):
         load_scenario(f)
+
+
+# -- flat ground: boxes and cones stand still as the scene sensors' traffic, and the scorecard counts touching them
+
+
+def _flat(tmp_path, text: str):
+    f = tmp_path / "flat.yaml"
+    f.write_text(text, encoding="utf-8")
+    return load_scenario(f)
+
+
+def test_on_flat_ground_the_objects_sensor_lists_a_cone_and_a_box_where_they_stand(tmp_path):
+    sc = _flat(tmp_path, "task: {speed: 1}\nobjects: {position_noise: 0, speed_noise: 0}\nworld:\n"
+                         "  cones: [{pos: [10, 2], radius: 0.2}]\n"
+                         "  boxes: [{pos: [-5, 3, 0.5], size: [1, 0.5, 0.5], yaw: 0.3}]\n")
+    with Simulator(sc.sim) as sim:
+        sim.run_for(1 / sc.sim.objects.rate_hz)
+        (_, objects), *_ = sim.take_captures()
+    box, cone = sorted(objects.objects, key=lambda o: o.id)  # the boxes first, then the cones
+    assert (box.id, cone.id) == (1, 2) and cone.speed == 0 == box.speed
+    assert (cone.x, cone.y) == pytest.approx((10.0, 2.0)) and (cone.length, cone.width) == pytest.approx((0.4, 0.4))
+    assert (box.x, box.y, box.yaw) == pytest.approx((-5.0, 3.0, 0.3)) and (box.length, box.width) == (2.0, 1.0)
+
+
+def test_on_flat_ground_the_laser_meets_a_cone_at_its_range_in_one_cluster_the_segmentation_keeps(tmp_path):
+    sc = _flat(tmp_path, "task: {speed: 1}\nlaser: {range_noise: 0}\nworld: {cones: [{pos: [5, 0]}]}\n")
+    p = sc.sim.laser
+    with Simulator(sc.sim) as sim:
+        sim.run_for(1 / p.rate_hz)
+        (_, scan), *_ = sim.take_captures()
+    ranges = np.frombuffer(scan.ranges, "<f4").astype(np.float64)
+    ahead = np.argmin(np.abs(p.bearings))
+    cone = Cone(pos=(5.0, 0.0))
+    assert p.bearings[ahead] == 0 and ranges[ahead] == pytest.approx(5.0 - p.position[0] - cone.radius, abs=1e-5)
+    (cluster,) = segment(ranges, p.bearings)
+    # the rays within the cone's half-angle asin(r / d) from dead ahead, at the laser's resolution: more than the
+    # fewest points a cluster keeps (a cone 5 m away spans 4 degrees)
+    spans = np.abs(p.bearings) < math.asin(cone.radius / (5.0 - p.position[0]))
+    assert ahead in cluster and len(cluster) >= spans.sum() - 1 >= SegmentParams().min_points
+
+
+def test_on_flat_ground_driving_into_a_cone_is_a_collision_and_passing_one_is_its_gap(tmp_path):
+    course = "task: {course: [[0, 0], [25, 0]], speed: 3}\nduration: 15\nexpect: {collisions: {max: 0}}\n"
+    hit = run(_flat(tmp_path, course + "world: {cones: [{pos: [12, 0], name: c}, {pos: [18, 3], name: side}]}\n"))
+    assert hit.metrics["collisions"] == 1 and hit.metrics["min_distance_to_traffic_m"] == 0  # c, not side
+    assert "collisions: 1 is outside max 0" in hit.failures and not hit.metrics["completed"]
+    assert hit.metrics["incomplete_reason"].startswith("collided with c (first at ")
+    passed = run(_flat(tmp_path, course + "world: {cones: [{pos: [18, 3]}]}\n"))
+    gap = 3.0 - CAR.width / 2 - Cone(pos=(0, 0)).radius  # the car on y = 0; the cone's polygon has a vertex at 90 deg
+    assert passed.passed and passed.metrics["completed"]
+    assert passed.metrics["min_distance_to_traffic_m"] == pytest.approx(gap, abs=0.05)  # and the car's lateral error
+
+
+@pytest.mark.parametrize(("world", "message"), [
+    ("{cones: [{pos: [.nan, 0]}]}", "world.cones[0].pos[0]: expected a finite number, got nan"),
+    ("{cones: [{radius: 0.2}]}", "world.cones[0]: missing pos"),
+    ("{boxes: [{pos: [1, 2, .inf], size: [1, 1, 1]}]}", "world.boxes[0].pos[2]: expected a finite number, got inf"),
+])
+def test_a_bad_obstacle_on_flat_ground_is_one_line_naming_its_field(tmp_path, world, message):
+    with pytest.raises(SpecError) as e:
+        _flat(tmp_path, f"task: {{speed: 3}}\nworld: {world}\n")
+    assert str(e.value) == f"{tmp_path / 'flat.yaml'}:2: {message}"
+
+
+def test_obstacles_on_flat_ground_with_a_commonroad_world_are_refused(tmp_path):
+    from tests.scenario.test_planned import TUTORIAL
+
+    with pytest.raises(SpecError, match=r"flat.yaml:1: world: boxes and cones on flat ground go without a CommonRoad"):
+        _flat(tmp_path, f"world: {{commonroad: {TUTORIAL}, cones: [{{pos: [1, 2]}}]}}\n")

@@ -7,9 +7,20 @@ import math
 
 import numpy as np
 import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from vilma.scenario.drive_log import COLUMNS, DriveLog
-from vilma.scenario.metrics import check_expectations, completion, coverage, scorecard, step_response, timing
+from vilma.scenario.metrics import (
+    check_expectations,
+    completion,
+    convex_gap,
+    coverage,
+    scorecard,
+    step_response,
+    timing,
+)
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, MetricsSpec, Scenario, TaskSpec
 from vilma.trajectory import Trajectory
 
@@ -187,3 +198,22 @@ def test_a_nan_state_or_a_cut_log_is_incomplete():
 def test_timing_keys():
     assert timing(34.0, 2.0, 0.02, 0.5) == {"wall_time_s": 2.0, "loop_wall_time_s": 0.02, "load_time_s": 0.5,
                                             "realtime_factor": pytest.approx(1700.0)}
+
+
+def _rectangle(yaw: float, half_length: float, half_width: float) -> np.ndarray:
+    """A box about the origin turned by ``yaw``, its corners counter-clockwise."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)]) * (half_length, half_width)
+    return np.column_stack([c * corners[:, 0] - s * corners[:, 1], s * corners[:, 0] + c * corners[:, 1]])
+
+
+@settings(deadline=None, max_examples=200)
+@given(pose=st.tuples(*[st.floats(-6, 6)] * 2, st.floats(-math.pi, math.pi)), sides=st.integers(3, 16),
+       size=st.tuples(st.floats(0.2, 3), st.floats(0.2, 3), st.floats(0.1, 2)), car_yaw=st.floats(-math.pi, math.pi))
+def test_convex_gap_is_shapelys_distance_between_a_car_box_and_a_polygon(pose, sides, size, car_yaw):
+    car = _rectangle(car_yaw, size[0], size[1])
+    k = np.arange(sides) * 2 * np.pi / sides
+    cone = np.column_stack([pose[0] + size[2] * np.cos(k + pose[2]), pose[1] + size[2] * np.sin(k + pose[2])])
+    expected = shapely.Polygon(car).distance(shapely.Polygon(cone))
+    assert convex_gap(car, cone) == pytest.approx(expected, abs=1e-9)
+    assert convex_gap(car[None, None], cone[None, None]).shape == (1, 1)  # broadcast over leading axes

@@ -31,6 +31,8 @@ from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import run
 from vilma.vehicle.params import vilma
 from vilma.world.commonroad import load
+from vilma.world.states import X, Y
+from vilma.world.traffic import traffic
 
 TUTORIAL = Path(str(importlib.resources.files("vilma") / "scenarios/data/commonroad/ZAM_Tutorial-1_1_T-1.xml"))
 CAR_LENGTH, CAR_WIDTH = 4.5, 2.0
@@ -59,6 +61,35 @@ def _road(tmp_path: Path, ego_x: float, ego_speed: float, car_x: float, car_spee
         sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
                                        TrajectoryPrediction(Trajectory(1, states), shape)))
     return write_commonroad(sc, PlanningProblemSet([pp]), tmp_path / "road.xml")
+
+
+def _cut_in(out: Path) -> Path:
+    """The tutorial road with the ego at x = 15 m at 10 m/s in the lane y = 0 and a car recorded for 30 s from
+    x = 0 m in the lane y = 3.5 m at 16 m/s: 6 m ahead of the ego's front (the ego kept at 10 m/s), it cuts in over
+    2 s (a half cosine across, braking at 4 m/s^2 to 8 m/s) and drives on at 8 m/s. Written to ``out``: the bundled
+    ZAM_Tutorial-1_1_T-1_cut_in.xml."""
+    road = load(TUTORIAL)
+    sc = road.scenario
+    for o in list(sc.obstacles):
+        sc.remove_obstacle(o)
+    pp = next(iter(road.planning_problems.values()))
+    pp.initial_state.position, pp.initial_state.velocity = np.array([15.0, 0.0]), 10.0
+    front = EGO.body_offset + EGO.length / 2
+    t0 = (15.0 + front + 6.0 + CAR_LENGTH / 2) / (16.0 - 10.0)  # when its rear is 6 m ahead of the ego's front
+    states, x = [], 0.0
+    for k in range(301):
+        t = k * sc.dt
+        u = min(max((t - t0) / 2.0, 0.0), 1.0)  # the cut-in's progress
+        v = 16.0 - 8.0 * u
+        y = 3.5 * (1 + math.cos(math.pi * u)) / 2
+        states.append(CustomState(time_step=k, position=np.array([x, y]), orientation=0.0, velocity=v))
+        x += v * sc.dt
+    shape = Rectangle(CAR_LENGTH, CAR_WIDTH)
+    init = InitialState(time_step=0, position=states[0].position, orientation=0.0, velocity=16.0, acceleration=0.0,
+                        yaw_rate=0.0, slip_angle=0.0)
+    sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
+                                   TrajectoryPrediction(Trajectory(1, states[1:]), shape)))
+    return write_commonroad(sc, PlanningProblemSet([pp]), out)
 
 
 def _scenario(tmp_path: Path, text: str):
@@ -206,8 +237,30 @@ def test_vilma_run_of_a_commonroad_file_plans_and_the_summary_names_planner_and_
     assert m["planner"] == "werling" and m["perception"] == "truth" and m["planning_cycles"] >= 3 / 0.1
 
 
+def test_the_bundled_cut_in_is_the_road_cut_in_writes(tmp_path):
+    bundled = traffic(load(TUTORIAL.with_name("ZAM_Tutorial-1_1_T-1_cut_in.xml")).scenario)
+    made = traffic(load(_cut_in(tmp_path / "cut_in.xml")).scenario)
+    assert np.allclose(bundled.states, made.states) and np.array_equal(bundled.present, made.present)
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["planned_parked_car", "planned_slower_lead"])
+def test_after_a_cut_in_the_gap_never_closes_below_what_braking_from_the_gap_left_loses():
+    # the car enters the lane over 2 s from 6 m ahead of the ego's front, braking from 16 to 8 m/s: with the ego at
+    # 10 m/s the gap grows by (12 - 10) * 2 m; then closing at 10 - 8 m/s, braking at the planner's comfortable
+    # acceleration loses at most 2^2 / (2 * comfort_accel)
+    r = run(load_scenario("planned_cut_in"))
+    sim, c = r.scenario.sim, r.log.column
+    gaps = []
+    for t, x in zip(c("t"), c("x"), strict=True):
+        states, present = sim.traffic.at(t + sim.traffic_t0)
+        if present[0] and abs(states[0, Y]) < CAR_WIDTH / 2 + EGO.width / 2:  # in the ego's lane, overlapping it
+            gaps.append(states[0, X] - CAR_LENGTH / 2 - (x + EGO.body_offset + EGO.length / 2))
+    assert gaps and min(gaps) >= 6.0 + (12.0 - 10.0) * 2.0 - 2.0**2 / (2 * PlannerParams().comfort_accel)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["planned_parked_car", "planned_slower_lead", "planned_cut_in",
+                                  "planned_cones_30kmh"])
 def test_the_bundled_planned_scenarios_meet_their_expectations(name):
     r = run(load_scenario(name))
     assert r.passed, r.failures

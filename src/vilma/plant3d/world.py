@@ -2,8 +2,9 @@
 
 Placed in the ENU world frame [m, rad]. Ramps and bumps touch only the tyres; obstacles (boxes, cones) touch
 the tyres and the car's body, and a touch is a collision (:class:`~vilma.plant3d.plant.MujocoPlant` counts
-them). Boxes stand fixed, like walls; cones are loose and fall over. Each element validates itself when made,
-so a bad scenario entry fails with the field at fault.
+them). Boxes stand fixed, like walls; cones are loose and fall over. On flat ground (the single-track plant) both
+are obstacles standing still (:meth:`World.traffic`). Each element validates itself when made, so a bad scenario
+entry fails with the field at fault.
 """
 
 from __future__ import annotations
@@ -11,7 +12,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from vilma.core.checks import check_numbers
+from vilma.world.traffic import Traffic
 
 SLAB = 0.2
 """Thickness of a ramp's slabs [m] (below the driving surface)."""
@@ -122,6 +126,20 @@ class World:
         """Names of the boxes then the cones, as collision reports give them."""
         return [b.name or f"box{i}" for i, b in enumerate(self.boxes)] + \
                [c.name or f"cone{i}" for i, c in enumerate(self.cones)]
+
+    def traffic(self) -> Traffic:
+        """The boxes then the cones as obstacles standing still on flat ground, ids 1, 2, ... in that order: a box
+        as its footprint, a cone as the polygon of :data:`CONE_SEGMENTS` sides of its base (the 3D plant's mesh)."""
+        ring = 2 * np.pi * np.arange(CONE_SEGMENTS) / CONE_SEGMENTS
+        outlines = [np.array([(-b.size[0], -b.size[1]), (b.size[0], -b.size[1]), (b.size[0], b.size[1]),
+                              (-b.size[0], b.size[1])]) for b in self.boxes]
+        outlines += [c.radius * np.column_stack([np.cos(ring), np.sin(ring)]) for c in self.cones]
+        outline = np.stack([np.concatenate([o, np.repeat(o[-1:], CONE_SEGMENTS - len(o), axis=0)])
+                            for o in outlines])
+        poses = [(*b.pos[:2], b.yaw, 0.0) for b in self.boxes] + [(*c.pos, 0.0, 0.0) for c in self.cones]
+        m = len(poses)
+        return Traffic(ids=np.arange(1, m + 1, dtype=np.int64), static=np.ones(m, bool), outline=outline,
+                       states=np.array(poses, float).reshape(m, 1, 4), present=np.ones((m, 1), bool), dt=1.0)
 
 
 def fmt(*v: float, digits: int = 6) -> str:

@@ -36,6 +36,7 @@ import numpy as np
 from vilma.core.geometry import wrap_angle
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, Scenario
+from vilma.sim.simulator import MUJOCO
 from vilma.trajectory import Trajectory
 
 WATCHDOG_STOP = "the watchdog stopped the car (the driver sent no command in time)"
@@ -70,6 +71,8 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
         out.update(goal_reached=goal is not None, time_to_goal_s=goal)
         if finite:
             road_failures = _road_checks(scenario, log, out)
+    elif scenario.sim.model != MUJOCO and finite:
+        road_failures = _obstacle_checks(scenario, log, out)
     out.update(completion(scenario, xy, c("vx"), path, broke_down, None if proj is None else proj[:, 0],
                           out["goal_reached"], road_failures))
     if proj is not None and counted.any():
@@ -116,6 +119,52 @@ def _road_checks(scenario: Scenario, log: DriveLog, out: dict) -> list[str]:
     if found.off_road_time is not None:
         why.append(f"left the road at {found.off_road_time:.3g} s")
     return why
+
+
+def _obstacle_checks(scenario: Scenario, log: DriveLog, out: dict) -> list[str]:
+    """``collisions`` (how many of a flat world's boxes and cones, standing still, the car's outline touched) and
+    ``min_distance_to_traffic_m`` (None without them) of a drive on flat ground, at each logged pose, into ``out``;
+    the collisions in words."""
+    traffic, car, c = scenario.sim.traffic, scenario.sim.vehicle, log.column
+    if traffic is None or not len(c("t")):
+        out["collisions"] = 0
+        return []
+    yaw = c("yaw")
+    heading = np.column_stack([np.cos(yaw), np.sin(yaw)])[:, None, :]
+    centre = np.column_stack([c("x"), c("y")])[:, None, :] + car.body_offset * heading
+    corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)]) * (car.length / 2, car.width / 2)
+    normal = heading[..., ::-1] * (-1, 1)
+    body = centre + corners[None, :, :1] * heading + corners[None, :, 1:] * normal  # (n, 4, 2)
+    obstacles, _ = traffic.polygons(np.zeros(1, np.int64))  # standing still: as at time step 0, (1, m, p, 2)
+    gap = convex_gap(body[:, None], obstacles)  # (n, m)
+    hit = (gap <= 0).any(axis=0)
+    out.update(collisions=int(hit.sum()), min_distance_to_traffic_m=float(gap.min()))
+    if not hit.any():
+        return []
+    names = np.array(scenario.sim.world.obstacle_names())
+    first = float(c("t")[np.flatnonzero((gap <= 0).any(axis=1))[0]])
+    return [f"collided with {', '.join(names[hit])} (first at {first:.3g} s)"]
+
+
+def convex_gap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The gap [m] between convex polygons ``a`` (..., i, 2) and ``b`` (..., j, 2) (vertices in order, broadcast
+    over the leading axes), 0 where they overlap or touch: no separating axis among their edge normals, else the
+    nearest vertex of one to an edge of the other."""
+    separated = np.zeros(np.broadcast_shapes(a.shape[:-2], b.shape[:-2]), bool)
+    for poly in (a, b):
+        edge = np.roll(poly, -1, axis=-2) - poly
+        axes = np.stack([-edge[..., 1], edge[..., 0]], axis=-1)  # a repeated vertex's is zero: separates nothing
+        pa, pb = np.einsum("...ki,...ji->...kj", axes, a), np.einsum("...ki,...ji->...kj", axes, b)
+        separated |= ((pa.max(-1) < pb.min(-1)) | (pb.max(-1) < pa.min(-1))).any(-1)
+    return np.where(separated, np.minimum(_vertex_to_edges(a, b), _vertex_to_edges(b, a)), 0.0)
+
+
+def _vertex_to_edges(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """The least distance [m] from ``points`` (..., i, 2) to the edges of the polygon ``poly`` (..., j, 2)."""
+    p, v = points[..., :, None, :], poly[..., None, :, :]
+    d = np.roll(poly, -1, axis=-2)[..., None, :, :] - v
+    t = np.clip(np.sum((p - v) * d, -1) / np.maximum(np.sum(d * d, -1), 1e-12), 0.0, 1.0)
+    return np.hypot(*np.moveaxis(p - v - t[..., None] * d, -1, 0)).min(axis=(-2, -1))
 
 
 def timing(sim_time: float, wall: float, loop: float | None, load: float | None) -> dict:

@@ -26,6 +26,7 @@ from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
 from vilma.sim import Pacer, SimConfig, Simulator
+from vilma.sim.simulator import MUJOCO
 from vilma.trajectory import Trajectory
 from vilma.vehicle.state import VX, YAW, VehicleState, X, Y
 
@@ -230,7 +231,7 @@ class Car:
         metrics.update(loop_wall_time_s=loop)
         if self.planning is not None:
             metrics.update((k, plain(v)) for k, v in self.planning.scores().items())
-        if scenario.road is None:  # a road's collisions are the benchmark's (the scorecard's)
+        if scenario.road is None and sim.config.model == MUJOCO:  # else the benchmark's or flat ground's (scorecard)
             metrics["collisions"] = sim.collisions[0]
         return RunResult(scenario, metrics, expectation_failures(metrics, scenario), self.log, self.path,
                          self.t_start)

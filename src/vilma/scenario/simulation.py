@@ -53,6 +53,8 @@ def read_sim(data: dict, src: Source, base: Path) -> SimConfig:
                                           ("cameras", "camera"), ("laser", "laser")) if word in str(e)), None)
         raise src.error((culprit,) if culprit else (), str(e)) from None
     check_sim_times(sim, src)
+    if model != MUJOCO and (world.boxes or world.cones):  # obstacles standing still, which the scene sensors see
+        sim = dataclasses.replace(sim, traffic=world.traffic())
     return sim
 
 

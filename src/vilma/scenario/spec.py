@@ -15,8 +15,9 @@ Top-level keys (all optional but ``task``):
   scenario), or a mapping of :class:`~vilma.vehicle.params.VehicleParams` fields with an optional
   ``preset`` to start from. ``actuators``: :class:`~vilma.vehicle.params.ActuatorParams` fields.
 - ``plant`` (``kinematic`` | ``single_track`` | ``mujoco``), ``integrator`` (``rk4`` | ``euler``), ``step``
-  [s], ``seed``, ``watchdog_timeout`` [s]. With ``plant: mujoco`` only: ``world`` (``boxes``, ``cones``,
-  ``ramps``, ``bumps``, ``ground_friction``: :mod:`vilma.plant3d.world`), ``cameras`` (a list of
+  [s], ``seed``, ``watchdog_timeout`` [s]. ``world``: ``boxes`` and ``cones`` (on flat ground, standing still,
+  seen by the laser and the objects sensor, their collisions the scorecard's; not beside a CommonRoad world); with
+  ``plant: mujoco`` only: ``ramps``, ``bumps``, ``ground_friction`` (:mod:`vilma.plant3d.world`), ``cameras`` (a list of
   :class:`~vilma.plant3d.camera.CameraParams` fields, or ``{stereo: {baseline: 0.3, ...}}`` for the front
   pair) and ``laser`` (``true`` or :class:`~vilma.plant3d.laser.LaserParams` fields).
 - ``sensors``: per sensor its parameter fields (``gps: {horizontal_noise: 0.5, rate_hz: 10}``), or
@@ -231,6 +232,9 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     top = sim.vehicle.top_speed
     task = _task(data, src, top, file)
     road = _road(data, src, task, file)
+    if road is not None and sim.traffic is not None:
+        raise src.error(("world",), "boxes and cones on flat ground go without a CommonRoad world: remove them, or "
+                                    f"use plant: {MUJOCO}")
     if road is not None:  # what the flat-ground laser, the objects sensor and the 3D plant see
         from vilma.world.road_view import road_view  # the roads extra, which _road required
 

@@ -74,7 +74,9 @@ class SimConfig:
     """Seed of every noise generator."""
     initial: VehicleState = VehicleState()
     world: World = World()
-    """Ramps, bumps and obstacles (the 3D plant only)."""
+    """Ramps, bumps and obstacles (ramps and bumps on the 3D plant only); on flat ground its boxes and cones are the
+    ``traffic`` (:meth:`~vilma.plant3d.world.World.traffic`, which :func:`~vilma.scenario.simulation.read_sim` gives
+    it)."""
     cameras: tuple[CameraParams, ...] = ()
     """Cameras on the car (the 3D plant only), e.g. :func:`~vilma.plant3d.camera.stereo_pair`."""
     laser: LaserParams | None = None
@@ -95,7 +97,7 @@ class SimConfig:
     def __post_init__(self) -> None:
         if self.model not in (*models.MODELS, MUJOCO):
             raise ValueError(f"unknown model {self.model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
-        for what, present in (("a world with ramps, bumps or obstacles needs", not self.world.empty),
+        for what, present in (("a world with ramps or bumps needs", bool(self.world.ramps or self.world.bumps)),
                               ("cameras need", bool(self.cameras))):
             if present and self.model != MUJOCO:
                 raise ValueError(f"{what} the 3D plant (model {MUJOCO}), not {self.model}")

@@ -11,14 +11,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import shapely
-from commonroad.geometry.shape import Circle
-from commonroad.scenario.obstacle import DynamicObstacle
-from commonroad.scenario.scenario import Scenario
 
 from vilma.world.states import YAW, V, X, Y, states_at  # noqa: F401 (V: the columns of Traffic.states, here too)
+
+if TYPE_CHECKING:  # the roads extra, which only :func:`traffic` needs (a flat world's obstacles need none)
+    import shapely
+    from commonroad.scenario.scenario import Scenario
 
 CIRCLE_SIDES = 16
 """A circular obstacle's outline is the regular polygon of this many sides around it."""
@@ -91,6 +92,8 @@ def traffic(scenario: Scenario) -> Traffic:
 
 def _moves(obstacle) -> bool:
     """Whether the obstacle has a recorded trajectory."""
+    from commonroad.scenario.obstacle import DynamicObstacle
+
     return isinstance(obstacle, DynamicObstacle) and obstacle.prediction is not None and hasattr(
         obstacle.prediction, "trajectory")
 
@@ -98,6 +101,8 @@ def _moves(obstacle) -> bool:
 def _outline(obstacle) -> np.ndarray:
     """The obstacle's shape in its own frame as a counter-clockwise ring without the closing vertex (q, 2) [m]
     (a shape group as the convex hull of its shapes, which covers them)."""
+    import shapely
+
     shape = obstacle.obstacle_shape
     geom = shapely.unary_union([_polygon(s) for s in getattr(shape, "shapes", [shape])])
     if geom.geom_type != "Polygon":
@@ -109,6 +114,9 @@ def _outline(obstacle) -> np.ndarray:
 def _polygon(shape) -> shapely.Polygon:
     """A commonroad-io shape as a polygon; a circle as the 16-gon around it (commonroad-io's own polygon of a
     circle has half its radius)."""
+    import shapely
+    from commonroad.geometry.shape import Circle
+
     if isinstance(shape, Circle):
         return shapely.Point(*shape.center).buffer(shape.radius / math.cos(math.pi / CIRCLE_SIDES),
                                                      quad_segs=CIRCLE_SIDES // 4)
