@@ -186,3 +186,19 @@ def test_any_plan_order_gets_a_one_line_answer_and_the_node_keeps_serving(posed,
     assert isinstance(reply, Reply) and (reply.ok or (reply.error.startswith("plan: ") and "\n" not in reply.error))
     assert not (order.file and reply.ok)
     assert bus.request(ORDERS, DriverOrder(action="manual")).ok
+
+
+def test_a_tune_goes_on_with_the_plan_under_way_on_the_new_driver():
+    bus, sim, sim_node, node = _with_pose()
+    plans = []
+    bus.subscribe(topic("planning/plan"), plans.append)
+    assert bus.request(ORDERS, DriverOrder(action="plan", x=60.0, y=0.0, speed=5.0)).ok
+    for _ in range(25):
+        sim_node.frame(sim.advance(2))
+    old, speed, before = node.driver, sim.state.speed, len(plans)
+    assert bus.request(ORDERS, DriverOrder(action="tune", path_controller="pure_pursuit")).ok
+    assert node.driver is not old and node.driver.status.mode == "plan"  # the plan driven goes on at once
+    for _ in range(50):  # 1 s: the plans go on to the new driver, which speeds the car up to the plans' 5 m/s
+        sim_node.frame(sim.advance(2))
+    assert len(plans) > before and node.driver.status.mode == "plan" and speed < sim.state.speed < 5.0 + 0.1
+    assert node.driver.task.path is not None and node.driver.params.path_controller == "pure_pursuit"
