@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from shapely import Polygon, affinity, box
 
 from tests.bus.conftest import driver_on
 from vilma.app.batch import BUNDLED
@@ -24,13 +25,16 @@ from vilma.sim import Simulator
 from vilma.world.states import X, Y
 
 ORDERS = topic("driver/cmd")
-DURATION = 20.0  # [s] of sim time: the parked car's scenario stops behind it within 10 s
-MIN_GAP = 4.0  # [m]: Werling's d0 = 5 m, less 1 m of speed tracking (the scenario's expectation)
+DURATION = 20.0  # [s] of sim time: the parked car's scenario passes it, or stops behind it, within 15 s
+OWN_LANE = {"planner.lateral_offsets": "[0]"}  # no lane to pass in: it must stop behind the parked car
+MIN_GAP = 4.0  # [m] behind it: Werling's d0 = 5 m, less 1 m of speed tracking
+MIN_GAP_BESIDE = 1.3  # [m] passing it in the next lane's centre: 3.5 - 2 / 2 - 1.77 / 2 = 1.6 m, less 0.3 m
 
 
 def _drive(scenario, seconds: float):
     """``scenario``'s plan task ordered over a local bus to a driver node beside a simulator node, run unpaced
-    for ``seconds`` of sim time; the simulator, the node, the order's reply and what came on the plan's topics."""
+    for ``seconds`` of sim time; the simulator, the node, the car's states each frame, the order's reply and what
+    came on the plan's topics."""
     bus, route = LocalBus(), scenario.reference_path()
     sim = Simulator(scenario.sim)
     start = initial_state(scenario, route)
@@ -46,41 +50,56 @@ def _drive(scenario, seconds: float):
     node.on_pose = lambda: got["replies"].append(node.order(order))
     bus.subscribe(topic("perception/objects"), got["tracks"].append)
     bus.subscribe(topic("planning/plan"), got["plans"].append)
+    states = []
     while sim.clock.time_s < seconds:
         sim_node.frame(sim.advance(2))
-    return sim, node, got
+        states.append((sim.state.x, sim.state.y, sim.state.yaw))
+    return sim, node, np.array(states), got
+
+
+def _gaps(states: np.ndarray, sim) -> np.ndarray:
+    """The distance [m] between the car's box and the parked car's at each of ``states`` (x, y, yaw)."""
+    car, traffic = sim.config.vehicle, sim.config.traffic
+    (where,) = traffic.at(0.0)[0]
+    parked = affinity.translate(affinity.rotate(Polygon(traffic.outline[0]), where[2], use_radians=True),
+                                where[0], where[1])
+    body = box(car.body_offset - car.length / 2, -car.width / 2, car.body_offset + car.length / 2, car.width / 2)
+    return np.array([parked.distance(affinity.translate(affinity.rotate(body, yaw, (0, 0), use_radians=True), x, y))
+                     for x, y, yaw in states])
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("perception", ["truth", "laser"])
-def test_a_planned_car_on_the_bus_stops_behind_the_parked_car(perception):
-    scenario = load_scenario(BUNDLED / "planned_parked_car.yaml",
-                             {"perception": perception, "laser": "true"} if perception == "laser" else None)
-    sim, node, got = _drive(scenario, DURATION)
+@pytest.mark.parametrize(("perception", "overrides"), [("truth", None), ("laser", OWN_LANE)])
+def test_a_planned_car_on_the_bus_passes_or_stops_behind_the_parked_car(perception, overrides):
+    """As bundled (truth, two lanes to plan in) the car passes the parked car in the next lane and gets back in
+    its own; with its lane only (and the laser) it stops behind it."""
+    extra = {"perception": "laser", "laser": "true"} if perception == "laser" else {}
+    scenario = load_scenario(BUNDLED / "planned_parked_car.yaml", {**extra, **(overrides or {})})
+    sim, node, states, got = _drive(scenario, DURATION)
     assert got["replies"] == [Reply(ok=True)]
-    traffic, car = sim.config.traffic, sim.config.vehicle
+    traffic, rest = sim.config.traffic, scenario.driver.rest_speed
     (parked,), (where,) = traffic.ids, traffic.at(0.0)[0]  # the one obstacle, as the scenario's file has it
     plans, tracks = got["plans"], got["tracks"]
     # a cycle each replan period of sim time, from the order's first frame with a pose to the end
     period_ns = round(scenario.planner.replan_period * 1e9)
     assert all(isinstance(p, LocalPlan) for p in plans) and len(plans) >= 2
     assert np.all(np.diff([p.stamp_ns for p in plans]) == period_ns)
-    assert plans[-1].stamp_ns > round((DURATION - scenario.planner.replan_period) * 1e9) - period_ns
-    # near the parked car the plans follow it to a stop; a planner with no free candidate is a stop too (at a
-    # crawl behind it the batch runner's plans fall back alike: the planner's business)
-    near_end = plans[-round(5.0 / scenario.planner.replan_period):]
-    assert {p.mode for p in near_end} <= {"follow", "stop", "fallback"} and "follow" in {p.mode for p in near_end}
-    assert all(p.speed[-1] < scenario.driver.rest_speed for p in near_end if p.mode == "fallback")
+    assert plans[-1].stamp_ns > round(DURATION * 1e9) - 2 * period_ns
     assert all(isinstance(t, TrackList) and t.source == perception for t in tracks)
     # the objects sensor's noisy truth is within a metre; a laser box spans the faces it sees (MOT's threshold)
     near = 1.0 if perception == "truth" else MOT_THRESHOLD
     seen = [o for t in tracks for o in t.objects if math.hypot(o.x - where[X], o.y - where[Y]) <= near]
     assert seen and (perception == "laser" or {o.id for o in seen} == {parked})
-    z = sim.state
-    assert abs(z.speed) < scenario.driver.rest_speed and node.driver.status.mode == "plan"
-    front = z.x + car.body_offset + car.length / 2  # the ego's front bumper, its yaw 0 on the straight road
-    rear = where[X] + traffic.outline[0, :, 0].min()  # the parked car's rear, it faces +x
-    assert rear - front >= MIN_GAP
+    gaps, z = _gaps(states, sim), sim.state
+    if overrides is None:  # passed in the lane to its left (3.5 m over), and back in its own past it
+        beside = np.abs(states[:, 0] - where[X]) < traffic.outline[0, :, 0].max()
+        assert beside.any() and states[beside, 1].min() > 3.5 - 0.5
+        assert gaps.min() >= MIN_GAP_BESIDE and z.x > where[X] and abs(z.y) < 0.3
+    else:  # behind it, at rest, the last plans following it to a stop (or the planner's stop: a fallback)
+        assert abs(z.speed) < rest and node.driver.status.mode == "plan" and gaps[-1] >= MIN_GAP
+        near_end = plans[-round(5.0 / scenario.planner.replan_period):]
+        assert {p.mode for p in near_end} <= {"follow", "stop", "fallback"} and "follow" in {p.mode for p in near_end}
+        assert all(p.speed[-1] < rest for p in near_end if p.mode == "fallback")
 
 
 def _with_pose():
