@@ -18,6 +18,7 @@ from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.plan_node import PlanSetup
 from vilma.control.driver import Driver
 from vilma.core.messages import DriverOrder, LocalPlan, Reply, TrackList
+from vilma.planning import PlannerParams
 from vilma.scenario import load_scenario
 from vilma.scenario.planned import MOT_THRESHOLD
 from vilma.scenario.runner import initial_state
@@ -221,3 +222,16 @@ def test_a_tune_goes_on_with_the_plan_under_way_on_the_new_driver():
         sim_node.frame(sim.advance(2))
     assert len(plans) > before and node.driver.status.mode == "plan" and speed < sim.state.speed < 5.0 + 0.1
     assert node.driver.task.path is not None and node.driver.params.path_controller == "pure_pursuit"
+
+
+@pytest.mark.parametrize(("setup", "error"), [
+    (PlanSetup(perception="laser"),
+     "plan: laser perception needs the laser sensor: start the driver with the scenario's laser"),
+    (PlanSetup(params=PlannerParams(horizon=3.0, dt=0.03, replan_period=0.03)),  # the driver's period: 0.02 s
+     "plan: planner replan_period 0.03 s is not a whole number of driver periods of 0.02 s; make it one"),
+])
+def test_a_plan_the_driver_cannot_run_is_refused_in_one_line(setup, error):
+    bus, _sim, _sim_node, node = _with_pose()
+    node.planning = setup
+    assert bus.request(ORDERS, DriverOrder(action="plan", x=30.0, y=0.0, speed=5.0)) == Reply(ok=False, error=error)
+    assert node.driver.status.mode == "manual"
