@@ -120,3 +120,33 @@ def test_up_drives_reactive_traffic_which_brakes_behind_the_slow_ego(tmp_path, m
     assert gap[-1] == pytest.approx((p.s0 + v * p.T) / np.sqrt(1 - (v / CAR_SPEED) ** p.delta), abs=0.05)
     car, ego = got["recorded"]
     assert (car > ego).any() and np.diff(car).mean() / dt == pytest.approx(CAR_SPEED)  # through the ego, as recorded
+
+
+def test_a_plan_task_is_a_plan_order_to_its_goal_with_the_scenario_planner_and_perception():
+    scenario = load_scenario(BUNDLED / "planned_slower_lead.yaml")
+    route = scenario.reference_path()
+    order = programs.task_order(scenario)
+    assert (order.action, order.x, order.y) == ("plan", *route.xy[-1])  # the route ends at the goal
+    assert np.array_equal(order.points, route.xy) and np.array_equal(order.speeds, route.speed)
+    with programs.LocalBus() as bus, programs.serve_driver(
+            programs.Driver(scenario.sim.vehicle, scenario.driver, step=scenario.sim.step), bus, "vilma",
+            round(scenario.sim.step * 1e9), scenario) as node:
+        setup = node.planning
+        assert (setup.params, setup.perception, setup.laser) == (scenario.planner, "laser", scenario.sim.laser)
+
+
+@pytest.mark.slow
+def test_up_stops_a_planned_car_behind_the_parked_car():
+    """``vilma up`` drives a plan task by its plans, as ``vilma run`` does: with its own lane only to plan in, it
+    stops behind the parked car (Werling's d0 = 5 m, less 1 m of speed tracking) instead of following the route
+    through it."""
+    scenario = load_scenario(BUNDLED / "planned_parked_car.yaml", {"planner.lateral_offsets": "[0]"})
+    lines: list[str] = []
+    assert programs.up(scenario, 100.0, 20.0, lines.append) == 0
+    last = lines[-1].split()
+    x, speed = float(last[last.index("x") + 1]), float(last[last.index("speed") + 1])
+    assert "plan" in last and speed < scenario.driver.rest_speed
+    traffic, car = scenario.sim.traffic, scenario.sim.vehicle
+    (where,) = traffic.at(0.0)[0]  # the parked car, as the scenario's file has it, facing +x
+    gap = (where[0] + traffic.outline[0, :, 0].min()) - (x + car.body_offset + car.length / 2)
+    assert gap >= 4.0

@@ -255,7 +255,7 @@ def orders_bus(request, tmp_path_factory):
     bus.close()
 
 
-_words = st.one_of(st.sampled_from(["manual", "set_speed", "hold_speed", "go_to", "follow", "tune", "stanley",
+_words = st.one_of(st.sampled_from(["manual", "set_speed", "hold_speed", "go_to", "follow", "plan", "tune", "stanley",
                                     "vilma_pid", "gain", "kp", "point"]), st.text(max_size=70))
 _many = st.integers(0, 2 * MAX_ORDER_POINTS)  # up to 5.6 MB of points and speeds on the wire
 _orders = st.builds(

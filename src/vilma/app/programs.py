@@ -14,6 +14,7 @@ import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
@@ -30,6 +31,9 @@ from vilma.record.road_scene import scenario_road
 from vilma.scenario.runner import initial_state, sim_config
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sim import SimConfig, Simulator
+
+if TYPE_CHECKING:  # the planner (numba, scipy.interpolate) is imported for a plan task only
+    from vilma.bus.plan_node import PlanSetup
 
 log = logging.getLogger(__name__)
 
@@ -68,8 +72,8 @@ def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Sce
                  data_dir: Path | None = None) -> DriverNode:
     """The driver node on ``bus`` (following orders may name the trajectory files in ``data_dir``); with a
     scenario, its task starts once the driver knows where the car is, as an order (published as a peer's are:
-    recordings hold it)."""
-    node = DriverNode(driver, bus, car, step_ns, data_dir)
+    recordings hold it), a plan task with the scenario's planner and perception."""
+    node = DriverNode(driver, bus, car, step_ns, data_dir, plan_setup(scenario))
     if scenario is not None:
         order = task_order(scenario)
 
@@ -81,8 +85,18 @@ def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Sce
     return node
 
 
+def plan_setup(scenario: Scenario | None) -> PlanSetup | None:
+    """How the driver plans a plan task of ``scenario`` (None: no plan task)."""
+    if scenario is None or scenario.task.kind != "plan":
+        return None
+    from vilma.bus.plan_node import PlanSetup  # the planner (numba): for a plan only
+
+    return PlanSetup(params=scenario.planner, perception=scenario.perception, laser=scenario.sim.laser)
+
+
 def task_order(scenario: Scenario) -> DriverOrder:
-    """The scenario's task as an order to the driver (a path with its points, and their speeds if it has them)."""
+    """The scenario's task as an order to the driver (a path with its points, and their speeds if it has them; a
+    plan's goal at its route's end)."""
     t = scenario.task
     speed = math.nan if t.speed is None else t.speed
     if t.kind == "speed":
@@ -90,6 +104,9 @@ def task_order(scenario: Scenario) -> DriverOrder:
     if t.kind == "go_to":
         return DriverOrder(action="go_to", x=t.go_to[0], y=t.go_to[1], speed=speed)
     path = scenario.reference_path()
+    if t.kind == "plan":
+        (x, y), speeds = path.xy[-1], path.speed.tolist()
+        return DriverOrder(action="plan", x=float(x), y=float(y), points=path.xy.tolist(), speeds=speeds)
     return DriverOrder(action="follow", speed=speed, points=path.xy.tolist(),
                        speeds=[] if path.speed is None else path.speed.tolist())
 

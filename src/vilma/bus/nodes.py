@@ -11,7 +11,8 @@ once per driver period of sim time when a frame ends, publishes the command
 on ``cmd`` and its status on ``driver/status``, and takes orders on
 ``driver/cmd``; each order it took is published there too, for recorders. A ``follow`` order may name a
 trajectory file only in the data folder the driver was given (none: file orders are refused), and the reply
-never quotes a file: a peer is not a user of this machine.
+never quotes a file: a peer is not a user of this machine. A ``plan`` order plans on the scans of ``objects`` or
+``laser`` each replan period of sim time (:mod:`vilma.bus.plan_node`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import os
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import msgspec
 import numpy as np
@@ -39,6 +41,9 @@ from vilma.sim import Simulator
 from vilma.trajectory import Trajectory, TrajectoryFileError, check_trajectory_file, load_trajectory
 from vilma.vehicle.actuators import CommandError
 from vilma.vehicle.state import VehicleState
+
+if TYPE_CHECKING:  # the planner (numba, scipy.interpolate) is imported for a plan order only
+    from vilma.bus.plan_node import LivePlan, PlanSetup
 
 log = logging.getLogger(__name__)
 
@@ -155,10 +160,15 @@ class DriverNode(Closeable):
     """The self-driver on a bus (see the module docstring)."""
 
     def __init__(self, driver: Driver, bus: Bus, car: str = "vilma", step_ns: int = 10_000_000,
-                 data_dir: Path | None = None) -> None:
+                 data_dir: Path | None = None, planning: PlanSetup | None = None) -> None:
         self.driver, self.bus, self.car = driver, bus, car
         self.data_dir = data_dir.resolve() if data_dir is not None else None
         """The folder whose trajectory files ``follow`` orders may name (None: no file orders)."""
+        self.planning = planning
+        """How ``plan`` orders plan (None: the defaults of :class:`~vilma.bus.plan_node.PlanSetup`)."""
+        self._plan: LivePlan | None = None
+        self._plan_next: LivePlan | None = None  # a plan order taken, which starts at the next frame's end
+        self._scans: list[Message] = []  # the object lists and laser scans of a frame, while planning
         self.period_ns = driver.period_ticks * step_ns
         self._inbox: dict[str, list[Message]] = {name: [] for name in SENSOR_TOPICS}
         self._lock = threading.Lock()
@@ -168,6 +178,7 @@ class DriverNode(Closeable):
         self.on_pose: Callable[[], None] | None = None
         """Called once, at the end of the first period in which the driver knows the car's pose."""
         self._subs = [bus.subscribe(topic(name, car), self._collector(name)) for name in SENSOR_TOPICS]
+        self._subs += [bus.subscribe(topic(name, car), self._scan) for name in ("objects", "laser")]
         self._subs += [bus.subscribe(topic("sim/status", car), self._frame_end),
                        bus.serve(topic("driver/cmd", car), self.order)]
 
@@ -178,6 +189,11 @@ class DriverNode(Closeable):
             with self._lock:
                 box.append(msg)
         return take
+
+    def _scan(self, msg: Message) -> None:
+        with self._lock:
+            if self._plan is not None or self._plan_next is not None:
+                self._scans.append(msg)
 
     def _frame_end(self, status: SimStatus) -> None:
         t = status.stamp_ns
@@ -194,10 +210,12 @@ class DriverNode(Closeable):
             self._warnings.warning("jump", "driver: a simulator frame %.3g s ahead of the last; the driver takes "
                                    "up from it", (t - self._next_ns) * 1e-9)
             periods, self._next_ns = 1, t
+        ends = [self._next_ns + i * self.period_ns for i in range(periods)]
         self._next_ns += periods * self.period_ns
         cmd = None
         for i in range(periods):  # one update per driver period of sim time; the readings go to the first
             cmd = self.driver.update(readings if i == 0 else {}) or cmd
+        self._plan_periods(ends)
         if self.on_pose is not None and self.driver.estimator.estimate is not None:
             hook, self.on_pose = self.on_pose, None
             hook()
@@ -206,11 +224,30 @@ class DriverNode(Closeable):
             self.commands_sent += 1
         self.bus.publish(topic("driver/status", self.car), self.driver.status)
 
+    def _plan_periods(self, ends: list[int]) -> None:
+        """After the driver's periods ending at ``ends`` [ns]: the plan under way takes the frame's scans, then
+        plans as its replan periods are over (a plan just ordered plans at once)."""
+        with self._lock:
+            scans, self._scans = self._scans, []
+            started = self._plan_next is not None
+            if started:
+                self._plan, self._plan_next = self._plan_next, None
+            plan = self._plan
+        if plan is None:
+            return
+        plan.perceive(scans, self.driver.estimator.estimate)
+        if started:
+            plan.cycle(ends[-1])
+        else:
+            for t in ends:
+                plan.period_done(t)
+
     def order(self, order: DriverOrder) -> Reply:
         """Carry out an order; a Reply says whether it was taken, or why not. An order taken is published on
         ``driver/cmd``, stamped with the driver's time (a go-to and a follow with the points of the path driven:
-        its start, a file's points), so that a recording holds the driver's task."""
-        d, a = self.driver, order.action
+        its start, a file's points, a plan with its route), so that a recording holds the driver's task. Any order
+        but a tune ends the plan under way."""
+        d, a, plan = self.driver, order.action, None
         stamp = d.stamp_ns  # now: a tune order swaps the driver for a new one, which has no time yet
         speed = None if math.isnan(order.speed) else order.speed
         try:
@@ -224,15 +261,25 @@ class DriverNode(Closeable):
                 d.go_to(order.x, order.y, _need(speed, "speed"))
             elif a == "follow":
                 d.follow(_path_of(order, self.data_dir), speed)
+            elif a == "plan":
+                from vilma.bus.plan_node import PlanSetup, start_plan  # the planner (numba): for a plan only
+
+                plan = start_plan(order, d, self.planning or PlanSetup(), self.bus, self.car)
             elif a == "tune":
                 self.set_params(_tuned(d.params, order))
             else:
                 return Reply(ok=False, error=f"unknown order {a!r}; use manual, set_speed, hold_speed, go_to, follow,"
-                                             " tune")
+                                             " plan, tune")
         except (ValueError, TrajectoryFileError) as e:
             return Reply(ok=False, error=f"{a}: {e}")
+        if a != "tune":
+            with self._lock:
+                self._plan, self._plan_next, self._scans = None, plan, []
         if a in ("go_to", "follow"):
             order = msgspec.structs.replace(order, points=d.task.path.xy.tolist(), file="")
+        elif plan is not None:
+            route = plan.local.path
+            order = msgspec.structs.replace(order, points=route.xy.tolist(), speeds=route.speed.tolist())
         self.bus.publish(topic("driver/cmd", self.car), msgspec.structs.replace(order, stamp_ns=stamp))
         return Reply(ok=True)
 
@@ -250,8 +297,14 @@ class DriverNode(Closeable):
             new.follow(task.path, None if task.path.speed is not None else task.speed)
         elif task.mode in (DriverMode.SET_SPEED, DriverMode.HOLD_SPEED):
             new.set_speed(task.speed)
+        elif task.mode == DriverMode.PLAN and task.path is not None:
+            new.drive_plan(task.path)
         if params.pose_source == old.params.pose_source:
             new.estimator = old.estimator
+        with self._lock:
+            for plan in (self._plan, self._plan_next):
+                if plan is not None:
+                    plan.local.driver = new
         self.driver = new
 
     def close(self) -> None:

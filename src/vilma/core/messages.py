@@ -207,9 +207,11 @@ class DriverOrder(Message, frozen=True, kw_only=True):
     ``action``: ``manual``, ``set_speed`` (``speed`` [m/s]), ``hold_speed``, ``go_to`` (``x``, ``y`` [m],
     ``speed``), ``follow`` (``points`` [[x, y], ...] [m] with their ``speeds`` [m/s], or the name of a
     trajectory ``file`` in the driver's data folder; ``speed``, or NaN for the points' or the file's own speeds),
-    ``tune`` (the driver's ``speed_controller`` and ``path_controller`` by name, and ``gains``: controller name
-    -> {field: value}). Sizes are capped (``MAX_ORDER_POINTS``, ``MAX_NAME_CHARS``, ``MAX_FILE_NAME_CHARS``,
-    ``MAX_GAINS``): a decoder refuses more before building anything.
+    ``plan`` (to the goal ``x``, ``y`` [m] along the route ``points`` with their ``speeds``, or a straight route from
+    the car at ``speed``: :mod:`vilma.bus.plan_node`), ``tune`` (the driver's ``speed_controller`` and
+    ``path_controller`` by name, and ``gains``: controller name -> {field: value}). Sizes are capped
+    (``MAX_ORDER_POINTS``, ``MAX_NAME_CHARS``, ``MAX_FILE_NAME_CHARS``, ``MAX_GAINS``): a decoder refuses more before
+    building anything.
     """
 
     stamp_ns: int = 0

@@ -5,13 +5,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from vilma.scenario.fields import Source, build, get
 from vilma.scenario.task import TaskSpec
 from vilma.sim import SimConfig
 from vilma.sim.simulator import MUJOCO
-from vilma.trajectory import Trajectory
 
 if TYPE_CHECKING:  # the planner (numba, scipy.interpolate) is imported for a plan only
     from vilma.planning import PlannerParams
@@ -29,12 +26,13 @@ def read_planner(data: dict, src: Source, task: TaskSpec, sim: SimConfig, period
         if "planner" in data:
             raise src.error(("planner",), "only for a plan task: add task: {plan: true} or remove it")
         return None
-    from vilma.planning import PlannerParams  # numba and scipy.interpolate: for a plan only
+    from vilma.control.local_planning import default_planner  # numba and scipy.interpolate: for a plan only
+    from vilma.planning import PlannerParams
     raw = data.get("planner") or {}
     for name, where in (("vehicle", "vehicle"), ("target_speed", "task.speed")):
         if isinstance(raw, dict) and name in raw:
             raise src.error(("planner", name), f"set by the scenario's {where}; remove it here")
-    params = build(PlannerParams, raw, src, ("planner",), PlannerParams(vehicle=sim.vehicle, replan_period=0.1))
+    params = build(PlannerParams, raw, src, ("planner",), default_planner(sim.vehicle))
     cycles = params.replan_period / period
     if abs(cycles - round(cycles)) > 1e-9:
         raise src.error(("planner", "replan_period"), f"{params.replan_period:g} s is not a whole number of driver "
@@ -57,13 +55,3 @@ def read_perception(data: dict, src: Source, task: TaskSpec, sim: SimConfig) -> 
         raise src.error(("perception",), "laser perception reads the flat-ground laser: give another plant than "
                                          f"{MUJOCO}")
     return value
-
-
-def cut_at(path: Trajectory, point: tuple[float, float]) -> Trajectory:
-    """``path`` (with speeds) up to where ``point`` [m] projects on it."""
-    p = path.project(*point)
-    if p.s <= 0:
-        raise ValueError(f"the plan's goal {list(point)} lies at the route's start: give a goal along the route")
-    before = path.s < p.s
-    return Trajectory(np.vstack([path.xy[before], (p.x, p.y)]),
-                      np.append(path.speed[before], path.speed_at(p.s)))

@@ -61,7 +61,7 @@ from vilma.localization import SOURCES
 from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
 from vilma.scenario.fields import Key, Source, SpecError, _suggest, build, convert, get, load_yaml, read_yaml
-from vilma.scenario.plan_keys import cut_at, read_perception, read_planner
+from vilma.scenario.plan_keys import read_perception, read_planner
 from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS, Bound, MetricsSpec
 from vilma.scenario.simulation import ROAD_KEYS, read_sim
 from vilma.scenario.task import InitialSpec, TaskSpec
@@ -170,6 +170,8 @@ class Scenario:
     def _plan_route(self) -> Trajectory:
         """A plan's route: the CommonRoad route (``route``, or none of ``follow`` and ``course`` given) or the path,
         at the task's speed or its own, lowered in curves, cut where the goal projects on it."""
+        from vilma.control.local_planning import cut_at  # the planner (numba): for a plan only
+
         t, d = self.task, self.driver
         routed = t.route or (t.course is None and t.follow is None)
         try:
