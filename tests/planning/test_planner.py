@@ -7,8 +7,9 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vilma.planning import FrenetFrame, FrenetState, PlannerParams, Status, plan
-from vilma.planning.planner import MAX_CANDIDATES, MAX_STEPS, boxes_overlap
+from vilma.planning import FrenetFrame, FrenetState, PlannerParams, RoadBounds, Status, plan
+from vilma.planning.params import MAX_CANDIDATES, MAX_STEPS
+from vilma.planning.planner import boxes_overlap
 from vilma.trajectory import Trajectory
 
 P = PlannerParams()
@@ -56,6 +57,7 @@ def _assert_within_limits(plans, params=P):
     for _, p in plans:
         assert p.mode != "fallback", p.reason
         assert np.abs(p.curvature).max() <= params.max_curvature
+        assert (np.abs(p.curvature) * p.speed**2).max() <= params.max_lateral_accel
         assert (p.accel <= CAR.actuators.max_accel).all() and (p.accel >= -CAR.actuators.max_decel).all()
         assert (p.frenet[:, 1] >= -1e-6).all()  # never backwards
 
@@ -98,6 +100,28 @@ def test_with_a_stopped_car_in_the_lane_and_the_next_lane_free_it_passes_and_nev
     assert passing and all(abs(abs(p.y[0]) - LANE) < 0.2 for p in passing)  # in the next lane's centre
     last = plans[-1][1]
     assert last.x[0] > 100.0 and last.y[0] == pytest.approx(0.0, abs=0.05)  # back in its lane, far past it
+
+
+def test_with_the_road_only_to_its_right_it_passes_a_stopped_car_there_and_never_leaves_the_road():
+    def objects(t):
+        return _box(40.0, 0.0, 0.0)[None]
+
+    s = np.array([0.0, 1000.0])
+    road = RoadBounds(s, np.full(2, LANE / 2), np.full(2, -1.5 * LANE))  # its lane and one to the right
+    plans = []
+    state = FrenetState(0.0, 10.0, 0.0, 0.0)
+    for k in range(round(15.0 / P.replan_period)):
+        p = plan(state, STRAIGHT, objects(0.0), P, road=road)
+        plans.append((k * P.replan_period, p))
+        state = p.state_at(P.replan_period)
+    _assert_never_overlaps(plans, objects)
+    _assert_within_limits(plans)
+    for _, p in plans:  # the car's box, centre and half extent across the straight road, within its edges
+        cy = p.y + CAR.body_offset * np.sin(p.yaw)
+        reach = CAR.width / 2 * np.abs(np.cos(p.yaw)) + CAR.length / 2 * np.abs(np.sin(p.yaw))
+        assert (cy + reach <= LANE / 2 + 1e-9).all() and (cy - reach >= -1.5 * LANE - 1e-9).all()
+    passing = [p for _, p in plans if abs(p.x[0] - 40.0) < 4.5]
+    assert passing and all(abs(p.y[0] + LANE) < 0.2 for p in passing)  # beside it in the lane to its right
 
 
 def test_with_a_stopped_car_in_the_lane_and_the_next_lanes_taken_it_stops_behind_it():

@@ -129,7 +129,7 @@ def test_a_plan_stops_at_its_goal_on_the_route(tmp_path):
     r = run(_scenario(tmp_path, "task: {plan: {goal: [60, 2]}, course: [[0, 0], [150, 0]], speed: 8}\nduration: 30\n"))
     c = r.log.column
     assert r.metrics["completed"] and math.hypot(c("x")[-1] - 60.0, c("y")[-1]) < 1.0  # where (60, 2) projects
-    with pytest.raises(SpecError, match=r"s.yaml: task: the plan.s goal \[-5.0, 0.0\] lies at the route.s start"):
+    with pytest.raises(SpecError, match=r"s.yaml: task: the goal \[-5.0, 0.0\] lies at the route.s start"):
         _scenario(tmp_path, "task: {plan: {goal: [-5, 0]}, course: [[0, 0], [150, 0]], speed: 8}\n").reference_path()
 
 

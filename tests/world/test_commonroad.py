@@ -52,6 +52,21 @@ def test_the_road_edge_distance_is_zero_on_the_edge_and_half_a_lane_at_an_outer_
     assert road.lanelet_at(*outward) is None
 
 
+def test_the_road_edges_across_a_path_are_the_outer_lanes_outer_bounds():
+    road = load(TUTORIAL).network
+    lanelets = _lanelets(TUTORIAL)
+    left, right = lanelets[1]  # the rightmost lane; the road's left edge is the leftmost lane's left bound
+    top = max(lanelets.values(), key=lambda b: b[0][:, 1].mean())[0]
+    centre = (left + right) / 2
+    path = centre[5:-5:10]  # along the rightmost lane's centre, away from the road's ends
+    to_left, to_right = road.lateral_bounds(path)
+    k = np.arange(5, len(centre) - 5, 10)[: len(path)]
+    assert np.allclose(to_left, top[k, 1] - path[:, 1], atol=1e-6)  # a straight road along +x: offsets are y's
+    assert np.allclose(to_right, right[k, 1] - path[:, 1], atol=1e-6)
+    off = road.lateral_bounds(path + np.array([0.0, -50.0]))  # a path off the road has no edges
+    assert np.isinf(off).all()
+
+
 def test_the_route_runs_from_the_initial_position_into_the_goal_region():
     scenario = load(TUTORIAL)
     task = scenario.task()

@@ -17,7 +17,7 @@ import numpy as np
 from vilma.bus.base import Bus
 from vilma.bus.topics import topic
 from vilma.control.driver import Driver
-from vilma.control.local_planning import LocalPlanning, cut_at, default_planner
+from vilma.control.local_planning import LocalPlanning, default_planner
 from vilma.core.messages import MAX_ORDER_POINTS, MAX_TRACKS, DriverOrder, Message, PoseEstimate
 from vilma.planning import Plan, PlannerParams, local_plan, track_list
 from vilma.plant3d.laser import LaserParams
@@ -86,7 +86,7 @@ def start_plan(order: DriverOrder, driver: Driver, setup: PlanSetup, bus: Bus, c
         raise ValueError(f"goal {list(goal)} is over {MAX_REACH:g} m from the car; give a nearer goal")
     route = _route(order, driver, est)
     try:
-        route = cut_at(route, goal)
+        route = route.cut_at(goal)
     except ValueError:
         raise ValueError(f"goal {list(goal)} is behind the car on the route; give a goal ahead of it") from None
     if route.project(est.x, est.y).s >= route.length:

@@ -18,8 +18,7 @@ import numpy as np
 from vilma.control.driver import Driver
 from vilma.core.messages import Message, ObjectList, PointCloud, PoseEstimate
 from vilma.perception import SegmentParams, Track, Tracker, fit_boxes, laser_pose, predict, scan_points, segment
-from vilma.planning import FrenetFrame, FrenetState, Plan, PlannerParams, RoadBounds, plan
-from vilma.planning.planner import NO_ROAD
+from vilma.planning import NO_ROAD, FrenetFrame, FrenetState, Plan, PlannerParams, RoadBounds, plan
 from vilma.plant3d.laser import LaserParams
 from vilma.trajectory import Trajectory
 from vilma.vehicle.params import VehicleParams
@@ -177,16 +176,6 @@ class LocalPlanning:
     def at_goal(self, x: float, y: float, tolerance: float) -> bool:
         """Whether ``(x, y)`` [m] is within ``tolerance`` [m] of the goal."""
         return math.hypot(x - self.path.xy[-1, 0], y - self.path.xy[-1, 1]) <= tolerance
-
-
-def cut_at(path: Trajectory, point: tuple[float, float]) -> Trajectory:
-    """``path`` (with speeds) up to where ``point`` [m] projects on it."""
-    p = path.project(*point)
-    if p.s <= 0:
-        raise ValueError(f"the plan's goal {list(point)} lies at the route's start: give a goal along the route")
-    before = path.s < p.s
-    return Trajectory(np.vstack([path.xy[before], (p.x, p.y)]),
-                      np.append(path.speed[before], path.speed_at(p.s)))
 
 
 def _previewed(p: Plan, steps: int) -> Trajectory:

@@ -2,7 +2,8 @@
 
 from vilma.planning.frenet import FrenetFrame, FrenetState
 from vilma.planning.messages import local_plan, track_list
-from vilma.planning.planner import Candidates, Plan, PlannerParams, RoadBounds, Status, plan
+from vilma.planning.params import PlannerParams
+from vilma.planning.planner import NO_ROAD, Candidates, Plan, RoadBounds, Status, plan
 
-__all__ = ["Candidates", "FrenetFrame", "FrenetState", "Plan", "PlannerParams", "RoadBounds", "Status", "local_plan",
-           "plan", "track_list"]
+__all__ = ["NO_ROAD", "Candidates", "FrenetFrame", "FrenetState", "Plan", "PlannerParams", "RoadBounds", "Status",
+           "local_plan", "plan", "track_list"]

@@ -13,8 +13,7 @@ from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning
 from vilma.core.messages import Message, PoseEstimate
 from vilma.perception import MotFrame, clear_mot, laser_pose
-from vilma.planning import RoadBounds
-from vilma.planning.planner import NO_ROAD
+from vilma.planning import NO_ROAD, RoadBounds
 from vilma.scenario.plan_keys import PLANNER
 from vilma.scenario.spec import Scenario
 from vilma.sim import SimConfig

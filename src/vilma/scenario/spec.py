@@ -170,14 +170,12 @@ class Scenario:
     def _plan_route(self) -> Trajectory:
         """A plan's route: the CommonRoad route (``route``, or none of ``follow`` and ``course`` given) or the path,
         at the task's speed or its own, lowered in curves, cut where the goal projects on it."""
-        from vilma.control.local_planning import cut_at  # the planner (numba): for a plan only
-
         t, d = self.task, self.driver
         routed = t.route or (t.course is None and t.follow is None)
         try:
             path = self._route() if routed else speed_profile(self._path(), t.speed, d.max_lateral_accel,
                                                               d.stop_deceleration)
-            return path if t.plan.goal is None else cut_at(path, t.plan.goal)
+            return path if t.plan.goal is None else path.cut_at(t.plan.goal)
         except ValueError as e:
             raise SpecError(f"{self.file or self.name}: task: {e}") from None
 

@@ -297,6 +297,19 @@ class Trajectory:
         """
         return float(path_curvature_at(self.arrays, float(s), float(span)))
 
+    def cut_at(self, point: tuple[float, float]) -> Trajectory:
+        """The path (with its speeds) up to where ``point`` [m] projects on it.
+
+        Raises:
+            ValueError: the point projects at the path's start.
+        """
+        p = self.project(*point)
+        if p.s <= 0:
+            raise ValueError(f"the goal {list(point)} lies at the route's start: give a goal along the route")
+        before = self.s < p.s
+        speed = None if self.speed is None else np.append(self.speed[before], self.speed_at(p.s))
+        return Trajectory(np.vstack([self.xy[before], (p.x, p.y)]), speed)
+
     def speed_at(self, s: float) -> float | None:
         """Speed at arc length ``s`` [m/s] interpolated between points, or None without speeds."""
         return None if self.speed is None else float(path_speed_at(self.arrays, float(s)))
