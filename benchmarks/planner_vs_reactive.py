@@ -3,7 +3,8 @@
     python benchmarks/planner_vs_reactive.py [--scenarios DIR]
 
 For every CommonRoad file in ``DIR`` (default: ``../shared/commonroad`` beside the repository) and every bundled
-one (a file already run by content is skipped), both sides drive the file's planning problem and are scored alike
+one (a file already run by content is skipped), both sides (vilma with truth and with laser perception) drive the
+file's planning problem and are scored alike
 (:mod:`vilma.world.benchmark`): goal reached, collisions, off-road, time to goal [s], planning time per cycle [ms].
 The reactive planner is ``benchmarks/anchors/reactive_planner.py`` (the ``benchmark`` extra), a subprocess per file
 so that a crash of its C++ parts is a row too. Prints JSON, one entry per file, and a markdown table to stderr.
@@ -31,11 +32,15 @@ ANCHOR_TIMEOUT_S = 3600.0
 """How long the reactive planner may take on one file [s] before its row says it hung."""
 
 
-def vilma_side(file: Path) -> dict:
+LASER = {"perception": "laser", "laser": "true"}
+"""The overrides for laser perception (the scans segmented, boxed and tracked) instead of the objects sensor."""
+
+
+def vilma_side(file: Path, overrides: dict[str, str] | None = None) -> dict:
     """vilma on ``file``: its default for a CommonRoad file, the ``plan`` task (perception, prediction and the
-    sampling planner each 0.1 s)."""
+    sampling planner each 0.1 s), with ``overrides`` (``--set``)."""
     try:
-        m = run(load_scenario(file)).metrics
+        m = run(load_scenario(file, overrides)).metrics
     except Exception as e:  # a failure is a row, as on the reactive side
         return {"vilma_task": "plan", **dict.fromkeys(FIELDS), "goal_reached": False, "error": _line(e)}
     return {"vilma_task": "plan", **{k: m.get(k) for k in FIELDS[:4]}, "plan_ms_mean": m.get("planning_ms_mean"),
@@ -76,7 +81,7 @@ def markdown(rows: list[dict]) -> str:
     head = ("file", "side", *FIELDS)
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        for side in ("vilma", "reactive"):
+        for side in ("vilma", "vilma_laser", "reactive"):
             cells = [r["file"], side, *(_cell(r[side][k]) for k in FIELDS)]
             lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -101,7 +106,8 @@ def main(argv: list[str]) -> int:
         parser.error("commonroad-reactive-planner is not installed: pip install -e '.[benchmark]'")
     rows = []
     for f in scenario_files(args.scenarios):
-        rows.append({"file": f.name, "path": str(f), "vilma": vilma_side(f), "reactive": reactive_side(f)})
+        rows.append({"file": f.name, "path": str(f), "vilma": vilma_side(f), "vilma_laser": vilma_side(f, LASER),
+                     "reactive": reactive_side(f)})
         print(f"{f.name}: done", file=sys.stderr)
     print(json.dumps(rows, indent=1))
     print(markdown(rows), file=sys.stderr)

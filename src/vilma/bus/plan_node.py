@@ -113,12 +113,15 @@ def _route(order: DriverOrder, driver: Driver, est: PoseEstimate) -> Trajectory:
         raise ValueError(f"route of {len(order.points)} points with {len(order.speeds)} speeds; give a speed for "
                          "each point, or speed [m/s]")
     xy = np.asarray(order.points, dtype=np.float64).reshape(-1, 2)
-    segments = np.hypot(*np.diff(xy, axis=0).T) if np.isfinite(xy).all() else np.zeros(0)
+    finite = np.isfinite(xy).all()
+    # (each coordinate first: a hypot of far points would overflow)
+    if finite and (np.abs(xy - (est.x, est.y)).max() > MAX_REACH
+                   or np.hypot(xy[:, 0] - est.x, xy[:, 1] - est.y).max() > MAX_REACH):
+        raise ValueError(f"route points over {MAX_REACH:g} m from the car; send the route near the car")
+    segments = np.hypot(*np.diff(xy, axis=0).T) if finite else np.zeros(0)
     segments = segments[segments > 1e-9]  # (repeated points: the Frenet frame drops them)
     if not len(segments):
         raise ValueError("route points must be 2 or more distinct finite [x, y] pairs [m]")
-    if np.hypot(xy[:, 0] - est.x, xy[:, 1] - est.y).max() > MAX_REACH:
-        raise ValueError(f"route points over {MAX_REACH:g} m from the car; send the route near the car")
     if segments.max() > MAX_SPACING_RATIO * segments.min():
         raise ValueError(f"route points spaced from {segments.min():.3g} m to {segments.max():.3g} m apart; resample "
                          "the route evenly (vilma trajectory resample)")

@@ -63,7 +63,7 @@ class PlannerParams:
     """``k_t``: weight of a manoeuvre's duration [1/s]."""
     offset_weight: float = 1.0
     """``k_d``: weight of the squared end offset from the reference [1/m^2]."""
-    deviation_weight: float = 2.0
+    deviation_weight: float = 8.0
     """Weight of the mean squared offset from the reference over the horizon [1/m^2] (beyond Werling's costs):
     so that the car comes back to the reference soon once past an obstacle, not at the slow pace that costs
     least in jerk and time."""
