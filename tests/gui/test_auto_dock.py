@@ -246,7 +246,9 @@ def test_plan_drives_the_parked_car_scenario_past_the_parked_car_on_the_map(qtbo
         assert w.status_dock.value("plan.mode").split(":")[0] in PLAN_MODES
         w.plots.resize(2400, 360)  # a wide map, as the overtake is: 80 m by 18 m
         w.plots.path_plot.setRange(xRange=(40, 120), yRange=(-6, 12), padding=0)
-        ImageExporter(w.plots.path_plot).export(str(screenshots / "gui-overtake.png"))  # the plot's Export... menu
+        exporter = ImageExporter(w.plots.path_plot)  # the plot's own Export... (its context menu)
+        exporter.parameters()["width"] = 1600  # sharper than the screen's pixels
+        exporter.export(str(screenshots / "gui-overtake.png"))
         assert (screenshots / "gui-overtake.png").stat().st_size > 20_000
         w.close()
     finally:
