@@ -17,6 +17,7 @@ from vilma.app import programs
 from vilma.app.batch import BUNDLED
 from vilma.record.reader import read_recording
 from vilma.scenario import load_scenario
+from vilma.scenario.orders import task_order
 from vilma.world import reactive
 from vilma.world.reactive import IdmParams
 
@@ -125,7 +126,7 @@ def test_up_drives_reactive_traffic_which_brakes_behind_the_slow_ego(tmp_path, m
 def test_a_plan_task_is_a_plan_order_to_its_goal_with_the_scenario_planner_and_perception():
     scenario = load_scenario(BUNDLED / "planned_slower_lead.yaml")
     route = scenario.reference_path()
-    order = programs.task_order(scenario)
+    order = task_order(scenario)
     assert (order.action, order.x, order.y) == ("plan", *route.xy[-1])  # the route ends at the goal
     assert np.array_equal(order.points, route.xy) and np.array_equal(order.speeds, route.speed)
     with programs.LocalBus() as bus, programs.serve_driver(

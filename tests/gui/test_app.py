@@ -17,6 +17,9 @@ from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
 from vilma.core.messages import DriverOrder
 from vilma.gui.backend import Remote
 from vilma.gui.main_window import MainWindow
+from vilma.scenario import load_scenario
+from vilma.scenario.bundled import find_scenario
+from vilma.scenario.orders import task_order
 
 
 @pytest.mark.slow
@@ -96,4 +99,34 @@ def test_connected_gains_and_table_speeds_reach_a_driver_in_another_process(proc
             assert time.monotonic() < deadline, f"no follow at the table's speed: {status.value}"
             time.sleep(0.05)
     finally:
+        backend.close()
+
+
+@pytest.mark.slow
+def test_plan_on_a_gui_joined_over_zenoh_orders_the_scenarios_plan_task(qtbot, processes):
+    """The GUI started with the scenario of ``vilma sim`` sends its plan task to ``vilma drive`` (the same order
+    ``vilma up`` sends), which plans it."""
+    sc = load_scenario(find_scenario("planned_parked_car"))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    processes.vilma("sim", "planned_parked_car", "--listen", endpoint, stdout=subprocess.DEVNULL,
+                    stderr=subprocess.PIPE)
+    processes.vilma("drive", "--connect", endpoint, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    backend = Remote(ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,))), endpoint, scenario=sc)
+    orders = Latest(backend.bus, topic("driver/cmd"))
+    w = MainWindow(backend, refresh_ms=100)
+    qtbot.addWidget(w)
+    w.show()
+    try:
+        qtbot.waitUntil(lambda: w.link.text() == "connected" and "driver/status" in w.bridge.latest, timeout=WAIT_MS)
+        assert w.auto_dock.plan_button.isEnabled()
+        w.auto_dock.plan_button.click()
+        qtbot.waitUntil(lambda: w.bridge.latest["driver/status"].mode == "plan", timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: orders.value is not None, timeout=WAIT_MS)  # the order taken, as the driver publishes
+        want = task_order(sc)
+        assert (orders.value.action, orders.value.x, orders.value.y) == (want.action, want.x, want.y)
+        qtbot.waitUntil(lambda: "planning/plan" in w.bridge.latest, timeout=WAIT_MS)  # it plans
+        assert w.auto_dock.plan_button.isChecked()
+    finally:
+        orders.close()
+        w.close()
         backend.close()

@@ -6,9 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from pyqtgraph.exporters import ImageExporter
 from PySide6.QtCore import Qt
 
 from tests.gui.conftest import WAIT_MS, speed_of
+from vilma.scenario import load_scenario
+from vilma.scenario.bundled import find_scenario
 from vilma.trajectory import Trajectory, increase_point_count, load_trajectory, smooth_iterative
 
 
@@ -169,3 +172,84 @@ def test_controllers_and_gains_change_live_and_bad_gains_are_refused(window, qtb
     qtbot.waitUntil(lambda: "refused" in window.last_message, timeout=WAIT_MS)
     # the running driver is kept
     assert embedded.driver_node.driver.params.gains_of("pure_pursuit").lookahead_min == 4.0
+
+
+# -- Plan: the scenario's plan task --------------------------------------------------------------------------------
+
+PLAN_MODES = ("velocity", "follow", "stop", "fallback")
+"""A plan's modes (:class:`vilma.planning.planner.Plan`)."""
+
+
+def _planned_window(qtbot, tmp_path, start: bool = True):
+    """The main window on ``planned_parked_car`` embedded (started and heard from, if ``start``), and its backend."""
+    from tests.gui.conftest import SPEED, shown_window
+    from vilma.gui.backend import Embedded
+    from vilma.gui.main_window import MainWindow
+
+    backend = Embedded(load_scenario(find_scenario("planned_parked_car")), speed=SPEED)
+    if start:
+        return shown_window(qtbot, backend, tmp_path), backend
+    w = MainWindow(backend, refresh_ms=100, record_dir=tmp_path)
+    qtbot.addWidget(w)
+    return w, backend
+
+
+def test_plan_is_disabled_without_a_plan_task(window, qtbot):
+    plan = window.auto_dock.plan_button
+    assert window.backend.scenario.task.kind != "plan" and not plan.isEnabled()
+    _click(qtbot, plan)
+    assert not plan.isChecked() and window.bridge.latest["driver/status"].mode == "manual"
+
+
+def test_a_refused_plan_order_shows_its_one_line_error_in_the_status_bar(qtbot, tmp_path):
+    w, backend = _planned_window(qtbot, tmp_path, start=False)  # no simulator running: no pose of the car yet
+    try:
+        assert w.auto_dock.plan_button.isEnabled()
+        _click(qtbot, w.auto_dock.plan_button)
+        qtbot.waitUntil(lambda: "refused" in w.last_message, timeout=WAIT_MS)
+        assert w.last_message.startswith("Plan: refused: plan: no pose of the car yet") and "\n" not in w.last_message
+        assert w.statusBar().currentMessage() == w.last_message
+        assert not w.auto_dock.plan_button.isChecked()  # shown off again, as other refused orders
+        w.close()
+    finally:
+        backend.close()
+
+
+@pytest.mark.slow
+def test_plan_drives_the_parked_car_scenario_past_the_parked_car_on_the_map(qtbot, tmp_path, screenshots):
+    """Plan starts the scenario's task with its planner (its lane and the next, 3.5 m to the left) and truth
+    perception; beside the parked car the map shows its track's box and the chosen trajectory (the README's
+    screenshot of an overtake)."""
+    w, backend = _planned_window(qtbot, tmp_path)
+    try:
+        sc = backend.scenario
+        setup = backend.driver_node.planning
+        assert (setup.params, setup.perception, setup.laser) == (sc.planner, sc.perception, sc.sim.laser)
+        (parked,) = sc.sim.traffic.at(0.0)[0]  # x, y [m], yaw [rad], speed [m/s], as the scenario's file has it
+        length = np.ptp(sc.sim.traffic.outline[0, :, 0])
+        w.show_plots()
+        _click(qtbot, w.auto_dock.plan_button)
+
+        def beside() -> bool:  # the car in the left lane, within the parked car's length of it
+            p = w.bridge.latest["pose"]
+            return abs(p.x - parked[0]) <= length and p.y > 2.0
+        qtbot.waitUntil(beside, timeout=WAIT_MS)
+        backend.stop()  # the picture of that moment
+        w.plots.pause_button.click()
+        w.plots.refresh(force=True)
+        (box,) = w.plots.plan.tracks.objects
+        assert math.hypot(box.x - parked[0], box.y - parked[1]) < 0.5
+        assert (box.length, box.width) == pytest.approx((length, np.ptp(sc.sim.traffic.outline[0, :, 1])), abs=0.1)
+        assert w.plots.plan.labels[0].isVisible() and w.plots.plan.labels[0].toPlainText() == str(box.id)
+        assert len(w.plots.plan.chosen.xData) > 1 and w.bridge.latest["driver/status"].mode == "plan"
+        w.status_dock.refresh()
+        assert w.status_dock.value("plan.mode").split(":")[0] in PLAN_MODES
+        w.plots.resize(2400, 360)  # a wide map, as the overtake is: 80 m by 18 m
+        w.plots.path_plot.setRange(xRange=(40, 120), yRange=(-6, 12), padding=0)
+        exporter = ImageExporter(w.plots.path_plot)  # the plot's own Export... (its context menu)
+        exporter.parameters()["width"] = 1600  # sharper than the screen's pixels
+        exporter.export(str(screenshots / "gui-overtake.png"))
+        assert (screenshots / "gui-overtake.png").stat().st_size > 20_000
+        w.close()
+    finally:
+        backend.close()

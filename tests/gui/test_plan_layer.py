@@ -7,6 +7,7 @@ import math
 
 import msgspec
 import numpy as np
+import pyqtgraph as pg
 import pytest
 from PySide6.QtCore import Qt
 
@@ -81,7 +82,9 @@ def test_the_map_draws_each_track_as_its_box_id_and_velocity_arrow(planned, qtbo
                                atol=1e-12)
     shown = [label for label in layer.labels if label.isVisible()]
     assert [label.textItem.toPlainText() for label in shown] == ["7", "9"]
-    assert [(label.pos().x(), label.pos().y()) for label in shown] == [(25.0, 0.0), (20.0, 6.0)]
+    # centred above each box: the lead's half width, the crossing's half length (its yaw pi/2) over its centre
+    np.testing.assert_allclose([(label.pos().x(), label.pos().y()) for label in shown], [(25.0, 0.9), (20.0, 8.0)])
+    assert all(label.anchor == pg.Point(0.5, 1.0) for label in shown)  # the text's bottom centre there
 
 
 def test_the_map_draws_the_trajectory_chosen_the_candidates_and_the_predictions(planned, qtbot):

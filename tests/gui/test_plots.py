@@ -9,6 +9,8 @@ import pytest
 
 from tests.gui.conftest import WAIT_MS
 from vilma.bus.local import LocalBus
+from vilma.bus.topics import topic
+from vilma.core.messages import Pose
 from vilma.gui.bridge import HISTORY_COLUMNS, BusBridge
 from vilma.gui.plots import PlotWindow
 
@@ -70,3 +72,13 @@ def test_the_legends_stand_in_the_titles_and_the_trajectory_shows_under_the_car(
             assert curve.name() in title and curve.opts["pen"].color().name() in title
     trajectory, car = plots.trajectory_curve, plots.car_curve
     assert car.zValue() > trajectory.zValue() and trajectory.opts["pen"].widthF() > 2 * car.opts["pen"].widthF()
+
+
+def test_a_dot_marks_where_the_car_is_on_the_map(plots):
+    plots.refresh(force=True)
+    assert _n(plots.car_marker) == 0  # no pose yet: no car
+    for i in range(3):
+        plots.bridge.bus.publish(topic("pose"), Pose(i * 10_000_000, float(i), 2.0 * i, 0.0, 0.0, 0.0, 0.0))
+    plots.refresh(force=True)
+    assert (list(plots.car_marker.xData), list(plots.car_marker.yData)) == ([2.0], [4.0])  # the latest pose
+    assert plots.car_marker.zValue() > plots.car_curve.zValue()

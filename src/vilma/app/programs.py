@@ -8,32 +8,27 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import math
 import signal
 import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from vilma.bus.base import Bus
 from vilma.bus.local import LocalBus
 from vilma.bus.nodes import DriverNode, SimNode
 from vilma.bus.paced import run_paced
 from vilma.control.driver import Driver
-from vilma.core.messages import DriverOrder
 from vilma.morse import MorseServer
 from vilma.morse.access import parse_networks
 from vilma.morse.components import LASER_RANGE
 from vilma.record.live import FoxgloveLive
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.road_scene import scenario_road
+from vilma.scenario.orders import plan_setup, task_order
 from vilma.scenario.runner import initial_state, sim_config
 from vilma.scenario.spec import Scenario, to_yaml
 from vilma.sim import SimConfig, Simulator
-
-if TYPE_CHECKING:  # the planner (numba, scipy.interpolate) is imported for a plan task only
-    from vilma.bus.plan_node import PlanSetup
 
 log = logging.getLogger(__name__)
 
@@ -83,32 +78,6 @@ def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Sce
                 log.warning("%s: the task did not start: %s", scenario.file or scenario.name, reply.error)
         node.on_pose = start
     return node
-
-
-def plan_setup(scenario: Scenario | None) -> PlanSetup | None:
-    """How the driver plans a plan task of ``scenario`` (None: no plan task)."""
-    if scenario is None or scenario.task.kind != "plan":
-        return None
-    from vilma.bus.plan_node import PlanSetup  # the planner (numba): for a plan only
-
-    return PlanSetup(params=scenario.planner, perception=scenario.perception, laser=scenario.sim.laser)
-
-
-def task_order(scenario: Scenario) -> DriverOrder:
-    """The scenario's task as an order to the driver (a path with its points, and their speeds if it has them; a
-    plan's goal at its route's end)."""
-    t = scenario.task
-    speed = math.nan if t.speed is None else t.speed
-    if t.kind == "speed":
-        return DriverOrder(action="set_speed", speed=speed)
-    if t.kind == "go_to":
-        return DriverOrder(action="go_to", x=t.go_to[0], y=t.go_to[1], speed=speed)
-    path = scenario.reference_path()
-    if t.kind == "plan":
-        (x, y), speeds = path.xy[-1], path.speed.tolist()
-        return DriverOrder(action="plan", x=float(x), y=float(y), points=path.xy.tolist(), speeds=speeds)
-    return DriverOrder(action="follow", speed=speed, points=path.xy.tolist(),
-                       speeds=[] if path.speed is None else path.speed.tolist())
 
 
 @contextlib.contextmanager

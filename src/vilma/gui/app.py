@@ -17,9 +17,9 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
     """Run the GUI until its window closes; returns the exit code.
 
     With ``bus`` (a Zenoh bus from ``--connect``) it joins the simulator and
-    driver on it (a ``scenario`` then names that simulator's cameras); otherwise
-    it runs ``scenario`` (or the defaults) embedded, paced to ``args.speed`` x
-    real time.
+    driver on it (a ``scenario`` then names that simulator's cameras, road and
+    plan task); otherwise it runs ``scenario`` (or the defaults) embedded, paced
+    to ``args.speed`` x real time.
     """
     require("gui", "vilma gui")
     from PySide6.QtCore import QTimer
@@ -42,7 +42,7 @@ def main(args: argparse.Namespace, scenario: Scenario | None = None, bus: Bus | 
     if bus is not None:
         world = scenario.sim.world_topics if scenario is not None else ()
         backend = Remote(bus, "Zenoh " + ", ".join(getattr(args, "connect", None) or ["peers"]), world_topics=world,
-                         driver_params=scenario.driver if scenario is not None else None)
+                         driver_params=scenario.driver if scenario is not None else None, scenario=scenario)
     else:
         backend = Embedded(scenario, speed=getattr(args, "speed", 1.0))
     with backend:  # closed however the window ends

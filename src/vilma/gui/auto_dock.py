@@ -1,5 +1,5 @@
-"""The "Automatic Driving" dock: speed holding, driving to a point or along the table, trajectory tools,
-controllers and their gains.
+"""The "Automatic Driving" dock: speed holding, driving to a point or along the table, the scenario's plan task,
+trajectory tools, controllers and their gains.
 
 Orders go to the self-driver on ``driver/cmd`` (:class:`~vilma.core.messages.DriverOrder`);
 the trajectory tools are those of :mod:`vilma.trajectory` applied to the table.
@@ -34,6 +34,7 @@ from vilma.gui.bridge import BusBridge
 from vilma.gui.fields import FieldError, parse_number
 from vilma.gui.gains import ParamsEditor
 from vilma.gui.waypoints import WaypointTable
+from vilma.scenario.orders import task_order
 from vilma.trajectory import (
     Trajectory,
     TrajectoryFileError,
@@ -101,7 +102,7 @@ class AutoDock(QDockWidget):
         return speed
 
     def _path_group(self, body: QWidget) -> QGroupBox:
-        """Go to (X, Y) or along the table, at a speed; Stop."""
+        """Go to (X, Y) or along the table, at a speed; Plan; Stop."""
         path = QGroupBox("Path", body)
         pf = QFormLayout(path)
         self.x_edit, self.y_edit = QLineEdit("20", path), QLineEdit("0", path)
@@ -120,6 +121,16 @@ class AutoDock(QDockWidget):
                                         "table")
         self.wheel_direction.toggled.connect(self._wheel_direction_toggled)
         pf.addRow(self.wheel_direction)
+        self.plan_button = QPushButton("Plan", path)
+        self.plan_button.setCheckable(True)
+        sc = self.backend.scenario
+        self.plan_button.setEnabled(sc is not None and sc.task.kind == "plan")
+        self.plan_button.setToolTip(
+            "start (checked) or stop (unchecked) the scenario's plan task: perceive, predict and plan along its "
+            "route to its goal" if self.plan_button.isEnabled() else "the scenario has no plan task (task: {plan: "
+            "true}); start the GUI with one to plan")
+        self.plan_button.toggled.connect(self._plan_toggled)
+        pf.addRow(self.plan_button)
         self.stop_button = QPushButton("Stop", path)
         self.stop_button.setToolTip("take the car from the driver and brake to a stop")
         self.stop_button.clicked.connect(self.stop_car)
@@ -179,10 +190,19 @@ class AutoDock(QDockWidget):
         button.setChecked(on)
         button.blockSignals(False)
 
+    def _toggles(self) -> tuple[QPushButton, ...]:
+        """The automatic functions, at most one on."""
+        return self.current_speed, self.set_speed, self.wheel_direction, self.plan_button
+
+    def _only(self, button: QPushButton) -> None:
+        """Show every automatic function but ``button`` off."""
+        for b in self._toggles():
+            if b is not button:
+                self._quiet(b, False)
+
     def _current_speed_toggled(self, on: bool) -> None:
         if on:
-            self._quiet(self.set_speed, False)
-            self._quiet(self.wheel_direction, False)
+            self._only(self.current_speed)
             self.speed_edit.setEnabled(True)
             self.bridge.order(DriverOrder(action="hold_speed"), "Current Speed")
         else:
@@ -196,8 +216,7 @@ class AutoDock(QDockWidget):
                 self.message.emit(str(e))
                 self._quiet(self.set_speed, False)
                 return
-            self._quiet(self.current_speed, False)
-            self._quiet(self.wheel_direction, False)
+            self._only(self.set_speed)
             self.speed_edit.setEnabled(False)
             self.bridge.order(DriverOrder(action="set_speed", speed=v), "Set Speed")
         else:
@@ -205,12 +224,12 @@ class AutoDock(QDockWidget):
             self._manual_if_idle()
 
     def _manual_if_idle(self) -> None:
-        if not any(b.isChecked() for b in (self.current_speed, self.set_speed, self.wheel_direction)):
+        if not any(b.isChecked() for b in self._toggles()):
             self.bridge.order(DriverOrder(action="manual"), "manual control")
 
     def release_toggles(self) -> None:
         """Show every automatic function off (manual control was taken)."""
-        for b in (self.current_speed, self.set_speed, self.wheel_direction):
+        for b in self._toggles():
             self._quiet(b, False)
         self.speed_edit.setEnabled(True)
         self.table.highlight(-1)
@@ -228,10 +247,18 @@ class AutoDock(QDockWidget):
             self.message.emit(str(e))
             self._quiet(self.wheel_direction, False)
             return
-        self._quiet(self.current_speed, False)
-        self._quiet(self.set_speed, False)
+        self._only(self.wheel_direction)
         self.speed_edit.setEnabled(True)
         self.bridge.order(order, "From Table" if self.from_table.isChecked() else "Set Wheel Direction")
+
+    def _plan_toggled(self, on: bool) -> None:
+        if not on:
+            self._manual_if_idle()
+            return
+        self._only(self.plan_button)
+        self.speed_edit.setEnabled(True)
+        self.table.highlight(-1)
+        self.bridge.order(task_order(self.backend.scenario), "Plan")
 
     def path_order(self) -> DriverOrder:
         """The order for the path fields: go to (X, Y), or follow the table.

@@ -25,6 +25,7 @@ from vilma.control.driver import Driver, DriverParams
 from vilma.core.closing import Closeable
 from vilma.core.messages import DriverOrder
 from vilma.scenario.fields import load_yaml
+from vilma.scenario.orders import plan_setup
 from vilma.scenario.runner import initial_state, sim_config
 from vilma.scenario.spec import Scenario, parse_scenario
 from vilma.sim import Simulator
@@ -42,9 +43,10 @@ def default_scenario() -> Scenario:
 class Embedded(Closeable):
     """Simulator and driver in this process on a local bus, paced to ``speed`` x real time.
 
-    The scenario gives the car, sensors, start pose and driver parameters; its
-    task is not started (the GUI gives the orders). :attr:`world_topics` are the
-    3D plant's camera and laser topics, from the scenario's simulator.
+    The scenario gives the car, sensors, start pose, driver parameters and how a
+    plan task plans; its task is not started (the GUI gives the orders, Plan its
+    plan task). :attr:`world_topics` are the 3D plant's camera and laser topics,
+    from the scenario's simulator.
     """
 
     embedded = True
@@ -62,7 +64,8 @@ class Embedded(Closeable):
         self.driver_params = self.scenario.driver
         driver = Driver(self.vehicle, self.driver_params, step=self.sim.config.step)
         self.sim_node = SimNode(self.sim, self.bus, car, start=self.start_state)
-        self.driver_node = DriverNode(driver, self.bus, car, self.sim.clock.step_ns)
+        self.driver_node = DriverNode(driver, self.bus, car, self.sim.clock.step_ns,
+                                      planning=plan_setup(self.scenario))
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.error: str = ""
@@ -123,18 +126,19 @@ class Embedded(Closeable):
 
 class Remote(Closeable):
     """A bus that reaches a simulator and a driver in other processes (``vilma sim`` / ``vilma drive``);
-    ``world_topics``: that simulator's camera and laser topics (its scenario's)."""
+    ``world_topics``: that simulator's camera and laser topics (its scenario's); ``scenario``: the one they run,
+    if known (its road is drawn, its plan task can be ordered)."""
 
     embedded = False
 
     def __init__(self, bus: Bus, where: str = "Zenoh", car: str = "vilma", world_topics: tuple[str, ...] = (),
-                 driver_params: DriverParams | None = None) -> None:
+                 driver_params: DriverParams | None = None, scenario: Scenario | None = None) -> None:
         self.bus, self.where, self.car = bus, where, car
         self.world_topics = tuple(world_topics)
         self.vehicle = vilma()
         self.driver_params = driver_params or DriverParams()
         """What the remote driver runs, as far as this GUI knows (its scenario's, then what was set)."""
-        self.scenario: Scenario | None = None
+        self.scenario = scenario
 
     def describe(self) -> str:
         """One line for the title and the status bar."""

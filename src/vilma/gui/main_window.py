@@ -137,7 +137,7 @@ class MainWindow(QMainWindow):
     def _replied(self, what: str, reply) -> None:
         if not reply.ok:
             self.notify(f"{what}: refused: {reply.error}")
-            if what in ("Set Speed", "Current Speed", "Set Wheel Direction", "From Table"):
+            if what in ("Set Speed", "Current Speed", "Set Wheel Direction", "From Table", "Plan"):
                 self.auto_dock.release_toggles()
         elif what.startswith("controllers"):
             self.notify(f"{what}: applied")

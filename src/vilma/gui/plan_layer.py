@@ -1,7 +1,7 @@
-"""A planned car's tracks and plan on the map (the plot window's path plot): each track's box with its id and its
-velocity arrow, the objects' predicted futures (dashed), the trajectory chosen (thick), the candidates evaluated (the
-free ones thin and faint, the rejected thin in orange). One curve a kind, its shapes separated by NaN rows: a few
-curves however many tracks and paths."""
+"""A planned car's tracks and plan on the map (the plot window's path plot): each track's box with its id above it
+and its velocity arrow, the objects' predicted futures (dashed), the trajectory chosen (thick), the candidates
+evaluated (the free ones thin and faint, the rejected thin in orange). One curve a kind, its shapes separated by NaN
+rows: a few curves however many tracks and paths."""
 
 from __future__ import annotations
 
@@ -91,15 +91,16 @@ class PlanLayer:
     def _draw_tracks(self, tracks: TrackList | None) -> None:
         self.tracks = tracks
         objects = tracks.objects if tracks is not None else []
-        self.boxes.setData(*joined(box_outline(o) for o in objects).T)
+        outlines = [box_outline(o) for o in objects]
+        self.boxes.setData(*joined(outlines).T)
         self.arrows.setData(*joined(velocity_arrow(o) for o in objects).T)
-        for i, o in enumerate(objects):
+        for i, (o, outline) in enumerate(zip(objects, outlines, strict=True)):
             if i == len(self.labels):
                 self.labels.append(pg.TextItem(color=TRACK, anchor=(0.5, 1.0)))
                 self.labels[i].setZValue(2)
                 self.plot.addItem(self.labels[i], ignoreBounds=True)
             self.labels[i].setText(str(o.id))
-            self.labels[i].setPos(o.x, o.y)
+            self.labels[i].setPos(o.x, outline[:, 1].max())  # above its box: readable over the road's obstacle
             self.labels[i].setVisible(True)
         for label in self.labels[len(objects):]:
             label.setVisible(False)

@@ -123,6 +123,10 @@ class PlotWindow(QWidget):
         self.car_curve = self.path_plot.plot(pen=pg.mkPen((0, 0, 230), width=1.5), name="car",
                                              skipFiniteCheck=True)
         self.car_curve.setZValue(self.trajectory_curve.zValue() + 1)
+        self.car_marker = self.path_plot.plot(pen=None, symbol="o", symbolSize=10, symbolBrush=(0, 0, 230),
+                                              symbolPen="w")
+        """Where the car is: its latest pose."""
+        self.car_marker.setZValue(self.car_curve.zValue() + 1)
         self.road = RoadLayer(self.path_plot, road) if road is not None else None
         self.plan = PlanLayer(self.path_plot)
         self.speed_plot = g.addPlot(row=0, col=1, title=legend_title(
@@ -242,6 +246,7 @@ class PlotWindow(QWidget):
         path = h["path"].view()
         x, y, connect = self._path_points(path)
         self.car_curve.setData(x, y, connect=connect)
+        self.car_marker.setData(path[-1:, 1], path[-1:, 2])
         self._show_plan()
         if self.road is not None and len(path):
             self.road.show_at(float(path[-1, 0]))
