@@ -394,7 +394,7 @@ def _add_gui(sub) -> None:
 def _add_recording_commands(sub) -> None:
     """What works on recordings and ROS: ``report``, ``export``, ``replay``, ``ros1-bridge``."""
     rp = sub.add_parser("report", help="scorecard and plots of a recording (run.mcap) alone")
-    rp.add_argument("recording", metavar="RUN.mcap")
+    rp.add_argument("recording", metavar="RUN.mcap", help="the recording, or a run's folder (its run.mcap)")
     rp.add_argument("--out", metavar="DIR", help="where metrics.json and the plots go (default RUN-report/)")
     rp.set_defaults(func=_record_command("report_command"))
     ex = sub.add_parser("export", help="a recording as a ROS 2 bag (rosbag2, MCAP storage, standard types)")

@@ -23,6 +23,7 @@ from vilma.record.road_scene import scenario_road
 from vilma.record.ros1 import Ros1Bridge, init_node, rospy_or_reason, shutdown_node
 from vilma.record.rosbag import export_rosbag2
 from vilma.scenario.drive_log import DriveLog
+from vilma.scenario.folder import RECORDING
 from vilma.scenario.result import RunObserver
 from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
@@ -30,8 +31,10 @@ from vilma.sim import Simulator
 
 
 def report_command(args: argparse.Namespace) -> int:
-    """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone."""
-    rec = read_recording(Path(args.recording))
+    """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone (a run's folder: its
+    ``run.mcap``)."""
+    path = Path(args.recording)
+    rec = read_recording(path / RECORDING if path.is_dir() else path)
     result = report(rec, Path(args.out) if args.out else None)
     for k, v in result.metrics.items():
         print(f"{k:32s} {v}")

@@ -333,7 +333,7 @@ class LocalPlan(Message, frozen=True):
     """A planning cycle (``planning/plan``): the trajectory chosen, from the cycle's time on at steps of ``dt`` [s]
     (positions [m], speeds [m/s]), its ``mode`` (``velocity``, ``follow``, ``stop`` or ``fallback``) and
     ``reason`` (why the fallback), a sample of the candidates evaluated and the predicted futures of the
-    objects."""
+    objects; ``planning_ms``: the wall time the cycle took [ms] (NaN: not measured)."""
 
     mode: str
     reason: str
@@ -343,3 +343,4 @@ class LocalPlan(Message, frozen=True):
     speed: _Floats
     candidates: Annotated[list[PlannedPath], msgspec.Meta(max_length=MAX_PLAN_PATHS)] = []
     predictions: Annotated[list[PlannedPath], msgspec.Meta(max_length=MAX_PLAN_PATHS)] = []
+    planning_ms: float = math.nan

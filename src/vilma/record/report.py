@@ -30,6 +30,10 @@ run's (the recording's ``scorecard`` metadata; null if absent or live),
 rows; ``wall_time_s`` is null: a report times no drive. Collisions come from the
 run's ``scorecard`` metadata, or the segment's last ``sim/status``. Camera
 images and laser scans are not scored; :func:`world_counts` counts them.
+
+A planned drive's plots show its planning cycles (``planning/plan``: their time, mode and fallbacks) and the tracks
+of each scan (``perception/objects``) in the last segment (:func:`planning_log`); its perception and planning keys
+(CLEAR MOT's among them) are the run's, from its ``scorecard`` metadata.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import msgspec
 import numpy as np
 
 from vilma.core.files import write_atomic
@@ -50,7 +55,8 @@ from vilma.record.schemas import DRIVE_LOG
 from vilma.scenario.drive_log import COLUMNS, PLANT_COLUMNS, DriveLog
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.metrics import WATCHDOG_STOP, check_expectations, expectation_failures, scorecard, timing
-from vilma.scenario.result import RunResult
+from vilma.scenario.plan_keys import PLANNING_KEYS
+from vilma.scenario.result import PlanningLog, RunResult
 from vilma.scenario.spec import TIMING_KEYS, Scenario, TaskSpec, parse_scenario
 from vilma.trajectory import Trajectory
 
@@ -239,6 +245,40 @@ def score_segment(rows: np.ndarray, epoch: int, task: Task, base: Scenario, stat
     return RunResult(scenario, m, [], log, task.path, t_start)
 
 
+class _Cycle(msgspec.Struct):
+    """What the planning plot reads of a ``planning/plan`` message (the paths are skipped unread)."""
+
+    stamp_ns: int
+    mode: str
+    planning_ms: float | None = None
+
+
+class _Scan(msgspec.Struct):
+    """What the perception plot reads of a ``perception/objects`` message."""
+
+    stamp_ns: int
+    objects: list[msgspec.Raw] = []
+
+
+def planning_log(rec: Recording, epoch: int, since_ns: int) -> PlanningLog | None:
+    """The planning cycles and the scans' tracks recorded in clock ``epoch`` from ``since_ns`` [ns] on; None if the
+    recording holds no plan there."""
+    def read(name: str, kind: type) -> list:
+        data = [d for d, e in zip(rec.payloads(name), rec.epoch(name).tolist(), strict=True) if e == epoch]
+        got = msgspec.json.decode(b"[" + b",".join(data) + b"]", type=list[kind]) if data else []
+        return [g for g in got if g.stamp_ns >= since_ns]
+
+    try:
+        cycles, scans = read("planning/plan", _Cycle), read("perception/objects", _Scan)
+    except msgspec.ValidationError as e:
+        raise RecordingError(f"{rec.path}: a planning or perception message is malformed: {e}") from None
+    if not cycles:
+        return None
+    return PlanningLog([c.stamp_ns * 1e-9 for c in cycles],
+                       [math.nan if c.planning_ms is None else c.planning_ms for c in cycles], [c.mode for c in cycles],
+                       [s.stamp_ns * 1e-9 for s in scans], [len(s.objects) for s in scans])
+
+
 def world_counts(rec: Recording) -> dict[str, int]:
     """Messages of each camera and laser topic (``camera/front_left``: 600, ``laser``: 300...)."""
     return {name: rec.count(name) for name in rec.world_topics}
@@ -274,9 +314,11 @@ def score(rec: Recording) -> Report:
         times[e] = seg.metrics["sim_time_s"]  # an epoch's sim time: its last segment's end
     m = {**seg.metrics, "distance_m": sum(p["distance_m"] for p in parts), "sim_time_s": sum(times.values())}
     m.update(timing(m["sim_time_s"], None, ran.get("loop_wall_time_s"), ran.get("load_time_s")))
+    m.update((k, ran[k]) for k in PLANNING_KEYS if k in ran)
     failures = (expectation_failures(m, seg.scenario) if m["completed"] is not None
                 else check_expectations(m, seg.scenario.expect))
-    return Report(seg.scenario, m, failures, seg.log, seg.path, seg.t_start, segments=parts)
+    return Report(seg.scenario, m, failures, seg.log, seg.path, seg.t_start,
+                  planning=planning_log(rec, e, round(rows[lo, 0] * 1e9) if lo else 0), segments=parts)
 
 
 def _task_at(tasks: list[Task], epoch: int, t: float) -> Task:

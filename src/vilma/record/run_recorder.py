@@ -62,7 +62,7 @@ class RunRecorder(RunObserver):
 
     def add_captures(self, captures: list[tuple[str, Message]]) -> None:
         """The world sensors' messages of a block or period (``Simulator.take_captures``): camera images and
-        laser scans by topic name."""
+        laser scans by topic name; and a planned car's tracks and plans, written with their scenes."""
         for name, msg in captures:
             self.recorder.call(Recorder.add_message, name, msg)
 

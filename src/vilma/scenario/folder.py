@@ -25,11 +25,14 @@ from vilma.trajectory import load_speed_log
 
 PLOTS = ("path.png", "speed.png", "cross_track.png", "effort.png")
 """The plots of a run (:func:`vilma.scenario.report.plot_run`)."""
+PLANNING_PLOTS = ("planning.png", "perception.png")
+"""The plots of a planned run besides :data:`PLOTS`."""
 RECORDING = "run.mcap"
 """The run's recording (:mod:`vilma.record.run`)."""
 SOLUTION = "solution.xml"
 """A CommonRoad run's drive as the benchmark's solution file (:mod:`vilma.world.solution`)."""
-RUN_FILES = ("metrics.json", "timeseries.csv", "timeseries.csv.part", "scenario.yaml", RECORDING, SOLUTION, *PLOTS)
+RUN_FILES = ("metrics.json", "timeseries.csv", "timeseries.csv.part", "scenario.yaml", RECORDING, SOLUTION, *PLOTS,
+             *PLANNING_PLOTS)
 """The files a run writes in its folder."""
 REPORT_DIR = "run-report"
 """Where ``vilma report`` puts the report of the folder's recording."""

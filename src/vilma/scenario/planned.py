@@ -1,20 +1,22 @@
 """A planned run (``task: {plan: ...}``): the car's local planning
 (:class:`~vilma.control.local_planning.LocalPlanning`), its perception scored against the true traffic on every scan
-(CLEAR MOT), and the scorecard's planning keys."""
+(CLEAR MOT), the scorecard's planning keys, and its tracks and plans as bus messages for the run's observers."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
 
+import msgspec
 import numpy as np
 
 from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning
-from vilma.core.messages import Message, PoseEstimate
+from vilma.core.messages import MAX_TRACKS, Message, PoseEstimate
 from vilma.perception import MotFrame, clear_mot, laser_pose
-from vilma.planning import NO_ROAD, RoadBounds
-from vilma.scenario.plan_keys import PLANNER
+from vilma.planning import NO_ROAD, Plan, RoadBounds, local_plan, track_list
+from vilma.scenario.plan_keys import PLANNER, PLANNING_KEYS
+from vilma.scenario.result import PlanningLog
 from vilma.scenario.spec import Scenario
 from vilma.sim import SimConfig
 from vilma.trajectory import Trajectory
@@ -23,15 +25,15 @@ from vilma.world.states import YAW, V, X, Y
 MOT_THRESHOLD = 2.5
 """Farthest a track may be from a true object to match it in the CLEAR MOT scores [m]: half a car's length and
 a bit, since a laser box spans only the faces the laser sees (its centre is up to half the car's length off)."""
-PLANNING_KEYS = ("perception", "planner", "planning_cycles", "planning_ms_mean", "planning_ms_max",
-                 "planner_fallbacks", "planner_reason", "mota", "motp_m", "detection_precision", "detection_recall",
-                 "tracking_position_rmse_m", "tracking_velocity_rmse_mps", "identity_switches")
-"""The scorecard keys of a planned run."""
+RECORDED_CANDIDATES = 30
+"""The most candidates a recorded plan carries (:func:`~vilma.planning.local_plan`): half the live view's, for
+a recording about half the size (a plan is mostly its candidates)."""
 
 
 class Planning(LocalPlanning):
     """The perception and planning of one planned car, scored: :meth:`perceive` each block's scans, :meth:`cycle`
-    now and each replan period (:meth:`period_done` each driver period), :meth:`scores` at the end.
+    now and each replan period (:meth:`period_done` each driver period), :meth:`scores` at the end. The tracks after
+    each scan and each cycle's plan wait in :attr:`messages` (bus messages) for the runner to hand on and clear.
 
     ``path`` is the route with its speeds, ending at the goal (:meth:`~vilma.scenario.spec.Scenario.reference_path`).
     """
@@ -42,6 +44,9 @@ class Planning(LocalPlanning):
                          RoadBounds(path.s, *road.network.lateral_bounds(path.xy)) if road else NO_ROAD)
         self.sim = sim
         self.frames: list[MotFrame] = []
+        self.log = PlanningLog()
+        self.messages: list[tuple[str, Message]] = []
+        """``perception/objects`` and ``planning/plan`` messages since the runner last took them."""
 
     def perceive(self, captures: Sequence[tuple[str, Message]], pose: PoseEstimate | None,
                  truth: tuple[float, float, float]) -> None:
@@ -49,10 +54,28 @@ class Planning(LocalPlanning):
         true x, y [m] and yaw [rad], to score the scans against the objects within the sensor's reach."""
         for _, msg in captures:
             if self.take(msg, pose):
+                self.log.scan_t.append(msg.stamp_ns * 1e-9)
+                self.log.tracks.append(len(self.tracks))
+                self.messages.append(("perception/objects", track_list(msg.stamp_ns, self.kind,
+                                                                       self.tracks[:MAX_TRACKS])))
                 if self.kind == "truth":
                     self._score(msg.stamp_ns, truth[:2], self.sim.objects.range)
                 else:
                     self._score(msg.stamp_ns, laser_pose(truth, self.mount)[:2], self.sim.laser.max_range)
+
+    def cycle(self, t: float) -> Plan | None:
+        """Plan at sim time ``t`` [s] (:meth:`LocalPlanning.cycle`), kept in :attr:`log` and :attr:`messages`."""
+        spent = self.spent_ms[0]
+        result = super().cycle(t)
+        if result is not None:
+            ms = self.spent_ms[0] - spent
+            self.log.cycle_t.append(t)
+            self.log.cycle_ms.append(ms)
+            self.log.modes.append(result.mode)
+            msg = local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS], self.predicted[:MAX_TRACKS],
+                             RECORDED_CANDIDATES)
+            self.messages.append(("planning/plan", msgspec.structs.replace(msg, planning_ms=ms)))
+        return result
 
     def _score(self, stamp_ns: int, centre: tuple[float, float], reach: float) -> None:
         """A CLEAR MOT frame: the tracks now against the true objects within ``reach`` [m] of ``centre``."""

@@ -1,4 +1,5 @@
-"""PNG plots of a run, as the paper's figures: the path (Figure 12), speed (Figure 11), errors and effort."""
+"""PNG plots of a run, as the paper's figures: the path (Figure 12), speed (Figure 11), errors and effort; and a
+planned run's planning cycles and perception."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
 
 from vilma.core.files import atomic_path
@@ -25,6 +27,11 @@ DPI = 110
 """Pixels per inch of the PNGs: a figure of 7 x 6.5 in is 770 x 715 px."""
 LEGEND_COLUMNS = 3
 """Entries per row of a legend at most."""
+PLAN_MODES = ("velocity", "follow", "stop", "fallback")
+"""A planning cycle's modes (:class:`~vilma.core.messages.LocalPlan`), bottom to top in the planning plot."""
+MOT_SUMMARY = (("mota", "MOTA", ""), ("motp_m", "MOTP", " m"), ("detection_precision", "precision", ""),
+               ("detection_recall", "recall", ""), ("identity_switches", "identity switches", ""))
+"""The CLEAR MOT scores in the perception plot: scorecard key, name, unit."""
 # The fixed margins [in] around the axes, sized for 10 pt tick labels of up to six characters and the axis labels,
 # the 12 pt title and the rows of 9 pt legends (laid out once: no layout engine, no tight bounding box, which
 # draw each figure two or three times).
@@ -48,8 +55,8 @@ def write_png(fig: Figure, path: Path, dpi: float = DPI) -> Path:
 
 
 def plot_run(result: RunResult, out_dir: Path, speed_log: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-    """Write the plots (:data:`vilma.scenario.folder.PLOTS`) into ``out_dir``; ``speed_log`` (times [s], speeds
-    [m/s]) is overlaid on the speed."""
+    """Write the plots (:data:`vilma.scenario.folder.PLOTS`, and a planned run's ``PLANNING_PLOTS``) into
+    ``out_dir``; ``speed_log`` (times [s], speeds [m/s]) is overlaid on the speed."""
     for name, fig in figures(result, speed_log).items():
         write_png(fig, out_dir / name)
 
@@ -65,8 +72,11 @@ def figures(result: RunResult, speed_log: tuple[np.ndarray, np.ndarray] | None =
         return log.column(c)[::every]
 
     t, speed = col("t") - result.t_start, np.hypot(col("vx"), col("vy"))
-    return {"path.png": _path_figure(result, col), "speed.png": _speed_figure(result, t, speed, col, speed_log),
-            "cross_track.png": _cross_track_figure(result, col), "effort.png": _effort_figure(result, t, speed, col)}
+    out = {"path.png": _path_figure(result, col), "speed.png": _speed_figure(result, t, speed, col, speed_log),
+           "cross_track.png": _cross_track_figure(result, col), "effort.png": _effort_figure(result, t, speed, col)}
+    if result.planning is not None:
+        out.update({"planning.png": _planning_figure(result), "perception.png": _perception_figure(result)})
+    return out
 
 
 def _path_figure(result: RunResult, col) -> Figure:
@@ -140,6 +150,48 @@ def _effort_figure(result: RunResult, t: np.ndarray, speed: np.ndarray, col) -> 
     for a in (a1, a2, a3):
         a.grid(alpha=0.3)
     return _layout(fig, [a1, a2, a3], twin=True)
+
+
+def _planning_figure(result: RunResult) -> Figure:
+    """Each planning cycle's wall time [ms], the fallbacks marked, and its mode over time [s]."""
+    p = result.planning
+    fig, (a1, a2) = _figure(8, 6, f"{result.scenario.name}: planning ({len(p.cycle_t)} cycles)", rows=2)
+    t, ms, modes = np.asarray(p.cycle_t) - result.t_start, np.asarray(p.cycle_ms), np.asarray(p.modes, dtype=str)
+    a1.plot(t, ms, ".-", color="tab:blue", ms=2, lw=0.8, label="planning time")
+    fallback = modes == "fallback"
+    a1.plot(t[fallback], ms[fallback], "x", color="tab:red", ms=7, ls="none",
+            label=f"fallbacks ({int(fallback.sum())})")
+    a1.set(ylabel="planning time [ms]")
+    _legend(a1)
+    names = [*PLAN_MODES, *sorted(set(modes.tolist()) - set(PLAN_MODES))]
+    a2.step(t, [names.index(m) for m in modes], where="post", color="k", lw=1)
+    a2.plot(t[fallback], np.full(fallback.sum(), names.index("fallback")), "x", color="tab:red", ms=7, ls="none")
+    a2.set_yticks(range(len(names)), names)
+    a2.set(xlabel="time since start [s]", ylabel="mode", ylim=(-0.5, len(names) - 0.5))
+    for a in (a1, a2):
+        a.grid(alpha=0.3)
+    return _layout(fig, [a1, a2])
+
+
+def _perception_figure(result: RunResult) -> Figure:
+    """The number of tracks after each scan over time [s], and the CLEAR MOT summary of the scorecard."""
+    p, m = result.planning, result.metrics
+    fig, (ax,) = _figure(8, 4.5, f"{result.scenario.name}: perception ({m.get('perception', 'unknown')})")
+    ax.step(np.asarray(p.scan_t) - result.t_start, p.tracks, where="post", color="tab:blue", label="tracks")
+    scores = [Line2D([], [], ls="none", label=f"{name} {_score(m.get(key), unit)}")
+              for key, name, unit in MOT_SUMMARY]
+    ax.set(xlabel="time since start [s]", ylabel="tracks")
+    ax.yaxis.get_major_locator().set_params(integer=True)
+    ax.grid(alpha=0.3)
+    _legend(ax, ax.get_lines() + scores)
+    return _layout(fig)
+
+
+def _score(value, unit: str) -> str:
+    """A score as the legend shows it (``n/a``: not in the scorecard, or undefined)."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "n/a"
+    return f"{value:.3g}{unit}"
 
 
 def _figure(width: float, height: float, title: str, rows: int = 1) -> tuple[Figure, list[Axes]]:

@@ -4,7 +4,7 @@ the finished run, and what watches a run as it goes."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -16,6 +16,19 @@ if TYPE_CHECKING:  # annotations only: observers are handed the simulator, never
     from vilma.core.messages import Message
     from vilma.sensors import Readings
     from vilma.sim import Simulator
+
+
+@dataclass
+class PlanningLog:
+    """A planned drive's perception and planning over time (for its plots): each planning cycle's sim time [s],
+    wall time [ms] and mode (``velocity``, ``follow``, ``stop`` or ``fallback``), and each scan's sim time [s] and
+    number of tracks. A few numbers a cycle and a scan, as the drive log keeps a row a period."""
+
+    cycle_t: list[float] = field(default_factory=list)
+    cycle_ms: list[float] = field(default_factory=list)
+    modes: list[str] = field(default_factory=list)
+    scan_t: list[float] = field(default_factory=list)
+    tracks: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -31,6 +44,8 @@ class RunResult:
     t_start: float
     """Sim time the task began [s]."""
     out_dir: Path | None = None
+    planning: PlanningLog | None = None
+    """A plan task's perception and planning over time."""
 
     @property
     def passed(self) -> bool:
@@ -42,8 +57,8 @@ class RunObserver:
     """Watches a run as it goes (the run's folder, its recording, a live view); every method does nothing here.
 
     The runner calls :meth:`started` once, then :meth:`add` after each block or period of log rows and
-    :meth:`add_captures` with the 3D plant's images and scans; at the end either :meth:`finished` then
-    :meth:`close`, or, if the run failed or was interrupted, :meth:`failed` alone.
+    :meth:`add_captures` with the 3D plant's images and scans and a planned car's tracks and plans; at the end
+    either :meth:`finished` then :meth:`close`, or, if the run failed or was interrupted, :meth:`failed` alone.
     """
 
     def started(self, sim: Simulator, log: DriveLog) -> None:
@@ -53,7 +68,8 @@ class RunObserver:
         """The sensor readings of a block or period, after its rows went into the log."""
 
     def add_captures(self, captures: list[tuple[str, Message]]) -> None:
-        """Camera images and laser scans of a block or period, by topic name (never kept by the runner)."""
+        """Camera images and laser scans of a block or period, and a planned car's tracks (``perception/objects``)
+        and plans (``planning/plan``), by topic name (never kept by the runner)."""
 
     def finished(self, result: RunResult) -> None:
         """The run is over and scored (its timing keys so far)."""

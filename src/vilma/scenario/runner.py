@@ -158,6 +158,7 @@ class Car:
 
             self.planning = Planning(s, self.path, self.driver, sim.config)
             self.planning.cycle(self.t_start)
+            self.hand_on()
         self.periods = round((s.duration - self.t_start) / (period * sim.clock.step_s))
 
     @property
@@ -191,6 +192,13 @@ class Car:
         self.on_block(readings)
         if self.planning is not None:
             self.planning.period_done(sim.time_ns * 1e-9)
+            self.hand_on()
+
+    def hand_on(self) -> None:
+        """Hand the planning's new tracks and plans to the observers (as the 3D plant's captures: never kept)."""
+        messages, self.planning.messages = self.planning.messages, []
+        for o in self.observers if messages else ():
+            o.add_captures(messages)
 
     def finished(self) -> bool:
         """Whether the task is done: arrived at the end of its path (a plan: at its goal), at rest."""
@@ -234,7 +242,7 @@ class Car:
         if scenario.road is None and sim.config.model == MUJOCO:  # else the benchmark's or flat ground's (scorecard)
             metrics["collisions"] = sim.collisions[0]
         return RunResult(scenario, metrics, expectation_failures(metrics, scenario), self.log, self.path,
-                         self.t_start)
+                         self.t_start, planning=self.planning.log if self.planning is not None else None)
 
 
 def sim_config(scenario: Scenario, periods: int | None = None) -> SimConfig:
