@@ -270,8 +270,9 @@ def planning_log(rec: Recording, epoch: int, since_ns: int) -> PlanningLog | Non
 
     try:
         cycles, scans = read("planning/plan", _Cycle), read("perception/objects", _Scan)
-    except msgspec.ValidationError as e:
-        raise RecordingError(f"{rec.path}: a planning or perception message is malformed: {e}") from None
+    except msgspec.DecodeError as e:
+        raise RecordingError(f"{rec.path}: a planning/plan or perception/objects message is malformed ({e}): "
+                             "not written by vilma, or damaged") from None
     if not cycles:
         return None
     return PlanningLog([c.stamp_ns * 1e-9 for c in cycles],
