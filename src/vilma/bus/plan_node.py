@@ -65,7 +65,8 @@ class LivePlan:
     def _publish(self, t_ns: int, result: Plan | None) -> None:
         if result is not None:
             self.bus.publish(self._plans, local_plan(t_ns, result, self.local.tracks[:MAX_TRACKS],
-                                                     self.local.predicted[:MAX_TRACKS]))
+                                                     self.local.predicted[:MAX_TRACKS],
+                                                     planning_ms=self.local.last_ms))
 
 
 def start_plan(order: DriverOrder, driver: Driver, setup: PlanSetup, bus: Bus, car: str) -> LivePlan:

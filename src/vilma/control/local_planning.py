@@ -84,6 +84,7 @@ class LocalPlanning:
         self.cycles = self.fallbacks = 0
         self.reason: str | None = None
         self.spent_ms = [0.0, 0.0]  # total and longest [ms]
+        self.last_ms = math.nan  # the last cycle's [ms]
         if self.kind == "laser":
             self.bearings, self.mount = laser.bearings, (*laser.position[:2], laser.yaw)
             self.segments = SegmentParams(range_noise=laser.range_noise)
@@ -122,7 +123,7 @@ class LocalPlanning:
         state, keep = self._start(est, t, params)
         self.predicted = predict(self.tracks, params.times)
         result = plan(state, self.frame, self.predicted, params, goal=self.goal, keep=keep, road=self.road)
-        spent = (time.perf_counter() - t0) * 1e3
+        self.last_ms = spent = (time.perf_counter() - t0) * 1e3
         self.spent_ms = [self.spent_ms[0] + spent, max(self.spent_ms[1], spent)]
         self.cycles += 1
         if result.mode == "fallback":

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -24,16 +25,17 @@ def track_list(stamp_ns: int, source: str, tracks: Sequence[Track]) -> TrackList
 
 
 def local_plan(stamp_ns: int, plan: Plan, tracks: Sequence[Track], predicted: np.ndarray,
-               drawn: int = DRAWN_CANDIDATES) -> LocalPlan:
+               drawn: int = DRAWN_CANDIDATES, planning_ms: float = math.nan) -> LocalPlan:
     """The ``planning/plan`` message of a cycle: ``plan``, at most ``drawn`` of its candidates
-    (:func:`drawn_candidates`) and the ``predicted`` boxes (tracks, times, 5) of ``tracks``."""
+    (:func:`drawn_candidates`), the ``predicted`` boxes (tracks, times, 5) of ``tracks``, and the cycle's time
+    ``planning_ms`` [ms]."""
     c = plan.candidates
     return LocalPlan(stamp_ns, plan.mode, plan.reason, float(plan.t[1] - plan.t[0]), plan.x.tolist(),
                      plan.y.tolist(), plan.speed.tolist(),
                      [PlannedPath(-1, int(c.status[i]), c.x[i].tolist(), c.y[i].tolist())
                       for i in drawn_candidates(c.status, c.cost, drawn)],
                      [PlannedPath(t.id, int(Status.FEASIBLE), p[:, 0].tolist(), p[:, 1].tolist())
-                      for t, p in zip(tracks, predicted, strict=True)])
+                      for t, p in zip(tracks, predicted, strict=True)], planning_ms)
 
 
 def drawn_candidates(status: np.ndarray, cost: np.ndarray, drawn: int) -> np.ndarray:

@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import msgspec
 import numpy as np
 
 from vilma.control.driver import Driver
@@ -65,16 +64,14 @@ class Planning(LocalPlanning):
 
     def cycle(self, t: float) -> Plan | None:
         """Plan at sim time ``t`` [s] (:meth:`LocalPlanning.cycle`), kept in :attr:`log` and :attr:`messages`."""
-        spent = self.spent_ms[0]
         result = super().cycle(t)
         if result is not None:
-            ms = self.spent_ms[0] - spent
             self.log.cycle_t.append(t)
-            self.log.cycle_ms.append(ms)
+            self.log.cycle_ms.append(self.last_ms)
             self.log.modes.append(result.mode)
-            msg = local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS], self.predicted[:MAX_TRACKS],
-                             RECORDED_CANDIDATES)
-            self.messages.append(("planning/plan", msgspec.structs.replace(msg, planning_ms=ms)))
+            self.messages.append(("planning/plan", local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS],
+                                                              self.predicted[:MAX_TRACKS], RECORDED_CANDIDATES,
+                                                              self.last_ms)))
         return result
 
     def _score(self, stamp_ns: int, centre: tuple[float, float], reach: float) -> None:
