@@ -168,10 +168,18 @@ def _combine(fa, lat, lon, objects, car, margin, road, check_all, out, status):
     (the infeasible checked for collisions too with ``check_all``); off the :class:`RoadBounds` ``road`` is
     infeasible."""
     n_lat, n_lon, n_t = lat.shape[1], lon.shape[1], lat.shape[2]
-    ref = np.empty((n_lon, n_t, 5))
+    bounded = road.s.shape[0] > 0
+    # the reference's pose (x, y, theta, k, dk, sin, cos) and the road's edges where each longitudinal motion is at
+    # each step: shared by every lateral one
+    ref = np.empty((n_lon, n_t, 9))
     for j in range(n_lon):
         for k in range(n_t):
-            ref[j, k, 0], ref[j, k, 1], ref[j, k, 2], ref[j, k, 3], ref[j, k, 4] = frame_pose(fa, lon[0, j, k])
+            x, y, theta, kr, dk = frame_pose(fa, lon[0, j, k])
+            ref[j, k, 0], ref[j, k, 1], ref[j, k, 2], ref[j, k, 3], ref[j, k, 4] = x, y, theta, kr, dk
+            ref[j, k, 5], ref[j, k, 6] = math.sin(theta), math.cos(theta)
+            if bounded:
+                ref[j, k, 7] = np.interp(lon[0, j, k], road.s, road.left)
+                ref[j, k, 8] = np.interp(lon[0, j, k], road.s, road.right)
     for i in range(n_lat):
         for j in range(n_lon):
             c = i * n_lon + j
@@ -181,20 +189,18 @@ def _combine(fa, lat, lon, objects, car, margin, road, check_all, out, status):
                 d = lat[0, i, k]
                 s_dot = lon[1, j, k]
                 yaw, v, a, kappa = frenet_motion(theta, kr, dk, s_dot, lon[2, j, k], d, lat[1, i, k], lat[2, i, k])
-                out[0, c, k] = ref[j, k, 0] - d * math.sin(theta)
-                out[1, c, k] = ref[j, k, 1] + d * math.cos(theta)
+                out[0, c, k] = ref[j, k, 0] - d * ref[j, k, 5]
+                out[1, c, k] = ref[j, k, 1] + d * ref[j, k, 6]
                 out[2, c, k], out[3, c, k], out[4, c, k], out[5, c, k] = yaw, v, a, kappa
                 if (s_dot < -1e-6 or 1.0 - kr * d <= 0.0 or abs(kappa) > car.max_curvature
                         or a > car.max_accel or a < -car.max_decel or abs(kappa) * v * v > car.max_lateral_accel):
                     ok = False
-                elif road.s.shape[0] > 0:  # the box's extent across the reference, against the road's edges
+                elif bounded:  # the box's extent across the reference, against the road's edges
                     phi = yaw - theta
                     centre = d + car.offset * math.sin(phi)
                     half = (car.half_width + margin) * abs(math.cos(phi)) + (car.half_length + margin) * abs(
                         math.sin(phi))
-                    s = lon[0, j, k]
-                    if centre + half > np.interp(s, road.s, road.left) or centre - half < np.interp(s, road.s,
-                                                                                                  road.right):
+                    if centre + half > ref[j, k, 7] or centre - half < ref[j, k, 8]:
                         ok = False
             status[c] = 0 if ok else 1
     checked = (status == 0) | check_all
