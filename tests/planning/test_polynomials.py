@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad
 
@@ -14,6 +14,7 @@ def _at(coeffs, T, t):
     return evaluate(coeffs, T, np.asarray([t], dtype=float))[:, 0]
 
 
+@settings(deadline=None)  # the first example loads the compiled code
 @given(value, value, value, value, value, value, duration)
 def test_a_quintic_meets_its_six_boundary_conditions(x0, v0, a0, x1, v1, a1, T):
     c = quintic(x0, v0, a0, x1, v1, a1, T)
@@ -21,6 +22,7 @@ def test_a_quintic_meets_its_six_boundary_conditions(x0, v0, a0, x1, v1, a1, T):
     assert _at(c, T, T)[:3] == pytest.approx([x1, v1, a1], rel=1e-9, abs=1e-7)
 
 
+@settings(deadline=None)  # the first example loads the compiled code
 @given(value, value, value, value, value, duration)
 def test_a_quartic_meets_its_five_boundary_conditions(x0, v0, a0, v1, a1, T):
     c = quartic(x0, v0, a0, v1, a1, T)
