@@ -224,6 +224,29 @@ def test_a_tight_curve_beyond_the_steering_limit_is_infeasible():
     assert (p.candidates.status == Status.INFEASIBLE).all() and p.mode == "fallback"
 
 
+def _road(left, right):
+    """Edges at constant offsets ``left`` and ``right`` [m] along :data:`STRAIGHT`."""
+    return RoadBounds(np.array([0.0, 1000.0]), np.full(2, left), np.full(2, right))
+
+
+@settings(deadline=None, max_examples=50)  # the first example loads the compiled code
+@given(st.floats(1.5, 8.0), st.floats(1.5, 8.0), st.floats(-1.0, 1.0), st.floats(0.0, 20.0), st.floats(-1.0, 1.0))
+def test_the_plan_keeps_the_cars_box_and_margin_within_the_roads_edges(left, right, d, speed, d_dot):
+    p = plan(FrenetState(100.0, speed, 0.0, d, d_dot), STRAIGHT, NONE, P, road=_road(left, -right))
+    if p.mode == "fallback":
+        return  # the fallback stops where it is, edges or not
+    grown = (CAR.length + 2 * P.margin, CAR.width + 2 * P.margin)
+    for k in range(len(p.t)):
+        _, low, _, high = _polygon(p.x[k], p.y[k], p.yaw[k], *grown, CAR.body_offset).bounds
+        assert -right - 1e-9 <= low and high <= left + 1e-9, f"off the road at {p.t[k]} s"
+
+
+def test_on_a_road_narrower_than_the_car_every_candidate_is_infeasible():
+    half = 0.5 * CAR.width + P.margin - 0.01
+    p = plan(FrenetState(100.0, 10.0, 0.0, 0.0), STRAIGHT, NONE, P, road=_road(half, -half))
+    assert (p.candidates.status == Status.INFEASIBLE).all() and p.mode == "fallback"
+
+
 @settings(deadline=None)  # the first example loads the compiled code
 @given(st.floats(-5, 5), st.floats(-5, 5), st.floats(-math.pi, math.pi), st.floats(-math.pi, math.pi),
        st.floats(0.2, 5), st.floats(0.2, 3), st.floats(0.2, 5), st.floats(0.2, 3))

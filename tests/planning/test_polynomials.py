@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
+from numpy.polynomial import polynomial as npoly
 from scipy.integrate import quad
 
 from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic
@@ -14,6 +15,7 @@ def _at(coeffs, T, t):
     return evaluate(coeffs, T, np.asarray([t], dtype=float))[:, 0]
 
 
+@settings(deadline=None)  # the first example loads the compiled code
 @given(value, value, value, value, value, value, duration)
 def test_a_quintic_meets_its_six_boundary_conditions(x0, v0, a0, x1, v1, a1, T):
     c = quintic(x0, v0, a0, x1, v1, a1, T)
@@ -21,6 +23,7 @@ def test_a_quintic_meets_its_six_boundary_conditions(x0, v0, a0, x1, v1, a1, T):
     assert _at(c, T, T)[:3] == pytest.approx([x1, v1, a1], rel=1e-9, abs=1e-7)
 
 
+@settings(deadline=None)  # the first example loads the compiled code
 @given(value, value, value, value, value, duration)
 def test_a_quartic_meets_its_five_boundary_conditions(x0, v0, a0, v1, a1, T):
     c = quartic(x0, v0, a0, v1, a1, T)
@@ -44,6 +47,20 @@ def test_evaluation_is_vectorised_and_goes_on_at_the_end_rate_past_the_duration(
     assert x[0] == pytest.approx([0.0, 3.5, 3.5, 3.5])  # the lane offset is held
     assert x[1, 3] == pytest.approx(-2.0 + 4.0 * 2.0) and v[1, 3] == pytest.approx(4.0)  # the end speed is kept
     assert a[:, 3] == pytest.approx([0.0, 0.0]) and j[:, 3] == pytest.approx([0.0, 0.0])
+
+
+@settings(deadline=None)  # the first example loads the compiled code
+@given(st.lists(st.tuples(*[value] * 6, duration), min_size=1, max_size=6), st.lists(st.floats(0.0, 12.0), max_size=8))
+def test_evaluation_of_a_batch_is_each_polynomial_and_its_derivatives(polys, t):
+    c, T, t = np.array([p[:6] for p in polys]), np.array([p[6] for p in polys]), np.array(t)
+    got = evaluate(c.reshape(-1, 1, 6), T.reshape(-1, 1), t)
+    assert got.shape == (4, len(polys), 1, len(t))
+    for i, (coeffs, duration) in enumerate(zip(c, T, strict=True)):
+        tau = np.minimum(t, duration)
+        want = [npoly.polyval(tau, npoly.polyder(coeffs, n)) if n else npoly.polyval(tau, coeffs) for n in range(4)]
+        want[0] = want[0] + want[1] * (t - tau)  # on at the end rate past the duration
+        want[2], want[3] = np.where(t > duration, 0.0, want[2]), np.where(t > duration, 0.0, want[3])
+        assert got[:, i, 0] == pytest.approx(np.array(want), rel=1e-9, abs=1e-6)
 
 
 @given(value, value, value, value, value, value, duration)

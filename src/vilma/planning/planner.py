@@ -162,16 +162,21 @@ def _near(objects, out, checked, reach):
 
 
 @njit(cache=True)
-def _combine(fa, lat, lon, objects, car, margin, road, check_all, out, status):
+def _combine(fa, lat, lon, edges, objects, car, margin, check_all, out, status):
     """Every lateral (3, n_lat, n_t) with every longitudinal (3, n_lon, n_t) motion: Cartesian motion into
     ``out`` (6, n_lat * n_lon, n_t: x, y, yaw, speed, accel, curvature) and the :class:`Status` of each
-    (the infeasible checked for collisions too with ``check_all``); off the :class:`RoadBounds` ``road`` is
-    infeasible."""
+    (the infeasible checked for collisions too with ``check_all``); off the road's left and right ``edges``
+    (2, n_lon, n_t) [m] where each longitudinal motion is (or (2, 0, 0): unbounded) is infeasible."""
     n_lat, n_lon, n_t = lat.shape[1], lon.shape[1], lat.shape[2]
-    ref = np.empty((n_lon, n_t, 5))
+    bounded = edges.shape[1] > 0
+    # the reference's pose (x, y, theta, k, dk) and its heading's sine and cosine where each longitudinal motion
+    # is at each step: shared by every lateral one
+    ref = np.empty((n_lon, n_t, 7))
     for j in range(n_lon):
         for k in range(n_t):
-            ref[j, k, 0], ref[j, k, 1], ref[j, k, 2], ref[j, k, 3], ref[j, k, 4] = frame_pose(fa, lon[0, j, k])
+            x, y, theta, kr, dk = frame_pose(fa, lon[0, j, k])
+            ref[j, k, 0], ref[j, k, 1], ref[j, k, 2], ref[j, k, 3], ref[j, k, 4] = x, y, theta, kr, dk
+            ref[j, k, 5], ref[j, k, 6] = math.sin(theta), math.cos(theta)
     for i in range(n_lat):
         for j in range(n_lon):
             c = i * n_lon + j
@@ -181,20 +186,18 @@ def _combine(fa, lat, lon, objects, car, margin, road, check_all, out, status):
                 d = lat[0, i, k]
                 s_dot = lon[1, j, k]
                 yaw, v, a, kappa = frenet_motion(theta, kr, dk, s_dot, lon[2, j, k], d, lat[1, i, k], lat[2, i, k])
-                out[0, c, k] = ref[j, k, 0] - d * math.sin(theta)
-                out[1, c, k] = ref[j, k, 1] + d * math.cos(theta)
+                out[0, c, k] = ref[j, k, 0] - d * ref[j, k, 5]
+                out[1, c, k] = ref[j, k, 1] + d * ref[j, k, 6]
                 out[2, c, k], out[3, c, k], out[4, c, k], out[5, c, k] = yaw, v, a, kappa
                 if (s_dot < -1e-6 or 1.0 - kr * d <= 0.0 or abs(kappa) > car.max_curvature
                         or a > car.max_accel or a < -car.max_decel or abs(kappa) * v * v > car.max_lateral_accel):
                     ok = False
-                elif road.s.shape[0] > 0:  # the box's extent across the reference, against the road's edges
+                elif bounded:  # the box's extent across the reference, against the road's edges
                     phi = yaw - theta
                     centre = d + car.offset * math.sin(phi)
                     half = (car.half_width + margin) * abs(math.cos(phi)) + (car.half_length + margin) * abs(
                         math.sin(phi))
-                    s = lon[0, j, k]
-                    if centre + half > np.interp(s, road.s, road.left) or centre - half < np.interp(s, road.s,
-                                                                                                  road.right):
+                    if centre + half > edges[0, j, k] or centre - half < edges[1, j, k]:
                         ok = False
             status[c] = 0 if ok else 1
     checked = (status == 0) | check_all
@@ -295,7 +298,9 @@ def _motions(frame, lat, lat_T, lon, lon_T, objects, p, road=NO_ROAD, check_all=
     lat_m, lon_m = evaluate(lat, lat_T, t)[:3], evaluate(lon, lon_T, t)[:3]
     n = lat_m.shape[1] * lon_m.shape[1]
     out, status = np.empty((6, n, len(t))), np.empty(n, dtype=np.int8)
-    _combine(frame.arrays, lat_m, lon_m, objects, _car(p), p.margin, road, check_all, out, status)
+    edges = (np.stack([np.interp(lon_m[0], road.s, road.left), np.interp(lon_m[0], road.s, road.right)])
+             if len(road.s) else np.empty((2, 0, 0)))
+    _combine(frame.arrays, lat_m, lon_m, edges, objects, _car(p), p.margin, check_all, out, status)
     return lat_m, lon_m, out, status
 
 

@@ -7,6 +7,7 @@ A polynomial is its six coefficients ``c0 .. c5`` of ``x(t) = sum c_i t^i`` (a q
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
 def _start(x0, v0, a0, T):
@@ -48,16 +49,29 @@ def evaluate(coeffs, T, t) -> np.ndarray:
     Past its duration ``T`` (...) a polynomial goes on at its end rate (its end second derivative taken as 0, as
     every end state here has it): the held lane offset, the kept speed.
     """
-    c = np.asarray(coeffs, dtype=np.float64)[..., None, :]
-    T = np.asarray(T, dtype=np.float64)[..., None]
-    t = np.asarray(t, dtype=np.float64)
-    tau = np.minimum(t, T)
-    x = ((((c[..., 5] * tau + c[..., 4]) * tau + c[..., 3]) * tau + c[..., 2]) * tau + c[..., 1]) * tau + c[..., 0]
-    v = (((5.0 * c[..., 5] * tau + 4.0 * c[..., 4]) * tau + 3.0 * c[..., 3]) * tau + 2.0 * c[..., 2]) * tau + c[..., 1]
-    a = ((20.0 * c[..., 5] * tau + 12.0 * c[..., 4]) * tau + 6.0 * c[..., 3]) * tau + 2.0 * c[..., 2]
-    j = (60.0 * c[..., 5] * tau + 24.0 * c[..., 4]) * tau + 6.0 * c[..., 3]
-    after = t > T
-    return np.stack([x + v * (t - tau), v, np.where(after, 0.0, a), np.where(after, 0.0, j)])
+    c = np.asarray(coeffs, dtype=np.float64)
+    T = np.broadcast_to(np.asarray(T, dtype=np.float64), c.shape[:-1])
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    out = _evaluate(np.ascontiguousarray(c).reshape(-1, 6), np.ascontiguousarray(T).ravel(), t)
+    return out.reshape(4, *c.shape[:-1], len(t))
+
+
+@njit(cache=True)
+def _evaluate(c, T, t):
+    """:func:`evaluate` of polynomials (n, 6) with durations (n,): (4, n, n_t)."""
+    out = np.empty((4, c.shape[0], t.shape[0]))
+    for i in range(c.shape[0]):
+        c0, c1, c2, c3, c4, c5 = c[i, 0], c[i, 1], c[i, 2], c[i, 3], c[i, 4], c[i, 5]
+        for k in range(t.shape[0]):
+            tau = min(t[k], T[i])
+            x = ((((c5 * tau + c4) * tau + c3) * tau + c2) * tau + c1) * tau + c0
+            v = (((5.0 * c5 * tau + 4.0 * c4) * tau + 3.0 * c3) * tau + 2.0 * c2) * tau + c1
+            after = t[k] > T[i]
+            out[0, i, k] = x + v * (t[k] - tau)
+            out[1, i, k] = v
+            out[2, i, k] = 0.0 if after else ((20.0 * c5 * tau + 12.0 * c4) * tau + 6.0 * c3) * tau + 2.0 * c2
+            out[3, i, k] = 0.0 if after else (60.0 * c5 * tau + 24.0 * c4) * tau + 6.0 * c3
+    return out
 
 
 def jerk_cost(coeffs, T) -> np.ndarray:
