@@ -3,10 +3,11 @@
 M. Werling, J. Ziegler, S. Kammel, S. Thrun, "Optimal trajectory generation for dynamic street scenarios in a
 Frenet frame", ICRA 2010. Each cycle samples lateral quintics ``d(t)`` to lane offsets and longitudinal
 polynomials ``s(t)`` (quartics for velocity keeping; quintics to a point for following a lead, Werling's
-``s_target = s_lead - (d0 + tau v_lead)``, and for stopping at the goal), combines every lateral with every
-longitudinal one, rejects the infeasible (curvature beyond the car's steering, acceleration beyond its limits,
-driving backwards) and those whose car box overlaps a predicted object's box at the same time (separating axes),
-and keeps the cheapest of the rest. When none is left the plan is the safe fallback: a stop at the car's
+``s_target = s_lead - (d0 + tau v_lead)``, and for stopping at the goal), each lateral end offset with the
+longitudinal ones for the lead in that lane, rejects the infeasible (curvature beyond the car's steering,
+acceleration or lateral acceleration beyond its limits, driving backwards, the car's box across the road's edges)
+and those whose car box overlaps a predicted object's box at the same time (separating axes), and keeps the
+cheapest of the rest. When none is left the plan is the safe fallback: a stop at the car's
 comfortable deceleration, or at its emergency deceleration when that one collides, with the reason. A planning
 failure is never an exception; only malformed parameters or inputs raise ValueError.
 """
