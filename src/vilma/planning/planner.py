@@ -59,8 +59,8 @@ class Plan:
         curvature [1/m]; frenet: (n_t, 6) s, s_dot, s_ddot, d, d_dot, d_ddot (:class:`FrenetState` fields).
         cost: of the chosen candidate (inf for the fallback). mode: ``velocity``, ``follow``, ``stop`` or
         ``fallback``. candidates: every candidate evaluated. reason: why the plan is the fallback ('' if not).
-        lateral: the chosen lateral motion's end offset [m] and duration [s] (for the next cycle to continue it:
-        ``keep`` of :func:`plan`); None for the fallback.
+        lateral: the chosen lateral motion's end offset [m] and duration [s], for the next cycle to continue it
+            (``keep`` of :func:`plan`); None for the fallback.
     """
 
     t: np.ndarray
