@@ -74,6 +74,8 @@ class LocalPlanning:
         self.params, self.kind, self.driver, self.path, self.road = params, kind, driver, path, road
         self.frame = FrenetFrame(path)
         (self.goal,), _ = self.frame.to_frenet([path.xy[-1, 0]], [path.xy[-1, 1]])
+        # the compiled kernels loaded (or, on a first run, compiled) now, not inside the first cycle's timing
+        plan(FrenetState(0.0, 1.0, 0.0, 0.0), self.frame, np.zeros((0, len(params.times), 5)), params, road=road)
         self.every, self.periods = round(every), 0
         self.preview = round(PREVIEW / self.params.dt)
         self.tracker = Tracker()
