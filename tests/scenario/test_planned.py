@@ -4,7 +4,6 @@ with one car of 4.5 m x 2 m in the ego's lane."""
 
 from __future__ import annotations
 
-import importlib.resources
 import json
 import math
 from pathlib import Path
@@ -12,17 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
-from commonroad.geometry.shape import Rectangle
-from commonroad.planning.planning_problem import PlanningProblemSet
-from commonroad.prediction.prediction import TrajectoryPrediction
-from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
-from commonroad.scenario.state import CustomState, InitialState
-from commonroad.scenario.trajectory import Trajectory
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rich.console import Console
 
-from tests.scenario.commonroad_files import write_commonroad
+from tests.scenario.commonroad_files import TUTORIAL, tutorial_with_car
 from vilma.app import batch
 from vilma.app.cli import main
 from vilma.planning import PlannerParams
@@ -34,7 +27,7 @@ from vilma.world.commonroad import load
 from vilma.world.states import X, Y
 from vilma.world.traffic import traffic
 
-TUTORIAL = Path(str(importlib.resources.files("vilma") / "scenarios/data/commonroad/ZAM_Tutorial-1_1_T-1.xml"))
+DT = 0.1  # the tutorial's time step [s]
 CAR_LENGTH, CAR_WIDTH = 4.5, 2.0
 EGO = vilma()
 D0 = PlannerParams().follow_distance  # Werling's gap to a lead at rest, bumper to bumper [m]
@@ -44,23 +37,9 @@ TAU = PlannerParams().time_gap  # and its growth with the lead's speed [s]
 def _road(tmp_path: Path, ego_x: float, ego_speed: float, car_x: float, car_speed: float = 0.0) -> Path:
     """The tutorial road with the ego at ``ego_x`` [m] at ``ego_speed`` [m/s] and one car at ``car_x``, parked or
     recorded for 30 s at ``car_speed`` [m/s], both in the lane y = 0 heading +x."""
-    road = load(TUTORIAL)
-    sc = road.scenario
-    for o in list(sc.obstacles):
-        sc.remove_obstacle(o)
-    pp = next(iter(road.planning_problems.values()))
-    pp.initial_state.position, pp.initial_state.velocity = np.array([ego_x, 0.0]), ego_speed
-    shape = Rectangle(CAR_LENGTH, CAR_WIDTH)
-    init = InitialState(time_step=0, position=np.array([car_x, 0.0]), orientation=0.0, velocity=car_speed,
-                        acceleration=0.0, yaw_rate=0.0, slip_angle=0.0)
-    if car_speed == 0:
-        sc.add_objects(StaticObstacle(sc.generate_object_id(), ObstacleType.PARKED_VEHICLE, shape, init))
-    else:
-        states = [CustomState(time_step=k, position=np.array([car_x + car_speed * k * sc.dt, 0.0]), orientation=0.0,
-                              velocity=car_speed) for k in range(1, 301)]
-        sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
-                                       TrajectoryPrediction(Trajectory(1, states), shape)))
-    return write_commonroad(sc, PlanningProblemSet([pp]), tmp_path / "road.xml")
+    k = np.arange(301 if car_speed else 1)
+    car = np.column_stack([car_x + car_speed * k * DT, np.zeros(len(k)), np.full(len(k), car_speed)])
+    return tutorial_with_car(tmp_path / "road.xml", (ego_x, ego_speed), car, CAR_LENGTH, CAR_WIDTH)
 
 
 def _cut_in(out: Path) -> Path:
@@ -68,28 +47,15 @@ def _cut_in(out: Path) -> Path:
     x = 0 m in the lane y = 3.5 m at 16 m/s: 6 m ahead of the ego's front (the ego kept at 10 m/s), it cuts in over
     2 s (a half cosine across, braking at 4 m/s^2 to 8 m/s) and drives on at 8 m/s. Written to ``out``: the bundled
     ZAM_Tutorial-1_1_T-1_cut_in.xml."""
-    road = load(TUTORIAL)
-    sc = road.scenario
-    for o in list(sc.obstacles):
-        sc.remove_obstacle(o)
-    pp = next(iter(road.planning_problems.values()))
-    pp.initial_state.position, pp.initial_state.velocity = np.array([15.0, 0.0]), 10.0
     front = EGO.body_offset + EGO.length / 2
     t0 = (15.0 + front + 6.0 + CAR_LENGTH / 2) / (16.0 - 10.0)  # when its rear is 6 m ahead of the ego's front
     states, x = [], 0.0
     for k in range(301):
-        t = k * sc.dt
-        u = min(max((t - t0) / 2.0, 0.0), 1.0)  # the cut-in's progress
+        u = min(max((k * DT - t0) / 2.0, 0.0), 1.0)  # the cut-in's progress
         v = 16.0 - 8.0 * u
-        y = 3.5 * (1 + math.cos(math.pi * u)) / 2
-        states.append(CustomState(time_step=k, position=np.array([x, y]), orientation=0.0, velocity=v))
-        x += v * sc.dt
-    shape = Rectangle(CAR_LENGTH, CAR_WIDTH)
-    init = InitialState(time_step=0, position=states[0].position, orientation=0.0, velocity=16.0, acceleration=0.0,
-                        yaw_rate=0.0, slip_angle=0.0)
-    sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
-                                   TrajectoryPrediction(Trajectory(1, states[1:]), shape)))
-    return write_commonroad(sc, PlanningProblemSet([pp]), out)
+        states.append((x, 3.5 * (1 + math.cos(math.pi * u)) / 2, v))
+        x += v * DT
+    return tutorial_with_car(out, (15.0, 10.0), np.array(states), CAR_LENGTH, CAR_WIDTH)
 
 
 def _scenario(tmp_path: Path, text: str):

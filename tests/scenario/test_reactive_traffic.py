@@ -3,31 +3,21 @@ by the Intelligent Driver Model when reactive; the key is for CommonRoad worlds 
 
 from __future__ import annotations
 
-import importlib.resources
 from pathlib import Path
 
 import numpy as np
 import pytest
-from commonroad.geometry.shape import Rectangle
-from commonroad.planning.planning_problem import PlanningProblemSet
-from commonroad.prediction.prediction import TrajectoryPrediction
-from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
-from commonroad.scenario.state import CustomState, InitialState
-from commonroad.scenario.trajectory import Trajectory
 
-from tests.scenario.commonroad_files import write_commonroad
+from tests.scenario.commonroad_files import tutorial_with_car
 from vilma.scenario import SpecError, parse_scenario, runner
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.result import RunObserver
 from vilma.scenario.runner import run
 from vilma.scenario.scorecard import TIMING_KEYS
-from vilma.world.commonroad import load
 from vilma.world.reactive import IdmParams
 from vilma.world.road_view import road_view
 
-DATA = Path(str(importlib.resources.files("vilma") / "scenarios/data/commonroad"))
-TUTORIAL = DATA / "ZAM_Tutorial-1_1_T-1.xml"  # three straight lanes along +x from x = 0 to 199 m
 EGO_X, EGO_SPEED = 60.0, 3.0  # the ego starts here [m] in the right lane, slow [m/s]
 CAR_X, CAR_SPEED = 5.0, 15.0  # the recorded car, behind it in the same lane [m], [m/s]
 
@@ -35,20 +25,9 @@ CAR_X, CAR_SPEED = 5.0, 15.0  # the recorded car, behind it in the same lane [m]
 def _rear_ended(tmp_path: Path) -> Path:
     """The tutorial's road with the ego at EGO_X at EGO_SPEED and a car recorded for 10 s at CAR_SPEED from CAR_X
     in the ego's lane (its own car removed)."""
-    road = load(TUTORIAL)
-    sc = road.scenario
-    for o in list(sc.obstacles):
-        sc.remove_obstacle(o)
-    pp = next(iter(road.planning_problems.values()))
-    pp.initial_state.position, pp.initial_state.velocity = np.array([EGO_X, 0.0]), EGO_SPEED
-    shape = Rectangle(4.5, 2.0)
-    states = [CustomState(time_step=k, position=np.array([CAR_X + CAR_SPEED * k * sc.dt, 0.0]), orientation=0.0,
-                          velocity=CAR_SPEED) for k in range(1, 101)]
-    init = InitialState(time_step=0, position=np.array([CAR_X, 0.0]), orientation=0.0, velocity=CAR_SPEED,
-                        acceleration=0.0, yaw_rate=0.0, slip_angle=0.0)
-    sc.add_objects(DynamicObstacle(sc.generate_object_id(), ObstacleType.CAR, shape, init,
-                                   TrajectoryPrediction(Trajectory(1, states), shape)))
-    return write_commonroad(sc, PlanningProblemSet([pp]), tmp_path / "rear_ended.xml")
+    k = np.arange(101)
+    car = np.column_stack([CAR_X + CAR_SPEED * k * 0.1, np.zeros(len(k)), np.full(len(k), CAR_SPEED)])  # dt 0.1 s
+    return tutorial_with_car(tmp_path / "rear_ended.xml", (EGO_X, EGO_SPEED), car)
 
 
 def _scenario(tmp_path: Path, extra: str):
