@@ -20,7 +20,13 @@ import msgspec
 import numpy as np
 
 from vilma.core.messages import LocalPlan, Message, TrackList
-from vilma.record.road_scene import DELETE_ALL, IDENTITY, LINE_STRIP, _entity, _points, _rgba, _time
+from vilma.record.road_scene import (
+    DELETE_ALL,
+    scene_entity,
+    scene_line,
+    scene_rgba,
+    scene_time,
+)
 from vilma.record.schemas import OBJECTS_SCENE, PLAN_SCENE
 
 TRACK_HEIGHT = 1.5
@@ -42,8 +48,7 @@ def _quaternion(yaw: float) -> dict:
 
 
 def _strip(x, y, color, thickness: float) -> dict:
-    return {"type": LINE_STRIP, "pose": IDENTITY, "thickness": thickness, "scale_invariant": False,
-            "points": _points(np.column_stack([x, y]), 0.05), "color": _rgba(color), "colors": [], "indices": []}
+    return scene_line(np.column_stack([x, y]), color, thickness=thickness, z=0.05)
 
 
 def _lasting(entity: dict) -> dict:
@@ -52,7 +57,7 @@ def _lasting(entity: dict) -> dict:
 
 
 def _update(stamp_ns: int, entities: list[dict]) -> dict:
-    return {"deletions": [{"timestamp": _time(stamp_ns), "type": DELETE_ALL, "id": ""}],
+    return {"deletions": [{"timestamp": scene_time(stamp_ns), "type": DELETE_ALL, "id": ""}],
             "entities": [_lasting(e) for e in entities]}
 
 
@@ -62,27 +67,27 @@ def tracks_scene(tracks: TrackList) -> dict:
     for o in tracks.objects:
         travel = math.hypot(o.vx, o.vy) * ARROW_S
         cube = {"pose": {"position": {"x": o.x, "y": o.y, "z": TRACK_HEIGHT / 2}, "orientation": _quaternion(o.yaw)},
-                "size": {"x": o.length, "y": o.width, "z": TRACK_HEIGHT}, "color": _rgba(TRACK)}
+                "size": {"x": o.length, "y": o.width, "z": TRACK_HEIGHT}, "color": scene_rgba(TRACK)}
         arrow = {"pose": {"position": {"x": o.x, "y": o.y, "z": TRACK_HEIGHT},
                           "orientation": _quaternion(math.atan2(o.vy, o.vx))},
                  "shaft_length": 0.75 * travel, "shaft_diameter": 0.15, "head_length": 0.25 * travel,
-                 "head_diameter": 0.4, "color": _rgba(TRACK)}
+                 "head_diameter": 0.4, "color": scene_rgba(TRACK)}
         text = {"pose": {"position": {"x": o.x, "y": o.y, "z": TRACK_HEIGHT + 0.8}, "orientation": _quaternion(0.0)},
-                "billboard": True, "font_size": 14, "scale_invariant": True, "color": _rgba((1, 1, 1, 1)),
+                "billboard": True, "font_size": 14, "scale_invariant": True, "color": scene_rgba((1, 1, 1, 1)),
                 "text": str(o.id)}
-        entities.append(_entity(f"track/{o.id}", tracks.stamp_ns, cubes=[cube], arrows=[arrow], texts=[text]))
+        entities.append(scene_entity(f"track/{o.id}", tracks.stamp_ns, cubes=[cube], arrows=[arrow], texts=[text]))
     return _update(tracks.stamp_ns, entities)
 
 
 def plan_scene(plan: LocalPlan) -> dict:
     """The ``planning/plan/scene`` update of ``plan`` (see the module docstring)."""
     t = plan.stamp_ns
-    entities = [_entity("plan/chosen", t, lines=[_strip(plan.x, plan.y, CHOSEN, CHOSEN_WIDTH)])]
+    entities = [scene_entity("plan/chosen", t, lines=[_strip(plan.x, plan.y, CHOSEN, CHOSEN_WIDTH)])]
     for status, name in enumerate(STATUS_NAMES):
         lines = [_strip(c.x, c.y, CANDIDATE[name], PATH_WIDTH) for c in plan.candidates if c.status == status]
         if lines:
-            entities.append(_entity(f"plan/candidates/{name}", t, lines=lines))
-    entities += [_entity(f"prediction/{p.id}", t, lines=[_strip(p.x, p.y, PREDICTED, PATH_WIDTH)])
+            entities.append(scene_entity(f"plan/candidates/{name}", t, lines=lines))
+    entities += [scene_entity(f"prediction/{p.id}", t, lines=[_strip(p.x, p.y, PREDICTED, PATH_WIDTH)])
                  for p in plan.predictions]
     return _update(t, entities)
 

@@ -55,25 +55,26 @@ def scenario_road(scenario: Scenario | None, sim: SimConfig | None = None) -> Ro
     return road_view(scenario.road, sim.traffic, sim.traffic_t0)
 
 
-def _time(stamp_ns: int) -> dict:
+def scene_time(stamp_ns: int) -> dict:
     return {"sec": stamp_ns // 1_000_000_000, "nsec": stamp_ns % 1_000_000_000}
 
 
-def _rgba(c) -> dict:
+def scene_rgba(c) -> dict:
     return dict(zip("rgba", c, strict=True))
 
 
-def _points(xy: np.ndarray, z: float = 0.0) -> list[dict]:
+def scene_points(xy: np.ndarray, z: float = 0.0) -> list[dict]:
     return [{"x": float(x), "y": float(y), "z": z} for x, y in xy]
 
 
-def _line(xy: np.ndarray, color, kind: int = LINE_STRIP) -> dict:
-    return {"type": kind, "pose": IDENTITY, "thickness": 0.15, "scale_invariant": False, "points": _points(xy, 0.02),
-            "color": _rgba(color), "colors": [], "indices": []}
+def scene_line(xy: np.ndarray, color, kind: int = LINE_STRIP, thickness: float = 0.15, z: float = 0.02) -> dict:
+    """A ``foxglove.LinePrimitive`` through the points ``xy`` (n, 2) [m] at height ``z``, ``thickness`` [m] wide."""
+    return {"type": kind, "pose": IDENTITY, "thickness": thickness, "scale_invariant": False,
+            "points": scene_points(xy, z), "color": scene_rgba(color), "colors": [], "indices": []}
 
 
-def _entity(eid: str, stamp_ns: int, **primitives) -> dict:
-    return {"timestamp": _time(stamp_ns), "frame_id": "map", "id": eid, "lifetime": {"sec": 0, "nsec": 0},
+def scene_entity(eid: str, stamp_ns: int, **primitives) -> dict:
+    return {"timestamp": scene_time(stamp_ns), "frame_id": "map", "id": eid, "lifetime": {"sec": 0, "nsec": 0},
             "frame_locked": False, "metadata": [], **{k: primitives.get(k, []) for k in (
                 "arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts", "models")}}
 
@@ -83,17 +84,18 @@ def _surface(la: LaneletLines) -> dict:
     n = len(la.left)
     i = np.arange(n - 1)
     tri = np.column_stack([i, n + i, i + 1, i + 1, n + i, n + i + 1]).ravel()
-    return {"pose": IDENTITY, "points": _points(np.vstack([la.left, la.right])), "color": _rgba(SURFACE),
+    return {"pose": IDENTITY, "points": scene_points(np.vstack([la.left, la.right])), "color": scene_rgba(SURFACE),
             "colors": [], "indices": tri.tolist()}
 
 
 def road_scene(view: RoadView, stamp_ns: int = 0) -> bytes:
     """The ``road`` update of ``view`` stamped ``stamp_ns`` [ns], JSON."""
-    entities = [_entity(f"lanelet/{la.id}", stamp_ns, triangles=[_surface(la)], lines=[
-        _line(la.left, DASHED if la.left_dashed else SOLID), _line(la.right, DASHED if la.right_dashed else SOLID)])
+    entities = [scene_entity(f"lanelet/{la.id}", stamp_ns, triangles=[_surface(la)], lines=[
+        scene_line(la.left, DASHED if la.left_dashed else SOLID),
+        scene_line(la.right, DASHED if la.right_dashed else SOLID)])
         for la in view.lanelets]
     if view.goal:
-        entities.append(_entity("goal", stamp_ns, lines=[_line(g, GOAL, LINE_LOOP) for g in view.goal]))
+        entities.append(scene_entity("goal", stamp_ns, lines=[scene_line(g, GOAL, LINE_LOOP) for g in view.goal]))
     return json.dumps({"deletions": [], "entities": entities}).encode()
 
 
@@ -109,9 +111,9 @@ def traffic_scene(view: RoadView, t: float, stamp_ns: int) -> bytes:
                                       "z": OBSTACLE_HEIGHT / 2},
                          "orientation": {"x": 0, "y": 0, "z": math.sin(pose[2] / 2), "w": math.cos(pose[2] / 2)}},
                 "size": {"x": body.size[0], "y": body.size[1], "z": OBSTACLE_HEIGHT},
-                "color": _rgba(STANDING if body.static else MOVING)}
-        entities.append(_entity(f"obstacle/{body.id}", stamp_ns, cubes=[cube]))
-    return json.dumps({"deletions": [{"timestamp": _time(stamp_ns), "type": DELETE_ALL, "id": ""}],
+                "color": scene_rgba(STANDING if body.static else MOVING)}
+        entities.append(scene_entity(f"obstacle/{body.id}", stamp_ns, cubes=[cube]))
+    return json.dumps({"deletions": [{"timestamp": scene_time(stamp_ns), "type": DELETE_ALL, "id": ""}],
                        "entities": entities}).encode()
 
 
