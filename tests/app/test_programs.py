@@ -134,6 +134,7 @@ def test_a_plan_task_is_a_plan_order_to_its_goal_with_the_scenario_planner_and_p
             round(scenario.sim.step * 1e9), scenario) as node:
         setup = node.planning
         assert (setup.params, setup.perception, setup.laser) == (scenario.planner, "laser", scenario.sim.laser)
+        assert setup.road is scenario.road.network  # a CommonRoad world: its plans keep within the road's edges
 
 
 @pytest.mark.slow

@@ -17,9 +17,9 @@ import numpy as np
 from vilma.bus.base import Bus
 from vilma.bus.topics import topic
 from vilma.control.driver import Driver
-from vilma.control.local_planning import LocalPlanning, default_planner
+from vilma.control.local_planning import LocalPlanning, default_planner, road_bounds
 from vilma.core.messages import MAX_ORDER_POINTS, MAX_TRACKS, DriverOrder, Message, PoseEstimate
-from vilma.planning import Plan, PlannerParams, local_plan, track_list
+from vilma.planning import NO_ROAD, Plan, PlannerParams, local_plan, track_list
 from vilma.plant3d.laser import LaserParams
 from vilma.trajectory import Trajectory, speed_profile
 
@@ -32,11 +32,13 @@ MAX_SPACING_RATIO = 1e6
 @dataclass(frozen=True, slots=True, kw_only=True)
 class PlanSetup:
     """How a driver node plans a ``plan`` order: the planner (None: :func:`default_planner` for the driver's car),
-    the perception (``truth`` or ``laser``) and the laser a ``laser`` perception reads."""
+    the perception (``truth`` or ``laser``), the laser a ``laser`` perception reads, and the road network whose
+    edges the plans keep within (:func:`~vilma.control.local_planning.road_bounds`; None: unbounded)."""
 
     params: PlannerParams | None = None
     perception: str = "truth"
     laser: LaserParams | None = None
+    road: object | None = None
 
 
 class LivePlan:
@@ -93,7 +95,8 @@ def start_plan(order: DriverOrder, driver: Driver, setup: PlanSetup, bus: Bus, c
     if route.project(est.x, est.y).s >= route.length:
         raise ValueError(f"goal {list(goal)} is behind the car on the route; give a goal ahead of it")
     params = setup.params or default_planner(driver.vehicle)
-    return LivePlan(bus, car, LocalPlanning(params, setup.perception, setup.laser, route, driver))
+    road = NO_ROAD if setup.road is None else road_bounds(setup.road, route)
+    return LivePlan(bus, car, LocalPlanning(params, setup.perception, setup.laser, route, driver, road))
 
 
 def _route(order: DriverOrder, driver: Driver, est: PoseEstimate) -> Trajectory:

@@ -40,6 +40,8 @@ the driver's stop on its end (replanned each cycle from a crawl, a stop's gentle
 ever more slowly, never there)."""
 STOP_REACH = 1.0
 """How near [m] the end of a plan that stops is for the car at a crawl to stop on it at once."""
+ROAD_SPACING = 0.5
+"""How far apart along the route the road's edges are found [m]: a fraction of a car's length."""
 PREVIEW = 1.0
 """How far ahead in the plan the speed controller aims [s]: about the lag of a speed loop (pi_ff's 1 / kp, 0.83 s,
 and its shaped reference's)."""
@@ -48,6 +50,15 @@ and its shaped reference's)."""
 def default_planner(vehicle: VehicleParams) -> PlannerParams:
     """The planner's parameters for ``vehicle`` where nothing sets them."""
     return PlannerParams(vehicle=vehicle, replan_period=REPLAN_PERIOD)
+
+
+def road_bounds(network, path: Trajectory) -> RoadBounds:
+    """The edges of the road of ``network`` (a :class:`~vilma.world.commonroad.RoadNetwork`: its
+    ``lateral_bounds``) across ``path`` every :data:`ROAD_SPACING` and at its end (a route's points are closer: a
+    line across the road for each cost a tenth of a second a run)."""
+    s = np.append(np.arange(0.0, path.length, ROAD_SPACING), path.length)
+    xy = np.column_stack([np.interp(s, path.s, path.xy[:, 0]), np.interp(s, path.s, path.xy[:, 1])])
+    return RoadBounds(s, *network.lateral_bounds(xy))
 
 
 class LocalPlanning:

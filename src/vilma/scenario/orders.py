@@ -19,7 +19,8 @@ def plan_setup(scenario: Scenario | None) -> PlanSetup | None:
         return None
     from vilma.bus.plan_node import PlanSetup  # the planner (numba): for a plan only
 
-    return PlanSetup(params=scenario.planner, perception=scenario.perception, laser=scenario.sim.laser)
+    return PlanSetup(params=scenario.planner, perception=scenario.perception, laser=scenario.sim.laser,
+                     road=scenario.road.network if scenario.road else None)
 
 
 def task_order(scenario: Scenario) -> DriverOrder:

@@ -10,10 +10,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from vilma.control.driver import Driver
-from vilma.control.local_planning import LocalPlanning
+from vilma.control.local_planning import LocalPlanning, road_bounds
 from vilma.core.messages import MAX_TRACKS, Message, PoseEstimate
 from vilma.perception import MotFrame, clear_mot, laser_pose
-from vilma.planning import NO_ROAD, Plan, RoadBounds, local_plan, track_list
+from vilma.planning import NO_ROAD, Plan, local_plan, track_list
 from vilma.scenario.plan_keys import PLANNER, PLANNING_KEYS
 from vilma.scenario.result import PlanningLog
 from vilma.scenario.spec import Scenario
@@ -21,8 +21,6 @@ from vilma.sim import SimConfig
 from vilma.trajectory import Trajectory
 from vilma.world.states import YAW, V, X, Y
 
-ROAD_SPACING = 0.5
-"""How far apart along the route the road's edges are found [m]: a fraction of a car's length."""
 MOT_THRESHOLD = 2.5
 """Farthest a track may be from a true object to match it in the CLEAR MOT scores [m]: half a car's length and
 a bit, since a laser box spans only the faces the laser sees (its centre is up to half the car's length off)."""
@@ -41,7 +39,7 @@ class Planning(LocalPlanning):
 
     def __init__(self, scenario: Scenario, path: Trajectory, driver: Driver, sim: SimConfig) -> None:
         super().__init__(scenario.planner, scenario.perception, sim.laser, path, driver,
-                         _road_bounds(scenario.road.network, path) if scenario.road else NO_ROAD)
+                         road_bounds(scenario.road.network, path) if scenario.road else NO_ROAD)
         self.sim = sim
         self.frames: list[MotFrame] = []
         self.log = PlanningLog()
@@ -95,11 +93,3 @@ class Planning(LocalPlanning):
             self.kind, PLANNER, self.cycles, total / max(self.cycles, 1), longest, self.fallbacks, self.reason,
             mot.mota, mot.motp, mot.precision, mot.recall, mot.position_rmse, mot.velocity_rmse, mot.id_switches),
             strict=True))
-
-
-def _road_bounds(network, path: Trajectory) -> RoadBounds:
-    """The road's edges across ``path`` every :data:`ROAD_SPACING` and at its end (a route's points are closer:
-    a line across the road for each cost a tenth of a second a run)."""
-    s = np.append(np.arange(0.0, path.length, ROAD_SPACING), path.length)
-    xy = np.column_stack([np.interp(s, path.s, path.xy[:, 0]), np.interp(s, path.s, path.xy[:, 1])])
-    return RoadBounds(s, *network.lateral_bounds(xy))
