@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import signal
 import socket
 import subprocess
@@ -20,6 +21,8 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     # A suite started as a background job (`pytest &`, nohup) has SIGINT ignored, and the programs the tests start
     # would inherit that and ignore the Ctrl-C the tests send them: the tests' own processes take it again.
     signal.signal(signal.SIGINT, signal.default_int_handler)
+
+os.environ["VILMA_SERVE"] = "off"  # the `vilma` commands tests start run in their own processes, not on a server
 
 
 @pytest.fixture

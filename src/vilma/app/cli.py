@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+from vilma.app import serve
 from vilma.app.options import (
     MAX_CARS,
     cars,
@@ -444,6 +445,10 @@ def _add_tools(sub) -> None:
     t.set_defaults(func=_trajectory)
     sc = sub.add_parser("scenarios", help="the bundled scenarios, one line each (run them by name)")
     sc.set_defaults(func=_scenarios)
+    sv = sub.add_parser("serve", help="stay warm and run this install's `vilma run`, `demo`, `report` and "
+                                      "`scenarios` in a tenth of their start-up (until Ctrl-C)")
+    serve.add_options(sv)
+    sv.set_defaults(func=lambda args: serve.command(args, main))
 
 
 def _complete_scenario(prefix: str, **_) -> list[str]:
@@ -455,8 +460,14 @@ def _complete_scenario(prefix: str, **_) -> list[str]:
     return [n for n in bundled.names() if n.startswith(prefix)] + list(FilesCompleter(("yaml",))(prefix))
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point: parse ``argv`` and run the subcommand; returns the exit code."""
+def main(argv: list[str] | None = None, started: float | None = None) -> int:
+    """Entry point: parse ``argv`` and run the subcommand, its run's wall time counted from ``started``
+    [s, ``time.perf_counter``; default: the command's start]; returns the exit code. The command line's own command
+    (``argv`` None) runs on ``vilma serve``'s warm process when one listens (:mod:`vilma.app.serve`)."""
+    global STARTED
+    STARTED = started or STARTED
+    if argv is None and (code := serve.served(sys.argv[1:])) is not None:
+        return code
     parser = _parser()
     if "_ARGCOMPLETE" in os.environ:  # the shell asks for completions (argcomplete): only then import it
         import argcomplete

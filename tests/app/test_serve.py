@@ -1,0 +1,158 @@
+"""``vilma serve``: commands run on a warm server as in their own process, with their streams, status and Ctrl-C;
+bad requests refused while it keeps serving; a changed vilma stops it."""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import signal
+import socket
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from tests.conftest import VILMA, Processes
+from vilma.app import serve
+from vilma.scenario.scorecard import TIMING_KEYS
+
+SCENARIO = "pi_ff_speed_5"
+"""A short drive in the compiled loop: the server's warm-up and the runs served."""
+
+
+class Server:
+    """A ``vilma serve`` process at ``socket`` and the lines it prints."""
+
+    def __init__(self, processes: Processes, socket_path: Path, *options: str) -> None:
+        self.socket = socket_path
+        self.proc = processes.vilma("serve", "--socket", str(socket_path), *options, stdin=subprocess.DEVNULL)
+        self.lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=lambda: [self.lines.put(x) for x in self.proc.stdout], daemon=True).start()
+        self.expect("Ctrl-C ends", timeout=300)  # a first run on a fresh install compiles its warm-up
+
+    def expect(self, text: str, timeout: float = 60) -> str:
+        """The next line it prints holding ``text`` (the lines before it skipped)."""
+        deadline = time.monotonic() + timeout
+        while (line := self.lines.get(timeout=max(0.0, deadline - time.monotonic()))) and text not in line:
+            pass
+        return line
+
+    def client(self, *args: str, cwd: Path, **kw) -> subprocess.CompletedProcess:
+        """``vilma args`` run to its end as a client of this server."""
+        env = {**os.environ, "VILMA_SERVE": str(self.socket)}
+        return subprocess.run([*VILMA, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=120,
+                              stdin=subprocess.DEVNULL, **kw)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    with Processes() as processes:
+        yield Server(processes, tmp_path_factory.mktemp("serve") / "s.sock", "--warm-up", SCENARIO)
+        processes.started[0].send_signal(signal.SIGTERM)
+        assert processes.started[0].wait(timeout=30) == 0
+
+
+def metrics(folder: Path) -> dict:
+    return {k: v for k, v in json.loads((folder / "metrics.json").read_text()).items() if k not in TIMING_KEYS}
+
+
+def test_a_served_run_writes_what_its_own_process_writes(server, tmp_path):
+    served = server.client("run", SCENARIO, "--out", "served", "--no-plots", "-q", cwd=tmp_path)
+    assert served.returncode == 0, served.stderr
+    assert f"vilma run {SCENARIO} --out served" in server.expect("vilma run")  # it ran on the server
+    alone = subprocess.run([*VILMA, "run", SCENARIO, "--out", "alone", "--no-plots", "-q"], cwd=tmp_path,
+                           capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+    assert alone.returncode == 0, alone.stderr
+    a, b = tmp_path / "served", tmp_path / "alone"  # relative --out: in the client's working directory
+    assert metrics(a) == metrics(b)
+    assert (a / "timeseries.csv").read_bytes() == (b / "timeseries.csv").read_bytes()
+    assert (a / "run.mcap").stat().st_size > 0
+
+
+def test_a_served_command_s_error_and_status_reach_its_client(server, tmp_path):
+    bad = server.client("run", "no_such_scenario", cwd=tmp_path)
+    assert bad.returncode == 2
+    assert bad.stderr.startswith("vilma run: error: no_such_scenario: no such file") and bad.stderr.count("\n") == 1
+    usage = server.client("run", cwd=tmp_path)  # argparse's own exit
+    assert usage.returncode == 2 and "the following arguments are required: SCENARIO" in usage.stderr
+    listed = server.client("scenarios", cwd=tmp_path)
+    assert listed.returncode == 0 and f"{SCENARIO}: " in listed.stdout
+
+
+def test_ctrl_c_in_the_client_stops_the_served_run(server, tmp_path):
+    env = {**os.environ, "VILMA_SERVE": str(server.socket)}
+    with Processes() as processes:
+        client = processes.vilma("run", SCENARIO, "--realtime", "1", "--out", "paced", "--no-plots", "--no-record",
+                                 cwd=tmp_path, env=env, stdin=subprocess.DEVNULL)
+        server.expect("--realtime 1")
+        deadline = time.monotonic() + 60
+        while not list(tmp_path.glob("paced/timeseries.csv*")) and time.monotonic() < deadline:
+            time.sleep(0.05)  # the run has started
+        client.send_signal(signal.SIGINT)
+        out, _ = client.communicate(timeout=60)
+    assert client.returncode == 130
+    assert "vilma run: interrupted at t=" in out
+    assert not (tmp_path / "paced" / "metrics.json").exists()  # not a whole run
+
+
+def _ask(path: Path, data: bytes, fds: list[int]) -> dict:
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+        s.connect(str(path))
+        socket.send_fds(s, [data], fds)
+        return json.loads(s.makefile("rb").readline())
+
+
+def test_bad_requests_are_refused_and_the_server_keeps_serving(server, tmp_path):
+    cwd = str(tmp_path)
+    ok = {"argv": ["scenarios"], "cwd": cwd, "env": {}}
+    with open(os.devnull) as null:
+        streams = [null.fileno()] * 3
+        for data, fds in [(b"garbage\n", streams), ((json.dumps(ok) + "\n").encode(), []),
+                          (json.dumps({**ok, "argv": ["gui"]}).encode() + b"\n", streams),
+                          (json.dumps({**ok, "cwd": str(tmp_path / "gone")}).encode() + b"\n", streams),
+                          (b"[" * (serve.MAX_REQUEST + 10), streams)]:
+            answer = _ask(server.socket, data, fds)
+            assert answer["error"].startswith("bad request: ")
+            assert "refused a request" in server.expect("vilma serve: ")
+    assert server.client("scenarios", cwd=tmp_path).returncode == 0
+
+
+@given(st.binary(max_size=300) | st.recursive(st.none() | st.booleans() | st.integers() | st.text(max_size=8),
+                                              lambda c: st.lists(c, max_size=4) | st.dictionaries(st.text(max_size=8),
+                                                                                                     c, max_size=4))
+       .map(lambda v: (json.dumps(v) + "\n").encode()))
+def test_any_request_line_is_taken_or_refused_with_a_value_error(data):
+    try:
+        argv, cwd, env = serve.parse_request(data)
+    except ValueError as e:
+        assert str(e)
+    else:
+        assert argv and all(isinstance(a, str) for a in argv) and isinstance(cwd, str) and isinstance(env, dict)
+
+
+def test_a_second_server_on_the_same_socket_is_refused(server):
+    second = subprocess.run([*VILMA, "serve", "--socket", str(server.socket), "--warm-up", "none"],
+                            capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL)
+    assert second.returncode == 2
+    assert second.stderr == f"vilma serve: error: a vilma server already listens at {server.socket}\n"
+
+
+def test_a_changed_vilma_stops_the_server_and_its_client_runs_here(tmp_path):
+    changed = Path(serve.__file__)
+    before = changed.stat()
+    with Processes() as processes:
+        server = Server(processes, tmp_path / "s.sock", "--warm-up", "none")
+        try:
+            os.utime(changed, ns=(before.st_atime_ns, before.st_mtime_ns + 10**9))
+            listed = server.client("scenarios", cwd=tmp_path)
+        finally:
+            os.utime(changed, ns=(before.st_atime_ns, before.st_mtime_ns))
+        assert listed.returncode == 0 and f"{SCENARIO}: " in listed.stdout  # run by the client itself
+        assert "vilma changed on disk since `vilma serve` started: start it again" in listed.stderr
+        assert server.proc.wait(timeout=30) == 0
+    assert not server.socket.exists()
