@@ -1,12 +1,15 @@
 """The sensor bank against the definition of each sensor's readings: the sensor's own ``measure``."""
 
+import pickle
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from vilma.core.messages import Pose
 from vilma.sensors import Samples, SensorSuite, build_sensors
 from vilma.sensors.bank import BLOCK, MAX_NORMALS, SensorBank
-from vilma.sensors.base import rows_of, sensor_rng
+from vilma.sensors.base import Readings, rows_of, sensor_rng
 from vilma.sensors.gps import GpsParams
 from vilma.sensors.imu import ImuParams
 from vilma.sensors.pose import PoseParams
@@ -116,3 +119,16 @@ def test_the_normals_ahead_are_those_a_sensor_takes_next_and_stay_its_own():
     later = bank.measure(steps, 2 * BLOCK, ticks[rest], z[rest], dx[rest], STEP_NS)
     own = _own(steps + 2 * BLOCK)["imu"][1][steps:]
     np.testing.assert_array_equal(later["imu"].values, own)
+
+
+def test_readings_of_rows_of_a_block_are_those_rows_and_pickle_only_them():
+    stamps, values = np.arange(BLOCK, dtype=np.int64) * STEP_NS, np.arange(BLOCK * 6.0).reshape(BLOCK, 6)
+    r = Readings("pose", Pose, stamps, values, 3, 5)
+    assert len(r) == 2 and repr(r) == "Readings('pose', Pose, 2 readings)"
+    np.testing.assert_array_equal(r.stamp_ns, stamps[3:5])
+    np.testing.assert_array_equal(r.values, values[3:5])
+    assert r.messages() == [Pose(int(stamps[i]), *values[i].tolist()) for i in (3, 4)]
+    back = pickle.loads(pickle.dumps(r))  # as a recorder process gets them
+    assert (back.name, back.message, len(back)) == ("pose", Pose, 2)
+    np.testing.assert_array_equal(back.values, values[3:5])
+    assert len(pickle.dumps(r)) < values.nbytes // 10  # two rows of 512, not the block

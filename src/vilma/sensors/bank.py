@@ -117,6 +117,7 @@ class SensorBank:
         self._sensors, self._slots = sensors, [KINDS.index(type(s)) for s in sensors]
         self._by_slot: list = [None] * len(KINDS)
         self.book = np.zeros((5, len(KINDS)), dtype=np.int64)
+        self._counts_filled = self.book[COUNT::FILLED - COUNT]  # a view of the two rows readings() takes
         for slot, sensor, period in zip(self._slots, sensors, periods.tolist(), strict=True):
             self._by_slot[slot], self.book[PERIOD, slot] = sensor, period
         self.par, self.vec = np.zeros((len(KINDS), 6)), np.zeros((9, 5))
@@ -164,12 +165,12 @@ class SensorBank:
 
     def readings(self) -> dict[str, Readings]:
         """The readings :func:`measure_all` made last, by sensor name; sensors with none are left out."""
-        _, counts, _, _, filled = self.book.tolist()
+        counts, filled = self._counts_filled.tolist()
         out = {}
         for slot, name, message, stamps, values in self._blocks:
             if c := counts[slot]:
                 b = filled[slot]
-                out[name] = Readings(name, message, stamps[b - c:b], values[b - c:b])
+                out[name] = Readings(name, message, stamps, values, b - c, b)
         return out
 
     def normals_ahead(self, sensor: Sensor, count: int) -> np.ndarray:
