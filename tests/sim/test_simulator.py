@@ -112,6 +112,26 @@ def test_watchdog_stops_the_car_when_autonomous_commands_stop():
     assert s.x - x_trip == pytest.approx(v0**2 / (2 * a) + v0 * p.actuators.brake_time_constant, rel=0.1)
 
 
+def test_watchdog_fires_at_the_end_of_the_frame_that_reaches_its_timeout():
+    sim = Simulator(physics_only())  # the timeout (0.5 s) is 25 frames of 20 ms: the 25th ends at the deadline
+    sim.command(ActuatorCommand(drive=2000.0, autonomous=True))
+    frames = round(sim.config.watchdog_timeout / 0.02)
+    for _ in range(frames - 1):
+        sim.run_for(0.02)
+    assert not sim.watchdog_tripped
+    sim.run_for(0.02)
+    assert sim.watchdog_tripped
+
+
+def test_run_for_takes_each_time_its_own_seconds():
+    sim = Simulator(physics_only())
+    for seconds in (0.02, 0.05, 0.05, 0.02, 1.0):
+        sim.run_for(seconds)
+    assert sim.time_ns == 1_140_000_000
+    with pytest.raises(ValueError, match="finite"):
+        sim.run_for(math.nan)
+
+
 def test_watchdog_resumes_when_commands_come_back():
     sim = Simulator(physics_only())
     sim.command(ActuatorCommand(drive=2000.0, autonomous=True))

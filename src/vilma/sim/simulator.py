@@ -35,7 +35,7 @@ from vilma.sensors.base import rows_of, sensor_rng
 from vilma.sensors.laser import PlanarLaser
 from vilma.sensors.objects import ObjectsParams, ObjectsSensor
 from vilma.sensors.scene import Scene, SceneSensor
-from vilma.sim.frame import run_frame
+from vilma.sim.frame import direct, run_frame
 from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
 from vilma.vehicle.integrate import INTEGRATORS, constrain, empty_records
@@ -229,6 +229,8 @@ class Simulator(Closeable):
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._records, self._records_steps = empty_records(0), 0  # kept: the frames' records, for up to that many steps
         self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
+        self._frame: Callable | None = None  # run_frame called directly, once its types are known
+        self._run_for = 0.0, 0  # the seconds run_for took last and their ticks
         self.reset(initial)
 
     # -- state -------------------------------------------------------------------------------------------
@@ -348,11 +350,15 @@ class Simulator(Closeable):
 
     def run_for(self, seconds: float) -> dict[str, Readings]:
         """Advance ``seconds`` of sim time (rounded to whole steps)."""
-        return self.advance(self.clock.ticks_for(seconds))
+        if seconds != self._run_for[0]:  # a loop of frames asks for the same seconds each time (NaN: never equal)
+            self._run_for = seconds, self.clock.ticks_for(seconds)
+        return self.advance(self._run_for[1])
 
     def advance(self, ticks: int) -> dict[str, Readings]:
         """Advance ``ticks`` physics steps; returns the readings made, by sensor name."""
         end = self.clock.tick + ticks
+        if ticks > 0 and self._uneventful(end):  # the common frame: one chunk, no stop to find
+            return self._run_chunk(ticks)
         chunks: list[dict[str, Readings]] = []
         while self.clock.tick < end:
             stop = end
@@ -379,6 +385,14 @@ class Simulator(Closeable):
                 log.warning("watchdog: no command for %.3f s while autonomous at t=%.3f s; stopping the car",
                             self.config.watchdog_timeout, self.clock.time_s)
         return chunks[0] if len(chunks) == 1 else self._joined(chunks)
+
+    def _uneventful(self, end: int) -> bool:
+        """Whether the steps up to tick ``end`` run in one chunk: no command takes effect by then, the watchdog
+        does not fire, no world sensor or reactive traffic takes part."""
+        if self._world_sensors or self._react_ticks or (self._pending and self._pending[0][0] <= end):
+            return False
+        deadline = self._watchdog_deadline()
+        return deadline is None or deadline > end
 
     def _joined(self, chunks: list[dict[str, Readings]]) -> dict[str, Readings]:
         """The readings of consecutive chunks, joined by sensor."""
@@ -407,9 +421,12 @@ class Simulator(Closeable):
             return self._measure_each(t0, n, out_tick[:m], out_z, out_dx, extra, self.sensors)
         m, bank = -1, self._bank
         while m < 0:  # again after the bank made room
-            m = run_frame(self._model, self._integrator, self._z, mode, self._cmd, self._consts_array,
-                          self.clock.step_s, n, t0, periods, out_z, out_dx, out_tick, self.clock.step_ns, bank.book,
-                          bank.noise, bank.outs, bank.stamps, bank.par, bank.vec, bank.axes)
+            args = (self._model, self._integrator, self._z, mode, self._cmd, self._consts_array, self.clock.step_s, n,
+                    t0, periods, out_z, out_dx, out_tick, self.clock.step_ns, bank.book, bank.noise, bank.outs,
+                    bank.stamps, bank.par, bank.vec, bank.axes)
+            if self._frame is None:  # its arguments keep their types: int, float, C arrays of fixed dtypes
+                self._frame = direct(run_frame, *args)
+            m = self._frame(*args)
             if m < 0:
                 bank.make_room()
         self.clock.tick = t0 + n
