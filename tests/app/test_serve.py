@@ -32,14 +32,20 @@ class Server:
         self.socket = socket_path
         self.proc = processes.vilma("serve", "--socket", str(socket_path), *options, stdin=subprocess.DEVNULL)
         self.lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: [self.lines.put(x) for x in self.proc.stdout], daemon=True).start()
+        threading.Thread(target=self._pump, daemon=True).start()
         self.expect("Ctrl-C ends", timeout=300)  # a first run on a fresh install compiles its warm-up
+
+    def _pump(self) -> None:
+        for line in self.proc.stdout:
+            self.lines.put(line)
+        self.lines.put("")  # its end
 
     def expect(self, text: str, timeout: float = 60) -> str:
         """The next line it prints holding ``text`` (the lines before it skipped)."""
-        deadline = time.monotonic() + timeout
-        while (line := self.lines.get(timeout=max(0.0, deadline - time.monotonic()))) and text not in line:
-            pass
+        deadline, seen = time.monotonic() + timeout, []
+        while text not in (line := self.lines.get(timeout=max(0.0, deadline - time.monotonic()))):
+            assert line, f"the server ended before printing {text!r}: {''.join(seen)}"
+            seen.append(line)
         return line
 
     def client(self, *args: str, cwd: Path, **kw) -> subprocess.CompletedProcess:

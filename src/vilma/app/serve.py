@@ -51,18 +51,18 @@ def socket_path() -> Path | None:
     return base / f"vilma-{os.getuid()}" / f"serve-{install}.sock"
 
 
-def fingerprint() -> tuple[int, int]:
-    """What says vilma's code changed on disk: the count of its Python files and the newest change [ns]."""
-    count = newest = 0
-    stack = [PACKAGE]
+def fingerprint() -> str:
+    """What says vilma's code changed on disk: a digest of its Python files' names, sizes and change times."""
+    digest, stack = hashlib.sha1(), [PACKAGE]
     while stack:
         with os.scandir(stack.pop()) as entries:
-            for e in entries:
+            for e in sorted(entries, key=lambda e: e.name):
                 if e.is_dir() and e.name != "__pycache__":
                     stack.append(Path(e.path))
                 elif e.name.endswith(".py"):
-                    count, newest = count + 1, max(newest, e.stat().st_mtime_ns)
-    return count, newest
+                    info = e.stat()
+                    digest.update(f"{e.path}\0{info.st_size}\0{info.st_mtime_ns}\0".encode())
+    return digest.hexdigest()
 
 
 Main = Callable[..., int]
