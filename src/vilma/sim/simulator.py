@@ -247,7 +247,7 @@ class Simulator(Closeable):
         if self._plant3d is not None:
             self._plant3d.reset(initial or c.initial)
         else:  # lateral states that the model fixes (kinematic: all of them; single track: at low speed)
-            self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), self._z[NX:], self._consts)
+            self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), models.held(self._z[NX:]), self._consts)
         for sensor in self.sensors:
             sensor.reset(self._z.copy(), sensor_rng(c.seed, sensor.name))
         if self._bank is not None:
