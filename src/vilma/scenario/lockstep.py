@@ -38,7 +38,7 @@ from vilma.vehicle.integrate import advance
 from vilma.vehicle.state import VX, VY, YAW, YAW_RATE, X, Y
 from vilma.world.idm import idm_step
 
-BLOCK = 256
+BLOCK = 1024
 """Driver periods per compiled call (the sensors measure and the log grows once a block)."""
 
 
