@@ -64,6 +64,19 @@ def test_go_to_point_stops_on_it():
     assert d.status.arrived and math.hypot(sim.state.x - 30.0, sim.state.y - 10.0) < 1.0
 
 
+def test_a_path_followed_again_keeps_its_speed_profile_made_once():
+    """A sweep follows one path many times: the profile, lowered in the curve, is made once for the same path and
+    speed, and anew for another speed."""
+    path = spline_course([(0.0, 0.0), (30.0, 0.0), (30.0, 30.0)])
+    drivers = [Driver(vilma()) for _ in range(3)]
+    for d, speed in zip(drivers, (20.0, 20.0, 10.0), strict=True):
+        d.follow(path, speed)
+    first, again, slower = (d.task.path for d in drivers)
+    assert again is first and slower is not first
+    a_lat = drivers[0].params.max_lateral_accel
+    assert first.speed.min() <= math.sqrt(a_lat / np.abs(path.curvature).max()) + 1e-9 < 20.0
+
+
 def test_bad_orders_and_periods():
     d = Driver(vilma())
     with pytest.raises(ValueError, match="speed"):

@@ -13,6 +13,8 @@ from vilma.record.run import record_run
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import COLUMNS
 from vilma.scenario.lockstep import compiled_ok
+from vilma.scenario.result import OnReadings
+from vilma.scenario.runner import run
 from vilma.scenario.spec import TIMING_KEYS
 from vilma.sensors.pose import PoseParams
 from vilma.sim import Simulator
@@ -48,6 +50,15 @@ def test_compiled_and_python_loops_drive_alike(name, overrides, tmp_path):
     _same(compiled, python)
     csv = [(tmp_path / loop / "timeseries.csv").read_bytes() for loop in ("compiled", "python")]
     assert csv[0] == csv[1]  # no wall-clock column in it
+
+
+def test_a_compiled_run_drives_alike_whether_or_not_an_observer_takes_the_readings():
+    """Without observers the sensors measure nothing (nobody takes their readings): the drive is the same."""
+    s = load_scenario(BUNDLED / "course_30kmh_stanley.yaml", {"duration": "6"})
+    taken = []
+    alone, observed = run(s), run(s, observers=[OnReadings(taken.append)])
+    _same(alone, observed)
+    assert len(taken) > 1 and {"gps", "imu"} <= taken[-1].keys()
 
 
 def test_runs_that_cannot_run_compiled():

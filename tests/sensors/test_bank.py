@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from vilma.core.messages import Pose
 from vilma.sensors import Samples, SensorSuite, build_sensors
-from vilma.sensors.bank import BLOCK, MAX_NORMALS, SensorBank
+from vilma.sensors.bank import BLOCK, FIRST_AHEAD, MAX_NORMALS, SensorBank
 from vilma.sensors.base import Readings, rows_of, sensor_rng
 from vilma.sensors.gps import GpsParams
 from vilma.sensors.imu import ImuParams
@@ -102,6 +102,20 @@ def test_noise_drawn_ahead_stays_within_two_blocks_with_sensors_a_hundred_times_
         bank.measure(t0, 2, ticks, z, dx, STEP_NS)
         largest = max(largest, bank.noise.shape[1] // MAX_NORMALS)
     assert largest <= 2 * BLOCK
+
+
+def test_a_bank_that_measures_once_draws_little_noise():
+    """A compiled run whose readings nobody takes measures its first period only: its sensors draw the noise of
+    FIRST_AHEAD samples, not of a block (the draws then double up to a block; the readings are the same numbers
+    however they are drawn, as the test above checks)."""
+    z, dx, ticks = _plant(2)
+    sensors = _sensors()
+    bank = SensorBank(sensors, PERIODS)
+    bank.reset()
+    bank.measure(0, 2, ticks, z, dx, STEP_NS)
+    imu, twin = (next(s for s in group if s.name == "imu") for group in (sensors, _sensors()))
+    twin.rng.standard_normal(FIRST_AHEAD * 13)  # the IMU's 13 normals a sample
+    assert FIRST_AHEAD < BLOCK and imu.rng.bit_generator.state == twin.rng.bit_generator.state
 
 
 def test_the_normals_ahead_are_those_a_sensor_takes_next_and_stay_its_own():

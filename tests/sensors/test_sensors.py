@@ -2,6 +2,7 @@
 
 import dataclasses
 import math
+import zlib
 
 import numpy as np
 import pymap3d
@@ -10,6 +11,7 @@ import pytest
 from vilma.core.geometry import yaw_from_quaternion
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sensors import SensorSuite
+from vilma.sensors.base import sensor_rng
 from vilma.sensors.gps import GpsParams
 from vilma.sensors.imu import ImuParams
 from vilma.sensors.odometry import OdometryParams
@@ -156,3 +158,12 @@ def test_velocity_world_frame_rotates_body_velocity():
     _, r = _run(0.5, velocity=SensorSuite().velocity, initial=VehicleState(vx=10.0, yaw=math.pi / 3))
     v = r["velocity"].latest()
     assert (v.vx_world, v.vy_world) == pytest.approx((v.vx * 0.5, v.vx * math.sqrt(3) / 2))
+
+
+def test_a_sensors_noise_generator_is_seeded_by_the_run_seed_and_its_name_and_is_its_own():
+    a, b = sensor_rng(3, "gps"), sensor_rng(3, "gps")
+    expected = np.random.default_rng([3, zlib.crc32(b"gps")]).standard_normal(4)  # the seeding's definition
+    assert np.array_equal(a.standard_normal(4), expected)
+    assert np.array_equal(b.standard_normal(4), expected)  # a's draws did not advance b
+    assert not np.array_equal(sensor_rng(4, "gps").standard_normal(4), expected)
+    assert not np.array_equal(sensor_rng(3, "imu").standard_normal(4), expected)

@@ -215,6 +215,24 @@ def test_compiled_code_advances_the_plant_as_advance_does():
         assert np.array_equal(got[name].values, readings.values, equal_nan=True), name
 
 
+def test_compiled_code_without_sensing_advances_the_plant_alike_and_the_sensors_skip_its_steps():
+    twins = [Simulator(SimConfig()) for _ in range(2)]
+    for sim in twins:
+        sim.command(ActuatorCommand(steer=0.1, longitudinal=Longitudinal.FORCE, drive=800.0))
+    sensed = twins[0].advance_compiled(64, _integrate)
+    k = twins[1].kernel_start(64, sensing=False)
+    done = _integrate(k)
+    assert sensed and done.records == 0  # nothing recorded for the sensors
+    assert twins[1].kernel_end(k, done) == {}
+    assert twins[1].clock.tick == twins[0].clock.tick == 37
+    assert np.array_equal(twins[1].plant, twins[0].plant)
+    fresh = Simulator(SimConfig())  # no noise drawn
+    noisy = [i for i, s in enumerate(fresh.sensors) if hasattr(s, "rng")]
+    assert len(noisy) > 3
+    assert [twins[1].sensors[i].rng.bit_generator.state for i in noisy] == \
+        [fresh.sensors[i].rng.bit_generator.state for i in noisy]
+
+
 def test_compiled_code_may_not_advance_a_car_with_actuator_dead_time():
     v = vilma()
     sim = Simulator(SimConfig(vehicle=dataclasses.replace(v, actuators=dataclasses.replace(v.actuators,

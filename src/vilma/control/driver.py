@@ -21,6 +21,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
+from functools import lru_cache
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -262,6 +263,9 @@ class _Task:
 
 
 _NO_PATH = Trajectory.from_points([(0.0, 0.0)])
+_profiled = lru_cache(maxsize=8)(speed_profile)
+""":func:`speed_profile` made once for a path followed again (a sweep, a benchmark: a scenario's path is made once),
+and with it the arrays compiled code reads; a path is immutable, its identity the key."""
 
 
 class Driver:
@@ -331,7 +335,7 @@ class Driver:
         if len(path) < 2:
             raise ValueError("follow: the trajectory needs at least 2 points")
         speed = None if speed is None else _finite(speed, "speed")
-        profiled = speed_profile(path, speed, self.params.max_lateral_accel, self.params.stop_deceleration)
+        profiled = _profiled(path, speed, self.params.max_lateral_accel, self.params.stop_deceleration)
         self._start(_Task(DriverMode.FOLLOW, speed=math.nan, path=profiled))
 
     def drive_plan(self, path: Trajectory) -> None:

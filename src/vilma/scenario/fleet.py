@@ -72,7 +72,7 @@ def _wave(cars: list[Car], loading: LoadTimer) -> list[RunResult]:
         for car in cars:
             car.start(stack.enter_context(Simulator(car.config, car.initial)))
             car.begin()
-        drives = {i: CompiledDrive(c.sim, c.driver, c.log, c.periods, c.follows, c.on_block)
+        drives = {i: CompiledDrive(c.sim, c.driver, c.log, c.periods, c.follows, c.block_taker)
                   for i, c in enumerate(cars) if compiled_ok(c.sim, c.driver)}
         slow = [i for i in range(len(cars)) if i not in drives]
         while drives:

@@ -38,7 +38,7 @@ from vilma.vehicle.integrate import advance
 from vilma.vehicle.state import VX, VY, YAW, YAW_RATE, X, Y
 from vilma.world.idm import idm_step
 
-BLOCK = 256
+BLOCK = 1024
 """Driver periods per compiled call (the sensors measure and the log grows once a block)."""
 
 
@@ -150,6 +150,8 @@ class CompiledDrive:
     """One car's drive in the compiled loop, a block of driver periods at a time (:func:`run_compiled`; a fleet
     interleaves the blocks of many cars: :mod:`vilma.scenario.fleet`).
 
+    Without ``on_block`` (nobody takes the readings) the sensors make none, unless the EKF steers.
+
     :meth:`start` gives the arguments of :func:`_loop` for the next block; whoever calls it with them hands its
     return value to :meth:`end`, which appends the block's rows to ``log`` and gives ``on_block`` its readings.
     """
@@ -174,7 +176,7 @@ class CompiledDrive:
     def start(self) -> tuple:
         """The arguments of :func:`_loop` for up to a block of periods from where the simulator is."""
         sim, driver = self.sim, self.driver
-        self._kernel = p = sim.kernel_start(BLOCK * driver.period_ticks)
+        self._kernel = p = sim.kernel_start(BLOCK * driver.period_ticks, sensing=self.ekf or self.on_block is not None)
         n = min(BLOCK, self.periods - self.done)
         e = block_inputs(sim, driver.estimator, p.tick, n * driver.period_ticks) if self.ekf else None
         return (p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records, n, p.mode,
@@ -208,7 +210,8 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
                  on_block: Callable[[dict[str, Readings]], None] | None = None) -> bool:
     """Run up to ``periods`` driver periods compiled, appending a log row each; True if it stopped at rest.
 
-    ``on_block`` gets the sensor readings of each block (after its rows are in the log). The simulator's reactive
+    ``on_block`` gets the sensor readings of each block (after its rows are in the log; without it, and without
+    the EKF, the sensors make none). The simulator's reactive
     traffic (:attr:`PlantKernel.traffic <vilma.sim.simulator.PlantKernel.traffic>`) steps each period. The column
     ``controller_us`` holds the wall time per period of the whole compiled loop (plant, driver and
     log): an upper bound of the driver's cost.

@@ -166,6 +166,12 @@ class Car:
         """Whether the task ends at rest at the end of a path (not a speed task)."""
         return self.scenario.task.kind != "speed"
 
+    @property
+    def block_taker(self) -> Callable[[dict[str, Readings]], None] | None:
+        """:meth:`on_block` for the compiled loop, None when it has nothing to hand them to (no observer; a plan,
+        whose perception takes captures, runs in Python): its sensors then measure nothing."""
+        return self.on_block if self.observers else None
+
     def on_block(self, readings: dict[str, Readings]) -> None:
         """Hand a block's readings and the 3D plant's captures to the observers."""
         for o in self.observers:
@@ -218,7 +224,7 @@ class Car:
         """After :meth:`begin`: step until the task is done or time is up, compiled if it may (see :func:`run`)."""
         sim, driver, period = self.sim, self.driver, self.driver.period_ticks
         if realtime is None and compiled and compiled_ok(sim, driver):
-            run_compiled(sim, driver, self.log, self.periods, self.follows, self.on_block)
+            run_compiled(sim, driver, self.log, self.periods, self.follows, self.block_taker)
         elif realtime is None:
             for _ in range(self.periods):
                 if self.finished():

@@ -44,6 +44,9 @@ ENDLESS = 2**62
 """The noise rows a sensor without noise holds."""
 BLOCK = 512
 """Samples a block of readings or of noise holds (more if one chunk needs more)."""
+FIRST_AHEAD = 8
+"""Samples of noise drawn ahead at first: the draws double from there to :data:`BLOCK`, so a run that measures
+little (a compiled loop whose readings nobody takes measures only its first period) draws little."""
 PERIOD, COUNT, USED, HELD, FILLED = range(5)
 """Rows of a bank's book: each slot's sample period [ticks] (0: no sensor), samples in the chunk, noise rows used
 and held, block rows filled."""
@@ -121,12 +124,12 @@ class SensorBank:
         for slot, sensor, period in zip(self._slots, sensors, periods.tolist(), strict=True):
             self._by_slot[slot], self.book[PERIOD, slot] = sensor, period
         self.par, self.vec = np.zeros((len(KINDS), 6)), np.zeros((9, 5))
-        self._new_blocks(BLOCK)
+        self._new_blocks(FIRST_AHEAD)
 
     def reset(self) -> None:
         """Take the sensors' generators and states anew (after their :meth:`~vilma.sensors.base.Sensor.reset`); the
         bank's ``vec`` rows become the sensors' drifting states, so both advance together."""
-        self.noise, self.book[USED] = np.zeros((len(KINDS), 0)), 0
+        self.noise, self.book[USED], self._ahead = np.zeros((len(KINDS), 0)), 0, FIRST_AHEAD
         self.book[HELD] = [0 if d else ENDLESS for d in NORMALS]
         pose, velocity, gps, imu, wheel, odometry, _ = self._by_slot
         q, v = self.par, self.vec
@@ -186,7 +189,8 @@ class SensorBank:
         """Draw more noise for the slots short of it and start new blocks, for the samples :func:`counts_fit`
         counted."""
         b = self.book
-        need = max(BLOCK, *b[COUNT].tolist())
+        need = max(self._ahead, *b[COUNT].tolist())
+        self._ahead = min(2 * self._ahead, BLOCK)
         kept, short = [], []  # per slot: normals not yet used, whether to draw ``need`` samples' more
         for slot, (u, held, c) in enumerate(zip(b[USED].tolist(), b[HELD].tolist(), b[COUNT].tolist(), strict=True)):
             d = NORMALS[slot]

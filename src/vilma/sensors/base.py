@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import zlib
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Protocol
 
 import numpy as np
@@ -126,4 +127,9 @@ class Sensor(Protocol):
 
 def sensor_rng(seed: int, name: str) -> np.random.Generator:
     """The noise generator of sensor ``name`` for run ``seed``: independent of which other sensors exist."""
-    return np.random.default_rng([seed, zlib.crc32(name.encode())])
+    return np.random.Generator(np.random.PCG64(_seeds(seed, name)))  # as np.random.default_rng([seed, crc])
+
+
+@lru_cache(maxsize=256)  # hashing the seed is most of the cost of a generator, and a run makes one per sensor
+def _seeds(seed: int, name: str) -> np.random.SeedSequence:
+    return np.random.SeedSequence([seed, zlib.crc32(name.encode())])

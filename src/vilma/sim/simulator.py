@@ -52,6 +52,8 @@ log = logging.getLogger(__name__)
 
 MUJOCO = "mujoco"
 """The 3D plant's model name."""
+NO_PERIODS = np.zeros(0, dtype=np.int64)
+"""The sample periods of a kernel whose sensors skip its steps (:meth:`Simulator.kernel_start`)."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -245,7 +247,7 @@ class Simulator(Closeable):
         if self._plant3d is not None:
             self._plant3d.reset(initial or c.initial)
         else:  # lateral states that the model fixes (kinematic: all of them; single track: at low speed)
-            self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), self._z[NX:], self._consts)
+            self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), models.held(self._z[NX:]), self._consts)
         for sensor in self.sensors:
             sensor.reset(self._z.copy(), sensor_rng(c.seed, sensor.name))
         if self._bank is not None:
@@ -456,10 +458,12 @@ class Simulator(Closeable):
         k = self.kernel_start(ticks)
         return self.kernel_end(k, kernel(k))
 
-    def kernel_start(self, ticks: int) -> PlantKernel:
+    def kernel_start(self, ticks: int, sensing: bool = True) -> PlantKernel:
         """What compiled code advancing the plant up to ``ticks`` steps works on: :meth:`advance_compiled` in two
         halves, for a caller that advances many simulators in one compiled call (:mod:`vilma.scenario.fleet`);
-        :meth:`kernel_end` must follow before anything else is asked of the simulator.
+        :meth:`kernel_end` must follow before anything else is asked of the simulator. Without ``sensing`` the
+        sensors skip these steps (no sample recorded, no reading made, no noise drawn): for a caller that would
+        throw their readings away.
 
         Raises:
             RuntimeError: not :attr:`compiled_ok`.
@@ -469,7 +473,8 @@ class Simulator(Closeable):
         if self._kernel_records is None or len(self._kernel_records[2]) < ticks:
             self._kernel_records = empty_records(ticks)  # kept: one allocation for the blocks of a run
         return PlantKernel(self._model, self._integrator, self._z, self._consts, self.clock.step_s, self.clock.step_ns,
-                           self.clock.tick, self._periods, self._kernel_records, np.array([self._mode]),
+                           self.clock.tick, self._periods if sensing else NO_PERIODS, self._kernel_records,
+                           np.array([self._mode]),
                            self._cmd.copy(), self._limits,
                            None if self.config.reactive is None else self.config.reactive.arrays)
 
@@ -480,6 +485,8 @@ class Simulator(Closeable):
         self._mode, self._cmd = int(k.mode[0]), k.cmd
         if done.commanded_tick is not None:
             self._autonomous, self._last_command_tick = True, done.commanded_tick
+        if k.periods is NO_PERIODS:
+            return {}
         out_z, out_dx, out_tick = k.records
         ticks = out_tick[:done.records]
         readings = self._bank.measure(t0, done.ticks, ticks, out_z, out_dx, self.clock.step_ns)

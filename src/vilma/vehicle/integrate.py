@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from vilma.vehicle.actuators import actuator_step, targets
-from vilma.vehicle.models import kinematic, kinematic_constrain, single_track, single_track_constrain
+from vilma.vehicle.models import held, kinematic, kinematic_constrain, single_track, single_track_constrain
 from vilma.vehicle.state import NX, NZ
 
 KINEMATIC, SINGLE_TRACK = 0, 1
@@ -24,7 +24,7 @@ INTEGRATORS = ("rk4", "euler")
 
 @njit(cache=True)
 def derivative(model, x, u, p):
-    """dx/dt of model ``model`` (an id)."""
+    """dx/dt of model ``model`` (an id); ``u`` the held actuator outputs (:func:`~vilma.vehicle.models.held`)."""
     if model == KINEMATIC:
         return kinematic(x, u, p)
     return single_track(x, u, p)
@@ -32,7 +32,7 @@ def derivative(model, x, u, p):
 
 @njit(cache=True)
 def constrain(model, x, u, p):
-    """Model-specific projection applied after each step."""
+    """Model-specific projection applied after each step (``u`` as in :func:`derivative`)."""
     if model == KINEMATIC:
         return kinematic_constrain(x, u, p)
     return single_track_constrain(x, u, p)
@@ -82,15 +82,16 @@ def advance(model, integrator, z, mode, cmd, p, dt, n, tick, periods, out_z, out
     for i in range(1, n + 1):
         steer, drive, brake = targets(mode, cmd, x, u, p)
         actuator_step(u, steer, drive, brake, p, dt)
-        x = rk4(model, x, u, p, dt) if integrator == RK4 else euler(model, x, u, p, dt)
-        x = constrain(model, x, u, p)
+        v = held(u)
+        x = rk4(model, x, v, p, dt) if integrator == RK4 else euler(model, x, v, p, dt)
+        x = constrain(model, x, v, p)
         sampled = False
         for period in periods:
             if (tick + i) % period == 0:
                 sampled = True
                 break
         if sampled:
-            dx = derivative(model, x, u, p)
+            dx = derivative(model, x, v, p)
             for k in range(NX):
                 out_z[j, k] = x[k]
                 out_dx[j, k] = dx[k]

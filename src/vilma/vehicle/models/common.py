@@ -36,9 +36,18 @@ def longitudinal_forces(vx, drive, brake, p):
 
 
 @njit(cache=True)
-def kinematic_lateral(vx, steer, p):
-    """Lateral velocity [m/s] and yaw rate [rad/s] of the kinematic bicycle (rear axle rolls without slip)."""
-    r = vx * math.tan(steer) / (p.lf + p.lr)
+def held(u):
+    """The actuator outputs ``u = (steer, drive, brake)`` as the models take them, held over a step: followed by
+    the steering's cosine, sine and tangent, computed once a step rather than at each derivative."""
+    steer = u[0]
+    return steer, u[1], u[2], math.cos(steer), math.sin(steer), math.tan(steer)
+
+
+@njit(cache=True)
+def kinematic_lateral(vx, tan_steer, p):
+    """Lateral velocity [m/s] and yaw rate [rad/s] of the kinematic bicycle (rear axle rolls without slip) at the
+    steering's tangent ``tan_steer``."""
+    r = vx * tan_steer / (p.lf + p.lr)
     return p.lr * r, r
 
 
@@ -51,21 +60,22 @@ def blend_weight(vx, p):
 
 
 @njit(cache=True)
-def planar_motion(x, vy, r, ax, ay_dyn, dr_dyn, steer, w, p):
+def planar_motion(x, vy, r, ax, ay_dyn, dr_dyn, tan_steer, w, p):
     """Derivative of ``x`` (a 6-tuple, as the result) given effective lateral velocity and yaw rate.
 
     ``ax`` is dvx/dt; ``ay_dyn``, ``dr_dyn`` the dynamic dvy/dt and dr/dt.
     The kinematic part follows d/dt of :func:`kinematic_lateral` at fixed
-    steering (the steering is held over a step).
+    steering (of tangent ``tan_steer``: the steering is held over a step).
     """
     c, s = math.cos(x[YAW]), math.sin(x[YAW])
-    dr_kin = ax * math.tan(steer) / (p.lf + p.lr)
+    dr_kin = ax * tan_steer / (p.lf + p.lr)
     return (x[VX] * c - vy * s, x[VX] * s + vy * c, r, ax,
             w * ay_dyn + (1.0 - w) * p.lr * dr_kin, w * dr_dyn + (1.0 - w) * dr_kin)
 
 
 @njit(cache=True)
-def constrain_lateral(x, steer, w, p):
-    """Blend the lateral states toward the kinematic ones by ``1 - w`` (applied after each step)."""
-    vy_k, r_k = kinematic_lateral(x[VX], steer, p)
+def constrain_lateral(x, tan_steer, w, p):
+    """Blend the lateral states toward the kinematic ones by ``1 - w`` (applied after each step; the steering's
+    tangent ``tan_steer``)."""
+    vy_k, r_k = kinematic_lateral(x[VX], tan_steer, p)
     return (x[0], x[1], x[YAW], x[VX], w * x[VY] + (1.0 - w) * vy_k, w * x[YAW_RATE] + (1.0 - w) * r_k)

@@ -16,15 +16,14 @@ from vilma.vehicle.state import VX
 
 @njit(cache=True)
 def kinematic(x, u, p):
-    """dx/dt of the kinematic bicycle. ``u = (steer, drive, brake)``."""
-    steer = u[0]
+    """dx/dt of the kinematic bicycle. ``u`` the held actuator outputs (:func:`~.common.held`)."""
     fxf, fxr, resist = longitudinal_forces(x[VX], u[1], u[2], p)
     ax = (fxf + fxr - resist) / p.m
-    vy, r = kinematic_lateral(x[VX], steer, p)
-    return planar_motion(x, vy, r, ax, 0.0, 0.0, steer, 0.0, p)
+    vy, r = kinematic_lateral(x[VX], u[5], p)
+    return planar_motion(x, vy, r, ax, 0.0, 0.0, u[5], 0.0, p)
 
 
 @njit(cache=True)
 def kinematic_constrain(x, u, p):
     """Put the lateral states on the kinematic manifold (after each step)."""
-    return constrain_lateral(x, u[0], 0.0, p)
+    return constrain_lateral(x, u[5], 0.0, p)

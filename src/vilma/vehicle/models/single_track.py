@@ -48,15 +48,14 @@ def lateral_tyre_force(alpha, fx, fz, c_alpha, p):
 
 @njit(cache=True)
 def single_track(x, u, p):
-    """dx/dt of the blended single-track model. ``u = (steer, drive, brake)``."""
-    steer = u[0]
+    """dx/dt of the blended single-track model. ``u`` the held actuator outputs (:func:`~.common.held`)."""
     vx = x[VX]
     w = blend_weight(vx, p)
-    vy_k, r_k = kinematic_lateral(vx, steer, p)
+    vy_k, r_k = kinematic_lateral(vx, u[5], p)
     vy = w * x[VY] + (1.0 - w) * vy_k
     r = w * x[YAW_RATE] + (1.0 - w) * r_k
     fxf, fxr, resist = longitudinal_forces(vx, u[1], u[2], p)
-    c, s = math.cos(steer), math.sin(steer)
+    c, s = u[3], u[4]
     vf_lat = vy + p.lf * r
     alpha_f = math.atan2(-vx * s + vf_lat * c, abs(vx * c + vf_lat * s))
     alpha_r = math.atan2(vy - p.lr * r, abs(vx))
@@ -67,10 +66,10 @@ def single_track(x, u, p):
     ax_kin = (fxf + fxr - resist) / p.m
     ay_dyn = (f_front_lat + fyr) / p.m - r * vx
     dr_dyn = (p.lf * f_front_lat - p.lr * fyr) / p.iz
-    return planar_motion(x, vy, r, w * ax_dyn + (1.0 - w) * ax_kin, ay_dyn, dr_dyn, steer, w, p)
+    return planar_motion(x, vy, r, w * ax_dyn + (1.0 - w) * ax_kin, ay_dyn, dr_dyn, u[5], w, p)
 
 
 @njit(cache=True)
 def single_track_constrain(x, u, p):
     """Blend the lateral states toward the kinematic ones at low speed (after each step)."""
-    return constrain_lateral(x, u[0], blend_weight(x[VX], p), p)
+    return constrain_lateral(x, u[5], blend_weight(x[VX], p), p)
