@@ -231,7 +231,7 @@ class Simulator(Closeable):
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._records, self._records_steps = empty_records(0), 0  # kept: the frames' records, for up to that many steps
         self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
-        self._frame: Callable | None = None  # run_frame called directly, once its types are known
+        self._frame, self._frames = run_frame, 0  # run_frame, called directly from the second frame on
         self._run_for = 0.0, 0  # the seconds run_for took last and their ticks
         self.reset(initial)
 
@@ -422,12 +422,13 @@ class Simulator(Closeable):
             self.clock.tick = t0 + n
             return self._measure_each(t0, n, out_tick[:m], out_z, out_dx, extra, self.sensors)
         m, bank = -1, self._bank
+        self._frames += 1
         while m < 0:  # again after the bank made room
             args = (self._model, self._integrator, self._z, mode, self._cmd, self._consts_array, self.clock.step_s, n,
                     t0, periods, out_z, out_dx, out_tick, self.clock.step_ns, bank.book, bank.noise, bank.outs,
                     bank.stamps, bank.par, bank.vec, bank.axes)
-            if self._frame is None:  # its arguments keep their types: int, float, C arrays of fixed dtypes
-                self._frame = direct(run_frame, *args)
+            if self._frames == 2 and self._frame is run_frame:  # more frames may follow: type their arguments once
+                self._frame = direct(run_frame, *args)  # (ints, floats, C arrays of fixed dtypes), not at each call
             m = self._frame(*args)
             if m < 0:
                 bank.make_room()
