@@ -242,7 +242,7 @@ PLANT_HELP = "the car's model instead of the scenario's: kinematic, single_track
 
 
 def _plant(name: str) -> str:
-    from vilma.sim.simulator import MUJOCO
+    from vilma.sim.config import MUJOCO
     from vilma.vehicle.models import MODELS
 
     if name not in (*MODELS, MUJOCO):

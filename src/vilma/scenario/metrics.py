@@ -36,7 +36,7 @@ import numpy as np
 from vilma.core.geometry import wrap_angle
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, Scenario
-from vilma.sim.simulator import MUJOCO
+from vilma.sim.config import MUJOCO
 from vilma.trajectory import Trajectory
 
 WATCHDOG_STOP = "the watchdog stopped the car (the driver sent no command in time)"

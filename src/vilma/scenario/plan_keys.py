@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 from vilma.scenario.fields import Source, build, get
 from vilma.scenario.task import TaskSpec
 from vilma.sim import SimConfig
-from vilma.sim.simulator import MUJOCO
+from vilma.sim.config import MUJOCO
 
 if TYPE_CHECKING:  # the planner (numba, scipy.interpolate) is imported for a plan only
     from vilma.planning import PlannerParams

@@ -26,7 +26,7 @@ from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
 from vilma.sim import Pacer, SimConfig, Simulator
-from vilma.sim.simulator import MUJOCO
+from vilma.sim.config import MUJOCO
 from vilma.trajectory import Trajectory
 from vilma.vehicle.state import VX, YAW, VehicleState, X, Y
 

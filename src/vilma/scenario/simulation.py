@@ -18,7 +18,7 @@ from vilma.scenario.fields import Key, Source, build, convert, get, read_yaml
 from vilma.sensors import SensorSuite
 from vilma.sensors.objects import ObjectsParams
 from vilma.sim import SimConfig
-from vilma.sim.simulator import MUJOCO
+from vilma.sim.config import MUJOCO
 from vilma.vehicle import models
 from vilma.vehicle.params import PRESETS, ActuatorParams, VehicleParams, preset
 

@@ -68,7 +68,7 @@ from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
 from vilma.sensors.objects import ObjectsParams
 from vilma.sim import SimConfig
-from vilma.sim.simulator import MUJOCO
+from vilma.sim.config import MUJOCO
 from vilma.trajectory import (
     Arrival,
     Trajectory,

@@ -65,7 +65,7 @@ class ReactiveTraffic:
     """The scenario's traffic driven by IDM along the recorded paths: :attr:`traffic` holds the states at every
     driver period from sim time 0 (dt = ``period``), filled one period ahead by :meth:`step` (or by the compiled
     closed loop, with :attr:`arrays`): the simulator does both (:attr:`SimConfig.reactive
-    <vilma.sim.simulator.SimConfig.reactive>`).
+    <vilma.sim.config.SimConfig.reactive>`).
 
     Args:
         recorded: the recorded traffic.
