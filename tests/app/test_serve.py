@@ -162,3 +162,11 @@ def test_a_changed_vilma_stops_the_server_and_its_client_runs_here(tmp_path):
         assert "vilma changed on disk since `vilma serve` started: start it again" in listed.stderr
         assert server.proc.wait(timeout=30) == 0
     assert not server.socket.exists()
+
+
+def test_a_client_never_hands_its_streams_to_another_user_s_server(server, monkeypatch, capsys):
+    monkeypatch.setenv("VILMA_SERVE", str(server.socket))
+    monkeypatch.setattr(os, "getuid", lambda: os.geteuid() + 1)  # the server's user is then not ours
+    assert serve.served(["scenarios"]) is None  # run here
+    err = capsys.readouterr().err
+    assert err == f"vilma: the server at {server.socket} is another user's; running the command here\n"

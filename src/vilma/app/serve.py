@@ -35,6 +35,8 @@ SERVED = ("run", "demo", "report", "scenarios")
 """The commands a server runs: those that end (not the GUI, servers or bridges)."""
 MAX_REQUEST = 1 << 20
 """Longest request a server reads [bytes]: the arguments, working directory and environment as one JSON line."""
+STOPS = {signal.SIGINT, signal.SIGTERM}
+"""The signals that stop a server, and a command."""
 ENV = "VILMA_SERVE"
 """The environment variable that names the socket, or turns serving ``off``."""
 PACKAGE = Path(__file__).resolve().parents[1]
@@ -92,8 +94,8 @@ def command(args: argparse.Namespace, main: Main) -> int:
 
 def served(argv: list[str]) -> int | None:
     """Run ``vilma ARGV`` on this install's server, if one listens; its exit status, or ``None`` to run it here."""
-    command, path = _command(argv), socket_path()
-    if command not in SERVED or path is None or "_ARGCOMPLETE" in os.environ or not path.exists():
+    name, path = _command(argv), socket_path()
+    if name not in SERVED or path is None or "_ARGCOMPLETE" in os.environ or not path.exists():
         return None
     try:
         for fd in (0, 1, 2):
@@ -101,6 +103,10 @@ def served(argv: list[str]) -> int | None:
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         sock.connect(str(path))
     except OSError:  # no server behind the name (it ended), or a standard stream closed: run here
+        return None
+    if _peer_uid(sock) != os.getuid():  # never hand our terminal and environment to another user's process
+        sock.close()
+        print(f"vilma: the server at {path} is another user's; running the command here", file=sys.stderr)
         return None
     with sock, sock.makefile("rb") as answers:
         request = {"argv": argv, "cwd": os.getcwd(), "env": dict(os.environ)}
@@ -111,6 +117,7 @@ def served(argv: list[str]) -> int | None:
             print(f"vilma: {first.get('stale') or first.get('error') or 'no answer from the server'} "
                   f"(server at {path}); running the command here", file=sys.stderr)
             return None
+
         def forward(signum: int, _) -> None:  # the command gets Ctrl-C
             with contextlib.suppress(ProcessLookupError):
                 os.kill(first["pid"], signum)
@@ -119,10 +126,15 @@ def served(argv: list[str]) -> int | None:
             signal.signal(signum, forward)
         last = _read(answers)
     if "exit" not in last:
-        print(f"vilma {command}: the served command ended without an exit status (server at {path})",
+        print(f"vilma {name}: the served command ended without an exit status (server at {path})",
               file=sys.stderr)
         return 1
     return int(last["exit"])
+
+
+def _peer_uid(sock: socket.socket) -> int:
+    """The user id of the process at the other end of the Unix socket ``sock`` (Linux's peer credentials)."""
+    return struct.unpack("3i", sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED, struct.calcsize("3i")))[1]
 
 
 def _read(answers: io.BufferedReader) -> dict:
@@ -143,9 +155,11 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
     files, to load what commands use.
 
     Raises:
-        ValueError: a server listens there already.
+        ValueError: a server listens there already, or its folder is another user's.
     """
     path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    if path.parent.stat().st_uid != os.getuid():
+        raise ValueError(f"{path.parent} is another user's: give --socket PATH in a folder of yours")
     listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         listener.connect(str(path))
@@ -168,25 +182,26 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
     code = fingerprint()
     signal.signal(signal.SIGCHLD, signal.SIG_IGN)  # children are reaped by the kernel
     signal.signal(signal.SIGTERM, signal.default_int_handler)
-    say(f"vilma serve: running `vilma {', '.join(SERVED)}` of {PACKAGE} for this user at {path} (Ctrl-C ends)")
-    try:
+    try:  # from the line that says it listens: a client may interrupt it at once
+        say(f"vilma serve: running `vilma {', '.join(SERVED)}` of {PACKAGE} for this user at {path} (Ctrl-C ends)")
         while True:
             conn, _ = listener.accept()
             with conn:
-                _, uid, _ = struct.unpack("3i", conn.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED, 12))
-                if uid != os.getuid():
+                if _peer_uid(conn) != os.getuid():
                     continue
                 if fingerprint() != code:
                     _send(conn, {"stale": "vilma changed on disk since `vilma serve` started: start it again"})
                     say("vilma serve: vilma changed on disk; stopping")
                     return 0
-                if os.fork() == 0:
+                signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)  # held over the fork: the fork's callbacks
+                if os.fork() == 0:  # (logging's) would swallow the KeyboardInterrupt of a stop during it
                     code = 1
                     try:
                         listener.close()
                         code = _child(conn, main, say)
                     finally:
                         os._exit(code)
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
     except KeyboardInterrupt:
         return 0
     finally:
@@ -213,6 +228,7 @@ def _child(conn: socket.socket, main: Main, say) -> int:
     for signum in (signal.SIGCHLD, signal.SIGTERM):
         signal.signal(signum, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
     try:
         argv, env, fds = _request(conn)
     except (OSError, ValueError) as e:
