@@ -80,3 +80,9 @@ def test_time_to_collision_is_the_gap_over_the_closing_speed_along_the_line_of_s
     assert ttc[1] == math.inf and ttc[2] == math.inf  # moving apart, passing across: not closing
     assert ttc[3] == 0.0  # touching
     assert ttc[4] == pytest.approx(2.5 / 5.0)  # closing at |w| = 5 m/s straight along the line of sight
+
+
+def test_a_closing_speed_too_small_for_the_gap_is_an_infinite_time_to_collision_without_a_warning():
+    with np.errstate(all="raise"):  # what numpy would warn of is an error here
+        ttc = time_to_collision(np.array([1.0]), np.array([[1.0, 0.0]]), np.array([[-1e-310, 0.0]]))
+    assert ttc[0] == math.inf  # 1 m / 1e-310 m/s overflows a double

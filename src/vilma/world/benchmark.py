@@ -116,7 +116,7 @@ def time_to_collision(gap: np.ndarray, rel_position: np.ndarray, rel_velocity: n
     touching."""
     dist = np.linalg.norm(rel_position, axis=-1)
     closing = -np.sum(rel_position * rel_velocity, axis=-1) / np.where(dist > 0, dist, 1.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a crawl closes in inf
         return np.where(gap <= 0, 0.0, np.where(closing > 0, gap / closing, np.inf))
 
 
