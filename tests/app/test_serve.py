@@ -170,3 +170,11 @@ def test_a_client_never_hands_its_streams_to_another_user_s_server(server, monke
     assert serve.served(["scenarios"]) is None  # run here
     err = capsys.readouterr().err
     assert err == f"vilma: the server at {server.socket} is another user's; running the command here\n"
+
+
+def test_a_warm_up_of_no_such_scenario_is_refused_in_one_line(tmp_path):
+    out = subprocess.run([*VILMA, "serve", "--socket", str(tmp_path / "s.sock"), "--warm-up", "no_such_scenario"],
+                         capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert out.returncode == 2
+    assert out.stderr.startswith("vilma serve: error: --warm-up no_such_scenario: no such file")
+    assert out.stderr.count("\n") == 1 and not (tmp_path / "s.sock").exists()

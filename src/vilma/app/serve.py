@@ -213,11 +213,17 @@ def _warm_up(main: Main, scenario: str) -> None:
     """Run ``scenario`` with its files, in a folder then removed, so children start with what a run uses loaded.
 
     Raises:
-        ValueError: the run failed to start (no such scenario, a bad file).
+        ValueError: no such scenario, a bad file, or the run failed to start.
     """
     import matplotlib
 
     matplotlib.use("Agg")  # what the plots use, before anything picks another backend
+    from vilma.scenario import load_scenario
+
+    try:
+        load_scenario(scenario)
+    except ValueError as e:  # the scenario's own words, on one line
+        raise ValueError(f"--warm-up {e}") from None
     with tempfile.TemporaryDirectory() as tmp:
         if main(["run", scenario, "--out", tmp, "--overwrite", "-q"]) == 2:
             raise ValueError(f"the warm-up run of {scenario} failed (above); give another --warm-up, or none")
