@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +23,9 @@ from vilma.core.messages import MAX_ORDER_POINTS, MAX_TRACKS, DriverOrder, Messa
 from vilma.planning import NO_ROAD, Plan, PlannerParams, local_plan, track_list
 from vilma.plant3d.laser import LaserParams
 from vilma.trajectory import Trajectory, speed_profile
+
+if TYPE_CHECKING:  # the roads extra
+    from vilma.world.commonroad import RoadNetwork
 
 MAX_REACH = 100_000.0
 """Farthest a plan's goal and route points may be from the car [m]: a local planner's route, not a continent's."""
@@ -38,7 +42,7 @@ class PlanSetup:
     params: PlannerParams | None = None
     perception: str = "truth"
     laser: LaserParams | None = None
-    road: object | None = None
+    road: RoadNetwork | None = None
 
 
 class LivePlan:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +23,9 @@ from vilma.planning import NO_ROAD, FrenetFrame, FrenetState, Plan, PlannerParam
 from vilma.plant3d.laser import LaserParams
 from vilma.trajectory import Trajectory
 from vilma.vehicle.params import VehicleParams
+
+if TYPE_CHECKING:  # the roads extra
+    from vilma.world.commonroad import RoadNetwork
 
 REPLAN_PERIOD = 0.1
 """A plan's replan period unless a scenario's ``planner`` sets it [s]."""
@@ -52,10 +56,9 @@ def default_planner(vehicle: VehicleParams) -> PlannerParams:
     return PlannerParams(vehicle=vehicle, replan_period=REPLAN_PERIOD)
 
 
-def road_bounds(network, path: Trajectory) -> RoadBounds:
-    """The edges of the road of ``network`` (a :class:`~vilma.world.commonroad.RoadNetwork`: its
-    ``lateral_bounds``) across ``path`` every :data:`ROAD_SPACING` and at its end (a route's points are closer: a
-    line across the road for each cost a tenth of a second a run)."""
+def road_bounds(network: RoadNetwork, path: Trajectory) -> RoadBounds:
+    """The edges of the road of ``network`` (its ``lateral_bounds``) across ``path`` every :data:`ROAD_SPACING` and
+    at its end (a route's points are closer: a line across the road for each cost a tenth of a second a run)."""
     s = np.append(np.arange(0.0, path.length, ROAD_SPACING), path.length)
     xy = np.column_stack([np.interp(s, path.s, path.xy[:, 0]), np.interp(s, path.s, path.xy[:, 1])])
     return RoadBounds(s, *network.lateral_bounds(xy))

@@ -56,14 +56,17 @@ def scenario_road(scenario: Scenario | None, sim: SimConfig | None = None) -> Ro
 
 
 def scene_time(stamp_ns: int) -> dict:
+    """A Foxglove ``Time`` of ``stamp_ns`` [ns]."""
     return {"sec": stamp_ns // 1_000_000_000, "nsec": stamp_ns % 1_000_000_000}
 
 
 def scene_rgba(c) -> dict:
+    """A Foxglove ``Color`` of ``c`` (r, g, b, a in 0..1)."""
     return dict(zip("rgba", c, strict=True))
 
 
 def scene_points(xy: np.ndarray, z: float = 0.0) -> list[dict]:
+    """Foxglove ``Point3`` s of ``xy`` (n, 2) [m] at height ``z`` [m]."""
     return [{"x": float(x), "y": float(y), "z": z} for x, y in xy]
 
 
@@ -74,6 +77,8 @@ def scene_line(xy: np.ndarray, color, kind: int = LINE_STRIP, thickness: float =
 
 
 def scene_entity(eid: str, stamp_ns: int, **primitives) -> dict:
+    """A Foxglove ``SceneEntity`` ``eid`` in the map frame at ``stamp_ns`` [ns] with ``primitives`` (``lines=[...]``,
+    ``cubes=[...]`` ...), none of the other kinds."""
     return {"timestamp": scene_time(stamp_ns), "frame_id": "map", "id": eid, "lifetime": {"sec": 0, "nsec": 0},
             "frame_locked": False, "metadata": [], **{k: primitives.get(k, []) for k in (
                 "arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts", "models")}}
