@@ -178,6 +178,30 @@ def test_when_every_candidate_collides_it_stops_within_the_braking_distance_it_h
     _assert_never_overlaps([(0.0, p)], lambda t: truck)
 
 
+def test_when_even_the_emergency_stop_collides_it_swerves_within_the_tyres_grip_and_never_overlaps():
+    # a 6 x 3.5 m box across the whole lane 20 m ahead of the car's front at 20 m/s: the emergency stop takes 25 m,
+    # and no swerve within 6 m/s^2 clears it in time
+    v, gap = 20.0, 20.0
+    front = CAR.body_offset + CAR.length / 2
+    box = np.column_stack([np.full_like(P.times, front + gap + 3.0), np.zeros_like(P.times), np.zeros_like(P.times),
+                           np.full_like(P.times, 6.0), np.full_like(P.times, 3.5)])[None]
+    assert v * v / (2 * CAR.actuators.max_decel) > gap
+    p = plan(FrenetState(0.0, v, 0.0, 0.0), STRAIGHT, box, P)
+    grip = P.evasive_grip * CAR.friction * 9.81
+    assert p.mode == "evasive" and "still collides: swerving instead" in p.reason, p.reason
+    assert p.lateral[0] in P.evasive_offsets and abs(p.lateral[0]) >= 1.75 + CAR.width / 2  # past the box's side
+    assert (np.abs(p.curvature) * p.speed**2).max() <= grip
+    _assert_never_overlaps([(0.0, p)], lambda t: box)
+    # without evasion it is the emergency stop into the box, said so
+    stop = plan(FrenetState(0.0, v, 0.0, 0.0), STRAIGHT, box, dataclasses.replace(P, evasive_grip=0.0))
+    assert stop.mode == "fallback" and stop.reason.endswith("which still collides")
+
+
+def test_the_evasive_end_offsets_are_the_lateral_ones_and_every_half_metre_between_their_extremes():
+    params = dataclasses.replace(P, lateral_offsets=(-1.2, 0.0, 1.0))
+    assert params.evasive_offsets == pytest.approx((-1.2, -0.7, -0.2, 0.0, 0.3, 0.8, 1.0))
+
+
 def test_when_no_candidate_is_feasible_it_stops_at_the_comfortable_deceleration():
     # braking at 2 m/s^2 already, on a car allowed 0.5: every candidate starts beyond the limit
     car = dataclasses.replace(CAR, actuators=dataclasses.replace(CAR.actuators, max_decel=0.5))
@@ -267,6 +291,7 @@ def test_the_separating_axis_check_agrees_with_polygon_intersection(x, y, yaw_a,
     ({"lateral_offsets": tuple(range(100))}, f"over the limit of {MAX_CANDIDATES}"),
     ({"replan_period": 4.0}, "longer than the horizon"),
     ({"margin": -0.1}, "planner margin must be >= 0"),
+    ({"evasive_grip": 1.5}, "planner evasive_grip must be within 0 .. 1"),
     ({"position_offsets": (0.0, 1.0)}, "position_offsets must be <= 0 m"),
 ])
 def test_bad_parameters_are_a_one_line_error(change, message):

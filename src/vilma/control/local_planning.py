@@ -97,7 +97,7 @@ class LocalPlanning:
         self.predicted = np.zeros((0, len(params.times), 5))
         """The tracks' boxes the last plan was made among, (tracks, times, 5) (:func:`~vilma.perception.predict`)."""
         self.last: tuple[float, Plan] | None = None  # when the driven plan began [s], and the plan
-        self.cycles = self.fallbacks = 0
+        self.cycles = self.fallbacks = self.evasions = 0
         self.reason: str | None = None
         self.spent_ms = [0.0, 0.0]  # total and longest [ms]
         self.last_ms = math.nan  # the last cycle's [ms]
@@ -142,8 +142,9 @@ class LocalPlanning:
         self.last_ms = spent = (time.perf_counter() - t0) * 1e3
         self.spent_ms = [self.spent_ms[0] + spent, max(self.spent_ms[1], spent)]
         self.cycles += 1
-        if result.mode == "fallback":
-            self.fallbacks += 1
+        if result.mode in ("fallback", "evasive"):
+            self.fallbacks += result.mode == "fallback"
+            self.evasions += result.mode == "evasive"
             self.reason = result.reason
         self.last = (t, result)
         path = _previewed(result, self.preview)

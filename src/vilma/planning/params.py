@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -14,6 +14,10 @@ MAX_CANDIDATES = 4000
 """Most candidates a cycle may sample (lateral times longitudinal samples)."""
 MAX_STEPS = 400
 """Most time steps in a horizon."""
+GRAVITY = 9.81
+"""[m/s^2]"""
+EVASIVE_SPACING = 0.5
+"""The evasive manoeuvres' end offsets are the lateral offsets and every this many metres between their extremes [m]."""
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class PlannerParams:
@@ -53,6 +57,11 @@ class PlannerParams:
     max_lateral_accel: float = 6.0
     """Most lateral acceleration a candidate may ask for [m/s^2]: an evasive manoeuvre well within the tyres'
     grip (friction 1: 9.8 m/s^2), where the path controller still tracks it."""
+    evasive_grip: float = 0.95
+    """Fraction of the tyres' grip (friction x g) an evasive manoeuvre may ask for as lateral acceleration [-]. Only
+    when no candidate is free and even the emergency stop collides does the planner sample these: the end offsets
+    of :attr:`evasive_offsets`, at this limit, without :attr:`margin`; 0 never swerves beyond
+    :attr:`max_lateral_accel`."""
     comfort_accel: float = 2.0
     """Acceleration a velocity-keeping end speed is planned with at most [m/s^2]."""
     margin: float = 0.2
@@ -104,6 +113,9 @@ class PlannerParams:
         if self.replan_period > self.horizon:
             raise ValueError(f"planner replan_period {self.replan_period!r} s is longer than the horizon "
                              f"{self.horizon!r} s; shorten it")
+        if not 0.0 <= self.evasive_grip <= 1.0:
+            raise ValueError(f"planner evasive_grip must be within 0 .. 1 (a fraction of the tyres' grip), got "
+                             f"{self.evasive_grip!r}")
         if self.candidate_count > MAX_CANDIDATES:
             raise ValueError(f"planner samples {self.candidate_count} candidates, over the limit of "
                              f"{MAX_CANDIDATES}; sample fewer offsets, speeds or durations")
@@ -119,9 +131,24 @@ class PlannerParams:
         return np.arange(self.steps + 1) * self.dt
 
     @property
+    def evasive_offsets(self) -> tuple[float, ...]:
+        """End offsets of the evasive manoeuvres [m]: the lateral offsets and every :data:`EVASIVE_SPACING` between
+        their extremes."""
+        lo, hi = min(self.lateral_offsets), max(self.lateral_offsets)
+        grid = lo + EVASIVE_SPACING * np.arange(math.floor((hi - lo) / EVASIVE_SPACING) + 1)
+        return tuple(sorted({*self.lateral_offsets, *grid.tolist()}))
+
+    @property
+    def evasive(self) -> PlannerParams:
+        """The parameters of the evasive manoeuvres (:attr:`evasive_grip`)."""
+        return replace(self, lateral_offsets=self.evasive_offsets, margin=0.0, evasive_grip=0.0,
+                       max_lateral_accel=self.evasive_grip * self.vehicle.friction * GRAVITY)
+
+    @property
     def candidate_count(self) -> int:
-        """Most candidates a cycle evaluates."""
-        lateral = len(self.lateral_offsets) * len(self.lateral_durations)
+        """Most candidates a cycle evaluates (in its evasive tier, if it swerves)."""
+        offsets = len(self.evasive_offsets) if self.evasive_grip > 0 else len(self.lateral_offsets)
+        lateral = offsets * len(self.lateral_durations)
         return lateral * max((len(self.speed_offsets) + 1) * len(self.speed_durations),
                              len(self.position_offsets) * (len(self.position_durations) + 1))
 

@@ -8,14 +8,16 @@ longitudinal ones for the lead in that lane, rejects the infeasible (curvature b
 acceleration or lateral acceleration beyond its limits, driving backwards, the car's box across the road's edges)
 and those whose car box overlaps a predicted object's box at the same time (separating axes), and keeps the
 cheapest of the rest. When none is left the plan is the safe fallback: a stop at the car's
-comfortable deceleration, or at its emergency deceleration when that one collides, with the reason. A planning
-failure is never an exception; only malformed parameters or inputs raise ValueError.
+comfortable deceleration, or at its emergency deceleration when that one collides, with the reason. When even that
+one collides, an evasive manoeuvre is sought first: finer end offsets, the tyres' grip for a limit and the bare boxes
+(no margin), since a swerve at the limit of grip is the lesser harm than a collision. A planning failure is never an
+exception; only malformed parameters or inputs raise ValueError.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import IntEnum
 from typing import NamedTuple
 
@@ -337,6 +339,22 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     out infeasible by its curvature.
     """
     objects = _check(state, objects, params)
+    found, candidates = _search(state, reference, objects, params, goal, keep, road)
+    if found is not None:
+        return found
+    stop, collides = _fallback(state, reference, objects, params, candidates)
+    if collides and params.evasive_grip > 0:
+        evasive = params.evasive
+        found, _ = _search(state, reference, objects, evasive, goal, keep, road)
+        if found is not None:
+            return replace(found, mode="evasive", reason=f"{stop.reason}: swerving instead, at up to "
+                                                         f"{evasive.max_lateral_accel:.1f} m/s^2 across")
+    return stop
+
+
+def _search(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, params: PlannerParams,
+            goal: float | None, keep: tuple[float, float] | None, road: RoadBounds) -> tuple[Plan | None, Candidates]:
+    """The cheapest free candidate's plan (None if none is free) and every candidate (:func:`plan`)."""
     stop = None if goal is None else _Target("stop", float(goal), 0.0)
     s, d = reference.to_frenet(objects[:, :2, 0], objects[:, :2, 1]) if len(objects) else (None, None)
     lanes: dict[_Target | None, list[float]] = {}  # each target, and the end offsets that plan for it
@@ -362,7 +380,7 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     if kept.any() and abs(keep[0]) > abs(state.d):
         free = free[kept]
     if len(free) == 0:
-        return _fallback(state, reference, objects, params, candidates)
+        return None, candidates
     chosen = int(free[np.argmin(cost[free])])
     starts = np.cumsum([0] + [len(g[4]) for g in groups])
     g = int(np.searchsorted(starts, chosen, "right")) - 1
@@ -371,13 +389,14 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     frenet = np.column_stack([lon_m[0, j], lon_m[1, j], lon_m[2, j], lat_m[0, i], lat_m[1, i], lat_m[2, i]])
     return Plan(params.times, *out[:, chosen], frenet, float(cost[chosen]),
                 "velocity" if target is None else target.mode, candidates,
-                lateral=(float(lateral[i, 0]), float(lateral[i, 1])))
+                lateral=(float(lateral[i, 0]), float(lateral[i, 1]))), candidates
 
 
 def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p: PlannerParams,
-              candidates: Candidates) -> Plan:
+              candidates: Candidates) -> tuple[Plan, bool]:
     """The safe stop: along the reference at the comfortable deceleration (the car's controlled stop), or its
-    emergency deceleration when the comfortable stop collides; the lane offset settles where it is."""
+    emergency deceleration when the comfortable stop collides; the lane offset settles where it is. And whether
+    it still collides."""
     infeasible = int((candidates.status == Status.INFEASIBLE).sum())
     why = f"no free candidate: {infeasible} infeasible, {len(candidates.status) - infeasible} colliding"
     lat = quintic(state.d, state.d_dot, state.d_ddot, state.d, 0.0, 0.0, min(p.lateral_durations))[None]
@@ -397,4 +416,4 @@ def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p
     if status[0] == Status.COLLIDING:
         reason += ", which still collides"
     frenet = np.column_stack([lon_m[0, 0], lon_m[1, 0], lon_m[2, 0], lat_m[0, 0], lat_m[1, 0], lat_m[2, 0]])
-    return Plan(p.times, *out[:, 0], frenet, math.inf, "fallback", candidates, reason)
+    return Plan(p.times, *out[:, 0], frenet, math.inf, "fallback", candidates, reason), status[0] == Status.COLLIDING

@@ -18,8 +18,8 @@ PERCEPTION = ("truth", "laser")
 PLANNER = "werling"
 """The local planner that drives a ``plan`` task (:func:`vilma.planning.plan`), as the scorecard names it."""
 PLANNING_KEYS = ("perception", "planner", "planning_cycles", "planning_ms_mean", "planning_ms_max",
-                 "planner_fallbacks", "planner_reason", "mota", "motp_m", "detection_precision", "detection_recall",
-                 "tracking_position_rmse_m", "tracking_velocity_rmse_mps", "identity_switches")
+                 "planner_fallbacks", "planner_evasions", "planner_reason", "mota", "motp_m", "detection_precision",
+                 "detection_recall", "tracking_position_rmse_m", "tracking_velocity_rmse_mps", "identity_switches")
 """The scorecard keys of a planned run (:mod:`vilma.scenario.planned`)."""
 
 

@@ -90,6 +90,6 @@ class Planning(LocalPlanning):
         mot = clear_mot(self.frames, MOT_THRESHOLD)
         total, longest = self.spent_ms if self.cycles else (math.nan, math.nan)
         return dict(zip(PLANNING_KEYS, (
-            self.kind, PLANNER, self.cycles, total / max(self.cycles, 1), longest, self.fallbacks, self.reason,
-            mot.mota, mot.motp, mot.precision, mot.recall, mot.position_rmse, mot.velocity_rmse, mot.id_switches),
-            strict=True))
+            self.kind, PLANNER, self.cycles, total / max(self.cycles, 1), longest, self.fallbacks, self.evasions,
+            self.reason, mot.mota, mot.motp, mot.precision, mot.recall, mot.position_rmse, mot.velocity_rmse,
+            mot.id_switches), strict=True))

@@ -27,7 +27,7 @@ DPI = 110
 """Pixels per inch of the PNGs: a figure of 7 x 6.5 in is 770 x 715 px."""
 LEGEND_COLUMNS = 3
 """Entries per row of a legend at most."""
-PLAN_MODES = ("velocity", "follow", "stop", "fallback")
+PLAN_MODES = ("velocity", "follow", "stop", "evasive", "fallback")
 """A planning cycle's modes (:class:`~vilma.core.messages.LocalPlan`), bottom to top in the planning plot."""
 MOT_SUMMARY = (("mota", "MOTA", ""), ("motp_m", "MOTP", " m"), ("detection_precision", "precision", ""),
                ("detection_recall", "recall", ""), ("identity_switches", "identity switches", ""))
