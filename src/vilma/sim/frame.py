@@ -16,7 +16,7 @@ from vilma.vehicle.integrate import advance
 
 
 @njit(cache=True)
-def run_frame(model, integrator, z, mode, cmd, consts, dt, n, tick, periods, out_z, out_dx, out_tick, step_ns, book,
+def run_frame(n, tick, model, integrator, z, mode, cmd, consts, dt, periods, out_z, out_dx, out_tick, step_ns, book,
               noise, outs, stamps, par, vec, axes):
     """:func:`~vilma.vehicle.integrate.advance` with the constants as an array
     (:func:`~vilma.vehicle.actuators.consts_of`), then the bank's :func:`~vilma.sensors.bank.measure_all`; returns

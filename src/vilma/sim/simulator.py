@@ -132,7 +132,8 @@ class Simulator(Closeable):
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._records, self._records_steps = empty_records(0), 0  # kept: the frames' records, for up to that many steps
         self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
-        self._frame, self._frames = run_frame, 0  # run_frame, called directly from the second frame on
+        self._frame = None  # run_frame for the types of its arguments, called directly (sim/frame.py)
+        self._plain = not self._world_sensors and not self._react_ticks  # frames need no stop but commands'
         self._run_for = 0.0, 0  # the seconds run_for took last and their ticks
         self.reset(initial)
 
@@ -164,6 +165,7 @@ class Simulator(Closeable):
         self.watchdog_tripped = False
         self._captures = []
         self._warnings = WarningThrottle(log, clock=lambda: self.clock.time_s)  # a line per sim second at most
+        self._args = None  # run_frame's arguments after (n, tick), kept until one of them changes
         if c.reactive is not None:
             c.reactive.reset()
             self._react()
@@ -229,7 +231,7 @@ class Simulator(Closeable):
         self._autonomous = cmd.autonomous
         if self.watchdog_tripped:
             log.info("watchdog: commands are back at t=%.3f s, resuming", self.clock.time_s)
-            self.watchdog_tripped = False
+            self.watchdog_tripped, self._args = False, None
         if self._dead_ticks:
             self._pending.append((self.clock.tick + self._dead_ticks, cmd))
         else:
@@ -238,7 +240,7 @@ class Simulator(Closeable):
 
     def _apply(self, cmd: ActuatorCommand) -> None:
         self._mode = MODE_IDS[cmd.longitudinal]
-        self._cmd = np.array([cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit])
+        self._cmd, self._args = np.array([cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit]), None
 
     def _watchdog_deadline(self) -> int | None:
         if self._autonomous and self._watchdog_ticks and not self.watchdog_tripped:
@@ -284,7 +286,7 @@ class Simulator(Closeable):
             while self._pending and self._pending[0][0] <= self.clock.tick:
                 self._apply(self._pending.popleft()[1])
             if deadline is not None and self.clock.tick >= deadline:
-                self.watchdog_tripped = True
+                self.watchdog_tripped, self._args = True, None
                 log.warning("watchdog: no command for %.3f s while autonomous at t=%.3f s; stopping the car",
                             self.config.watchdog_timeout, self.clock.time_s)
         return chunks[0] if len(chunks) == 1 else self._joined(chunks)
@@ -292,7 +294,7 @@ class Simulator(Closeable):
     def _uneventful(self, end: int) -> bool:
         """Whether the steps up to tick ``end`` run in one chunk: no command takes effect by then, the watchdog
         does not fire, no world sensor or reactive traffic takes part."""
-        if self._world_sensors or self._react_ticks or (self._pending and self._pending[0][0] <= end):
+        if not self._plain or (self._pending and self._pending[0][0] <= end):
             return False
         deadline = self._watchdog_deadline()
         return deadline is None or deadline > end
@@ -310,33 +312,39 @@ class Simulator(Closeable):
                 self._captures.extend(sensor.capture(self.clock.time_ns).items())
 
     def _run_chunk(self, n: int) -> dict[str, Readings]:
-        t0, periods = self.clock.tick, self._periods
+        t0 = self.clock.tick
         if n > self._records_steps:  # the records a chunk needs grow with its steps
+            periods = self._periods
             self._records = empty_records(min(n, int(np.sum(n // periods + 1))) if len(periods) else 0)
-            self._records_steps = n
-        out_z, out_dx, out_tick = self._records
-        mode = STOP if self.watchdog_tripped else self._mode
+            self._records_steps, self._args = n, None
         if self._plant3d is not None:
+            out_z, out_dx, out_tick = self._records
             extra = np.empty((len(out_tick), N3))
-            m = self._plant3d.advance(self._z, mode, self._cmd, self.clock.step_s, n, t0, periods, out_z, out_dx,
-                                      out_tick, extra)
+            m = self._plant3d.advance(self._z, STOP if self.watchdog_tripped else self._mode, self._cmd,
+                                      self.clock.step_s, n, t0, self._periods, out_z, out_dx, out_tick, extra)
             self.clock.tick = t0 + n
             return self._measure_each(t0, n, out_tick[:m], out_z, out_dx, extra, self.sensors)
-        m, bank = -1, self._bank
-        self._frames += 1
+        args = self._args or self._frame_args()
+        m = self._frame(n, t0, *args)
         while m < 0:  # again after the bank made room
-            args = (self._model, self._integrator, self._z, mode, self._cmd, self._consts_array, self.clock.step_s, n,
-                    t0, periods, out_z, out_dx, out_tick, self.clock.step_ns, bank.book, bank.noise, bank.outs,
-                    bank.stamps, bank.par, bank.vec, bank.axes)
-            if self._frames == 2 and self._frame is run_frame:  # more frames may follow: type their arguments once
-                self._frame = direct(run_frame, *args)  # (ints, floats, C arrays of fixed dtypes), not at each call
-            m = self._frame(*args)
-            if m < 0:
-                bank.make_room()
+            self._bank.make_room()
+            m = self._frame(n, t0, *self._frame_args())
         self.clock.tick = t0 + n
         if self._scene:
-            self._measure_each(t0, n, out_tick[:m], out_z, out_dx, None, ())
-        return bank.readings()
+            self._measure_each(t0, n, self._records[2][:m], self._records[0], self._records[1], None, ())
+        return self._bank.readings()
+
+    def _frame_args(self) -> tuple:
+        """run_frame's arguments after ``(n, tick)``, kept for the frames that follow until one changes."""
+        bank, (out_z, out_dx, out_tick) = self._bank, self._records
+        args = (
+            self._model, self._integrator, self._z, STOP if self.watchdog_tripped else self._mode, self._cmd,
+            self._consts_array, self.clock.step_s, self._periods, out_z, out_dx, out_tick, self.clock.step_ns,
+            bank.book, bank.noise, bank.outs, bank.stamps, bank.par, bank.vec, bank.axes)
+        if self._frame is None:  # type the arguments once (ints, floats, C arrays of fixed dtypes), not at each call
+            self._frame = direct(run_frame, 0, 0, *args)
+        self._args = args
+        return args
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
 
@@ -384,7 +392,7 @@ class Simulator(Closeable):
         """Take what compiled code did to the plant of :meth:`kernel_start`'s ``k``; returns the readings."""
         t0 = k.tick
         self.clock.tick = t0 + done.ticks
-        self._mode, self._cmd = int(k.mode[0]), k.cmd
+        self._mode, self._cmd, self._args = int(k.mode[0]), k.cmd, None
         if done.commanded_tick is not None:
             self._autonomous, self._last_command_tick = True, done.commanded_tick
         if k.periods is NO_PERIODS:
