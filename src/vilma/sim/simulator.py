@@ -166,6 +166,7 @@ class Simulator(Closeable):
         self._captures = []
         self._warnings = WarningThrottle(log, clock=lambda: self.clock.time_s)  # a line per sim second at most
         self._args = None  # run_frame's arguments after (n, tick), kept until one of them changes
+        self._calm = self._calm_until()
         if c.reactive is not None:
             c.reactive.reset()
             self._react()
@@ -236,6 +237,7 @@ class Simulator(Closeable):
             self._pending.append((self.clock.tick + self._dead_ticks, cmd))
         else:
             self._apply(cmd)
+        self._calm = self._calm_until()
         return notes
 
     def _apply(self, cmd: ActuatorCommand) -> None:
@@ -262,7 +264,7 @@ class Simulator(Closeable):
     def advance(self, ticks: int) -> dict[str, Readings]:
         """Advance ``ticks`` physics steps; returns the readings made, by sensor name."""
         end = self.clock.tick + ticks
-        if ticks > 0 and self._uneventful(end):  # the common frame: one chunk, no stop to find
+        if ticks > 0 and end < self._calm:  # the common frame: one chunk, no stop to find
             return self._run_chunk(ticks)
         chunks: list[dict[str, Readings]] = []
         while self.clock.tick < end:
@@ -289,15 +291,18 @@ class Simulator(Closeable):
                 self.watchdog_tripped, self._args = True, None
                 log.warning("watchdog: no command for %.3f s while autonomous at t=%.3f s; stopping the car",
                             self.config.watchdog_timeout, self.clock.time_s)
+        self._calm = self._calm_until()
         return chunks[0] if len(chunks) == 1 else self._joined(chunks)
 
-    def _uneventful(self, end: int) -> bool:
-        """Whether the steps up to tick ``end`` run in one chunk: no command takes effect by then, the watchdog
-        does not fire, no world sensor or reactive traffic takes part."""
-        if not self._plain or (self._pending and self._pending[0][0] <= end):
-            return False
+    def _calm_until(self) -> float:
+        """The tick at which something stops a chunk (a command takes effect, the watchdog fires; infinity if
+        nothing will), kept as ``_calm`` after each change: steps up to a tick before it run in one chunk. Zero
+        with world sensors or reactive traffic, whose stops :meth:`advance` finds step by step."""
+        if not self._plain:
+            return 0
         deadline = self._watchdog_deadline()
-        return deadline is None or deadline > end
+        calm = math.inf if deadline is None else deadline
+        return min(calm, self._pending[0][0]) if self._pending else calm
 
     def _joined(self, chunks: list[dict[str, Readings]]) -> dict[str, Readings]:
         """The readings of consecutive chunks, joined by sensor."""
@@ -395,6 +400,7 @@ class Simulator(Closeable):
         self._mode, self._cmd, self._args = int(k.mode[0]), k.cmd, None
         if done.commanded_tick is not None:
             self._autonomous, self._last_command_tick = True, done.commanded_tick
+            self._calm = self._calm_until()
         if k.periods is NO_PERIODS:
             return {}
         out_z, out_dx, out_tick = k.records
