@@ -29,12 +29,12 @@ from vilma.sensors import Readings, Samples, Sensor, build_sensors
 from vilma.sensors.bank import SensorBank
 from vilma.sensors.base import rows_of, sensor_rng
 from vilma.sim.config import MUJOCO, SimConfig
-from vilma.sim.frame import direct, run_frame
+from vilma.sim.frame import CMD, direct, run_frame
 from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
 from vilma.vehicle.integrate import INTEGRATORS, constrain, empty_records
 from vilma.vehicle.params import plant_consts
-from vilma.vehicle.state import N3, NX, VX, YAW, VehicleState, X, Y
+from vilma.vehicle.state import N3, NX, NZ, VX, YAW, VehicleState, X, Y
 from vilma.world.idm import IdmArrays
 
 if TYPE_CHECKING:  # the roads extra
@@ -96,7 +96,9 @@ class Simulator(Closeable):
         self.config = c = config or SimConfig()
         self.clock = Clock(seconds_to_ns(c.step))
         self._consts = plant_consts(c.vehicle)
-        self._consts_array = np.array(self._consts)  # crosses into compiled code far cheaper (sim/frame.py)
+        # the plant vector, the command in force and the constants, end to end: one array for compiled code
+        self._plant = np.concatenate([np.zeros(NZ + CMD), self._consts])  # to take (sim/frame.py)
+        self._z, self._cmd = self._plant[:NZ], self._plant[NZ:NZ + CMD]  # views, written in place
         self._limits = command_limits(c.vehicle)  # for compiled code, made once
         self._plant3d = None
         self._world_sensors: list[WorldSensor] = []
@@ -145,7 +147,7 @@ class Simulator(Closeable):
         if seed is not None:
             self.config = c = dataclasses.replace(c, seed=seed)
         self.clock.tick = 0
-        self._z = (initial or c.initial).to_array()
+        self._z[:] = (initial or c.initial).to_array()
         if self._plant3d is not None:
             self._plant3d.reset(initial or c.initial)
         else:  # lateral states that the model fixes (kinematic: all of them; single track: at low speed)
@@ -157,8 +159,7 @@ class Simulator(Closeable):
         for scene in self._scene:
             scene.reset(sensor_rng(c.seed, scene.name))
         self._mode = MODE_IDS[ActuatorCommand().longitudinal]
-        self._cmd = np.zeros(4)
-        self._cmd[3] = np.inf
+        self._cmd[:] = (0.0, 0.0, 0.0, np.inf)
         self._pending: deque[tuple[int, ActuatorCommand]] = deque()
         self._autonomous = False
         self._last_command_tick = 0
@@ -242,7 +243,7 @@ class Simulator(Closeable):
 
     def _apply(self, cmd: ActuatorCommand) -> None:
         self._mode = MODE_IDS[cmd.longitudinal]
-        self._cmd, self._args = np.array([cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit]), None
+        self._cmd[:], self._args = (cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit), None
 
     def _watchdog_deadline(self) -> int | None:
         if self._autonomous and self._watchdog_ticks and not self.watchdog_tripped:
@@ -343,8 +344,8 @@ class Simulator(Closeable):
         """run_frame's arguments after ``(n, tick)``, kept for the frames that follow until one changes."""
         bank, (out_z, out_dx, out_tick) = self._bank, self._records
         args = (
-            self._model, self._integrator, self._z, STOP if self.watchdog_tripped else self._mode, self._cmd,
-            self._consts_array, self.clock.step_s, self._periods, out_z, out_dx, out_tick, self.clock.step_ns,
+            self._model, self._integrator, self._plant, STOP if self.watchdog_tripped else self._mode,
+            self.clock.step_s, self._periods, out_z, out_dx, out_tick, self.clock.step_ns,
             bank.book, bank.noise, bank.outs, bank.stamps, bank.par, bank.vec, bank.axes)
         if self._frame is None:  # type the arguments once (ints, floats, C arrays of fixed dtypes), not at each call
             self._frame = direct(run_frame, 0, 0, *args)
@@ -397,7 +398,7 @@ class Simulator(Closeable):
         """Take what compiled code did to the plant of :meth:`kernel_start`'s ``k``; returns the readings."""
         t0 = k.tick
         self.clock.tick = t0 + done.ticks
-        self._mode, self._cmd, self._args = int(k.mode[0]), k.cmd, None
+        self._mode, self._cmd[:], self._args = int(k.mode[0]), k.cmd, None
         if done.commanded_tick is not None:
             self._autonomous, self._last_command_tick = True, done.commanded_tick
             self._calm = self._calm_until()
