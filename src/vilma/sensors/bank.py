@@ -47,6 +47,9 @@ BLOCK = 512
 FIRST_AHEAD = 8
 """Samples of noise drawn ahead at first: the draws double from there to :data:`BLOCK`, so a run that measures
 little (a compiled loop whose readings nobody takes measures only its first period) draws little."""
+VEC, AXES = len(KINDS), len(KINDS) + 9
+"""Rows of a bank's ``par`` after each slot's scalars: the vectors and states of :meth:`SensorBank.reset` (nine
+rows from :data:`VEC`), the GPS's ENU axes (row :data:`AXES`, flattened)."""
 PERIOD, COUNT, USED, HELD, FILLED = range(5)
 """Rows of a bank's book: each slot's sample period [ticks] (0: no sensor), samples in the chunk, noise rows used
 and held, block rows filled."""
@@ -66,13 +69,15 @@ def counts_fit(t0, n, book, noise, outs):
 
 
 @njit(cache=True)
-def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par, vec, axes):
+def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par):
     """Fill each slot's next readings (as many as :func:`counts_fit` counted) from the plant recorded at ``ticks``.
 
     Slot ``s`` takes its normals (rows of ``NORMALS[s]``) from ``noise[s]`` and writes its readings (rows of
     ``WIDTHS[s]``) into ``outs[s]`` and ``stamps[s]`` from the rows its book says; ``par[s]`` holds its scalars,
-    ``vec`` the vectors and states of :meth:`SensorBank.reset`, ``axes`` the GPS's ENU axes.
+    and ``par`` from row :data:`VEC` the vectors and states of :meth:`SensorBank.reset` (one array: numba unboxes
+    each array a call takes for some 40 ns).
     """
+    axes = par[AXES].reshape((3, 3))
     rows = np.empty(ticks.shape[0], dtype=np.int64)  # this slot's rows of the records
     for s in range(book.shape[1]):
         c, p, u, a, d, q = book[COUNT, s], book[PERIOD, s], book[USED, s], book[FILLED, s], NORMALS[s], par[s]
@@ -92,15 +97,16 @@ def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par, vec, 
         elif s == VELOCITY:
             velocity_into(r, z, w, q[0], q[1], out)
         elif s == GPS:
-            gps_into(r, z, w, vec[0, :3], vec[1, :3], vec[2, :3], q[0], q[1], vec[3, :3], axes, out)
-        elif s == IMU:
-            imu_into(planar(r, z, dx, vec[4, :3]), w, q[0], q[1], q[2], vec[5, :3], vec[6, :3], q[3], q[4], q[5],
+            gps_into(r, z, w, par[VEC, :3], par[VEC + 1, :3], par[VEC + 2, :3], q[0], q[1], par[VEC + 3, :3], axes,
                      out)
+        elif s == IMU:
+            imu_into(planar(r, z, dx, par[VEC + 4, :3]), w, q[0], q[1], q[2], par[VEC + 5, :3], par[VEC + 6, :3],
+                     q[3], q[4], q[5], out)
         elif s == WHEEL_SPEED:
             wheel_into(r, z, w, q[0], q[1], q[2], q[3], out)
         elif s == ODOMETRY:
             rear = wheel_speeds(r, z, q[1], q[2], q[3])[:, 2:]
-            integrate_into(rear, w, q[0], vec[7, :2], q[3], q[2], q[4], vec[8, :5], out)
+            integrate_into(rear, w, q[0], par[VEC + 7, :2], q[3], q[2], q[4], par[VEC + 8, :5], out)
         else:
             for k in range(c):
                 for i in range(BRAKE - STEER + 1):  # by element: a slice copy compiles its shape check's message
@@ -112,8 +118,8 @@ class SensorBank:
     """The readings of ``sensors`` (at most one of each of :data:`KINDS`; sample ``periods`` in ticks, in the same
     order) from a planar plant's records, in one compiled call.
 
-    Its arrays are what compiled code takes: ``book`` (:data:`PERIOD` ...), ``noise``, ``outs``, ``stamps``, ``par``,
-    ``vec`` and ``axes`` (see :func:`measure_all`).
+    Its arrays are what compiled code takes: ``book`` (:data:`PERIOD` ...), ``noise``, ``outs``, ``stamps`` and ``par``
+    (see :func:`measure_all`).
     """
 
     def __init__(self, sensors: list[Sensor], periods: np.ndarray) -> None:
@@ -123,7 +129,7 @@ class SensorBank:
         self._counts_filled = self.book[COUNT::FILLED - COUNT]  # a view of the two rows readings() takes
         for slot, sensor, period in zip(self._slots, sensors, periods.tolist(), strict=True):
             self._by_slot[slot], self.book[PERIOD, slot] = sensor, period
-        self.par, self.vec = np.zeros((len(KINDS), 6)), np.zeros((9, 5))
+        self.par = np.zeros((AXES + 1, 9))
         self._new_blocks(FIRST_AHEAD)
 
     def reset(self) -> None:
@@ -132,12 +138,12 @@ class SensorBank:
         self.noise, self.book[USED], self._ahead = np.zeros((len(KINDS), 0)), 0, FIRST_AHEAD
         self.book[HELD] = [0 if d else ENDLESS for d in NORMALS]
         pose, velocity, gps, imu, wheel, odometry, _ = self._by_slot
-        q, v = self.par, self.vec
+        q, v = self.par, self.par[VEC:]
         if pose is not None:
             q[POSE, :2] = pose.params.position_noise, pose.params.yaw_noise
         if velocity is not None:
             q[VELOCITY, :2] = velocity.params.linear_noise, velocity.params.angular_noise
-        self.axes = gps.frame.axes if gps is not None else np.eye(3)
+        q[AXES] = (gps.frame.axes if gps is not None else np.eye(3)).ravel()
         if gps is not None:
             q[GPS, :2] = gps.bias.phi, gps.bias.step_sigma
             h, up = gps.params.horizontal_noise, gps.params.vertical_noise
@@ -162,8 +168,7 @@ class SensorBank:
         (:func:`~vilma.vehicle.integrate.advance`), by sensor name (see :meth:`readings`)."""
         if not counts_fit(t0, n, self.book, self.noise, self.outs):
             self.make_room()
-        measure_all(t0, ticks, z, dx, step_ns, self.book, self.noise, self.outs, self.stamps, self.par, self.vec,
-                    self.axes)
+        measure_all(t0, ticks, z, dx, step_ns, self.book, self.noise, self.outs, self.stamps, self.par)
         return self.readings()
 
     def readings(self) -> dict[str, Readings]:

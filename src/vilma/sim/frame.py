@@ -22,7 +22,7 @@ CMD = 4
 
 @njit(cache=True)
 def run_frame(n, tick, model, integrator, plant, mode, dt, periods, out_z, out_dx, out_tick, step_ns, book, noise,
-              outs, stamps, par, vec, axes):
+              outs, stamps, par):
     """:func:`~vilma.vehicle.integrate.advance` of the plant vector, command (:data:`CMD`) and constants (as an
     array, :func:`~vilma.vehicle.actuators.consts_of`) end to end in ``plant``, then the bank's
     :func:`~vilma.sensors.bank.measure_all`; returns the rows recorded, or -1 (nothing done) if the bank must first
@@ -31,7 +31,7 @@ def run_frame(n, tick, model, integrator, plant, mode, dt, periods, out_z, out_d
         return -1
     z, cmd, consts = plant[:NZ], plant[NZ:NZ + CMD], plant[NZ + CMD:]
     m = advance(model, integrator, z, mode, cmd, consts_of(consts), dt, n, tick, periods, out_z, out_dx, out_tick)
-    measure_all(tick, out_tick[:m], out_z, out_dx, step_ns, book, noise, outs, stamps, par, vec, axes)
+    measure_all(tick, out_tick[:m], out_z, out_dx, step_ns, book, noise, outs, stamps, par)
     return m
 
 

@@ -346,7 +346,7 @@ class Simulator(Closeable):
         args = (
             self._model, self._integrator, self._plant, STOP if self.watchdog_tripped else self._mode,
             self.clock.step_s, self._periods, out_z, out_dx, out_tick, self.clock.step_ns,
-            bank.book, bank.noise, bank.outs, bank.stamps, bank.par, bank.vec, bank.axes)
+            bank.book, bank.noise, bank.outs, bank.stamps, bank.par)
         if self._frame is None:  # type the arguments once (ints, floats, C arrays of fixed dtypes), not at each call
             self._frame = direct(run_frame, 0, 0, *args)
         self._args = args
