@@ -93,6 +93,22 @@ def test_a_simulator_made_at_a_start_is_one_reset_to_it():
         assert np.array_equal(a[name].values, b[name].values), name
 
 
+def test_a_command_between_frames_drives_the_frames_after_it_as_it_drives_a_simulator_started_there():
+    first = ActuatorCommand(steer=0.05, drive=2500.0)
+    then = ActuatorCommand(steer=-0.1, longitudinal=Longitudinal.POWER, drive=0.4)
+    sim = Simulator(initial=VehicleState(vx=8.0))  # no dead time: a command acts from the next step
+    sim.command(first)
+    for _ in range(50):  # frames whose compiled call keeps its arguments
+        sim.run_for(0.02)
+    there = Simulator(initial=sim.state)
+    for s in (sim, there):
+        s.command(then)
+        for _ in range(50):
+            s.run_for(0.02)
+    np.testing.assert_allclose(sim.plant, there.plant, rtol=1e-12, atol=1e-12)  # a start's rounding apart
+    assert sim.state.vx > 3.0
+
+
 def test_watchdog_stops_the_car_when_autonomous_commands_stop():
     p = vilma()
     sim = Simulator(physics_only())
