@@ -34,13 +34,15 @@ class Planning(LocalPlanning):
     now and each replan period (:meth:`period_done` each driver period), :meth:`scores` at the end. The tracks after
     each scan and each cycle's plan wait in :attr:`messages` (bus messages) for the runner to hand on and clear.
 
-    ``path`` is the route with its speeds, ending at the goal (:meth:`~vilma.scenario.spec.Scenario.reference_path`).
+    ``path`` is the route with its speeds, ending at the goal (:meth:`~vilma.scenario.spec.Scenario.reference_path`);
+    ``observed``: whether anyone takes the messages (else none are made: a tenth of an unobserved run's time).
     """
 
-    def __init__(self, scenario: Scenario, path: Trajectory, driver: Driver, sim: SimConfig) -> None:
+    def __init__(self, scenario: Scenario, path: Trajectory, driver: Driver, sim: SimConfig,
+                 observed: bool = True) -> None:
         super().__init__(scenario.planner, scenario.perception, sim.laser, path, driver,
                          road_bounds(scenario.road.network, path) if scenario.road else NO_ROAD)
-        self.sim = sim
+        self.sim, self.observed = sim, observed
         self.frames: list[MotFrame] = []
         self.log = PlanningLog()
         self.messages: list[tuple[str, Message]] = []
@@ -54,8 +56,9 @@ class Planning(LocalPlanning):
             if self.take(msg, pose):
                 self.log.scan_t.append(msg.stamp_ns * 1e-9)
                 self.log.tracks.append(len(self.tracks))
-                self.messages.append(("perception/objects", track_list(msg.stamp_ns, self.kind,
-                                                                       self.tracks[:MAX_TRACKS])))
+                if self.observed:
+                    self.messages.append(("perception/objects", track_list(msg.stamp_ns, self.kind,
+                                                                           self.tracks[:MAX_TRACKS])))
                 if self.kind == "truth":
                     self._score(msg.stamp_ns, truth[:2], self.sim.objects.range)
                 else:
@@ -68,9 +71,10 @@ class Planning(LocalPlanning):
             self.log.cycle_t.append(t)
             self.log.cycle_ms.append(self.last_ms)
             self.log.modes.append(result.mode)
-            self.messages.append(("planning/plan", local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS],
-                                                              self.predicted[:MAX_TRACKS], RECORDED_CANDIDATES,
-                                                              self.last_ms)))
+            if self.observed:
+                self.messages.append(("planning/plan", local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS],
+                                                                  self.predicted[:MAX_TRACKS], RECORDED_CANDIDATES,
+                                                                  self.last_ms)))
         return result
 
     def _score(self, stamp_ns: int, centre: tuple[float, float], reach: float) -> None:

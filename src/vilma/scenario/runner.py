@@ -156,7 +156,7 @@ class Car:
         if s.task.kind == "plan":
             from vilma.scenario.planned import Planning  # perception and planning: for a plan only
 
-            self.planning = Planning(s, self.path, self.driver, sim.config)
+            self.planning = Planning(s, self.path, self.driver, sim.config, observed=bool(self.observers))
             self.planning.cycle(self.t_start)
             self.hand_on()
         self.periods = round((s.duration - self.t_start) / (period * sim.clock.step_s))
