@@ -222,7 +222,7 @@ class Simulator(Closeable):
         Raises:
             CommandError: NaN, infinity or an unknown mode; the car keeps its previous command.
         """
-        cmd, notes = validate_command(cmd, self.config.vehicle)
+        cmd, notes = validate_command(cmd, self.config.vehicle, self._limits)
         if notes:
             self._warnings.warning("clamped", "%s", "; ".join(notes))
         self._last_command_tick = self.clock.tick
