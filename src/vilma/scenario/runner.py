@@ -223,7 +223,9 @@ class Car:
     def loop(self, realtime: float | None, compiled: bool) -> None:
         """After :meth:`begin`: step until the task is done or time is up, compiled if it may (see :func:`run`)."""
         sim, driver, period = self.sim, self.driver, self.driver.period_ticks
-        if realtime is None and compiled and compiled_ok(sim, driver):
+        if realtime is None and compiled and self.planning is not None and compiled_ok(sim, driver, planned=True):
+            self.loop_planned()
+        elif realtime is None and compiled and self.planning is None and compiled_ok(sim, driver):
             run_compiled(sim, driver, self.log, self.periods, self.follows, self.block_taker)
         elif realtime is None:
             for _ in range(self.periods):
@@ -233,6 +235,20 @@ class Car:
         else:
             Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(
                 self.scenario.duration - self.t_start, on_period=self.step, should_stop=self.finished)
+
+    def loop_planned(self) -> None:
+        """:meth:`loop` of a plan, compiled up to each planning cycle and each scan (the Python loop's events: the
+        blocks end on them, the tracks and plans are made as it makes them, the drive is the same)."""
+        sim, period, done = self.sim, self.driver.period_ticks, 0
+        while done < self.periods and not self.finished():
+            tick = sim.clock.tick
+            scans = [-(-((tick // p + 1) * p - tick) // period) for p in sim.scene_periods.tolist()]
+            n = min([self.planning.every - self.planning.periods % self.planning.every, *scans, self.periods - done])
+            run_compiled(sim, self.driver, self.log, n, self.follows, self.on_block)
+            for _ in range((sim.clock.tick - tick) // period):  # all n but when it stopped at rest
+                done += 1
+                self.planning.period_done(sim.time_ns * 1e-9)
+            self.hand_on()
 
     def score(self, loop: float) -> RunResult:
         """The result: the scorecard (against the traffic where it drove when it is ``reactive``) with ``loop`` [s]

@@ -341,6 +341,12 @@ class Simulator(Closeable):
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
 
     @property
+    def scene_periods(self) -> np.ndarray:
+        """Sample periods [ticks] of the scene sensors (the objects sensor, the planar laser): their scans are made at
+        the ticks that are multiples of them."""
+        return self._periods[len(self.sensors):]
+
+    @property
     def compiled_ok(self) -> bool:
         """Whether compiled code may advance this simulator: no dead time, no watchdog stop under way."""
         return (self._plant3d is None and not self._dead_ticks and not self._pending
