@@ -205,10 +205,14 @@ def _combine(fa, lat, lon, edges, objects, car, margin, check_all, out, status):
             status[c] = 0 if ok else 1
     checked = (status == 0) | check_all
     near = _near(objects, out, checked, abs(car.offset) + math.hypot(car.half_length + margin, car.half_width + margin))
+    close = np.zeros(n_t, dtype=np.bool_)  # the steps some object is near at: the others need no check (most)
+    for k in range(n_t):
+        for o in range(near.shape[0]):
+            close[k] |= near[o, k]
     for c in range(status.shape[0]):
         if checked[c]:
             for k in range(n_t):
-                if _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
+                if close[k] and _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
                     status[c] = 2
                     break
 
