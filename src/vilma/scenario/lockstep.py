@@ -174,15 +174,24 @@ class CompiledDrive:
         """Whether periods are left and the car has not stopped at rest."""
         return self.done < self.periods and not self.stopped
 
-    def start(self) -> tuple:
-        """The arguments of :func:`_loop` for up to a block of periods from where the simulator is."""
+    def start(self, most: int = BLOCK) -> tuple:
+        """The arguments of :func:`_loop` for up to ``most`` periods (at most a block) from where the simulator is."""
         sim, driver = self.sim, self.driver
         self._kernel = p = sim.kernel_start(BLOCK * driver.period_ticks, sensing=self.ekf or self.on_block is not None)
-        n = min(BLOCK, self.periods - self.done)
+        n = min(most, BLOCK, self.periods - self.done)
         e = block_inputs(sim, driver.estimator, p.tick, n * driver.period_ticks) if self.ekf else None
         return (p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records, n, p.mode,
                 p.cmd, p.limits, *driver.step_args(), driver.params.original_speed, self.stop_at_rest, self.rows,
                 self.truth, *self.truth_periods, p.traffic, sim.config.vehicle.body_offset, e)
+
+    def block(self, most: int = BLOCK) -> int:
+        """Run up to ``most`` periods (at most a block) from where the simulator is: :meth:`start`, :func:`_loop`
+        and :meth:`end`; the periods run."""
+        args = self.start(most)
+        wall = time.perf_counter()
+        ran = _loop(*args)
+        self.end(ran, time.perf_counter() - wall)
+        return ran[0]
 
     def end(self, ran: tuple[int, int, bool], wall: float) -> None:
         """Take the block :func:`_loop` ran: ``ran`` its return value, ``wall`` [s] the wall time it took."""
@@ -219,8 +228,5 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     """
     drive = CompiledDrive(sim, driver, log, periods, stop_at_rest, on_block)
     while drive.running:
-        args = drive.start()
-        wall = time.perf_counter()
-        ran = _loop(*args)
-        drive.end(ran, time.perf_counter() - wall)
+        drive.block()
     return drive.stopped

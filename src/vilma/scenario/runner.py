@@ -20,7 +20,7 @@ from numba.core.event import TimingListener, install_listener
 from vilma.control.driver import Driver
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.fields import SpecError
-from vilma.scenario.lockstep import compiled_ok, run_compiled
+from vilma.scenario.lockstep import CompiledDrive, compiled_ok, run_compiled
 from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, plain, scorecard, timing
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
@@ -239,15 +239,13 @@ class Car:
     def loop_planned(self) -> None:
         """:meth:`loop` of a plan, compiled up to each planning cycle and each scan (the Python loop's events: the
         blocks end on them, the tracks and plans are made as it makes them, the drive is the same)."""
-        sim, period, done = self.sim, self.driver.period_ticks, 0
-        while done < self.periods and not self.finished():
-            tick = sim.clock.tick
+        sim, planning, period = self.sim, self.planning, self.driver.period_ticks
+        drive = CompiledDrive(sim, self.driver, self.log, self.periods, self.follows, self.on_block)
+        while drive.done < self.periods and not self.finished():  # (not drive.running: a stop short of the goal)
+            tick = sim.clock.tick  # to the end of the period of each scene sensor's next scan, and of the next cycle
             scans = [-(-((tick // p + 1) * p - tick) // period) for p in sim.scene_periods.tolist()]
-            n = min([self.planning.every - self.planning.periods % self.planning.every, *scans, self.periods - done])
-            run_compiled(sim, self.driver, self.log, n, self.follows, self.on_block)
-            for _ in range((sim.clock.tick - tick) // period):  # all n but when it stopped at rest
-                done += 1
-                self.planning.period_done(sim.time_ns * 1e-9)
+            for _ in range(drive.block(min(planning.every - planning.periods % planning.every, *scans))):
+                planning.period_done(sim.time_ns * 1e-9)
             self.hand_on()
 
     def score(self, loop: float) -> RunResult:
