@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -13,13 +15,16 @@ from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning, road_bounds
 from vilma.core.messages import MAX_TRACKS, Message, PoseEstimate
 from vilma.perception import MotFrame, clear_mot, laser_pose
-from vilma.planning import NO_ROAD, Plan, local_plan, track_list
+from vilma.planning import NO_ROAD, Plan, RoadBounds, local_plan, track_list
 from vilma.scenario.plan_keys import PLANNER, PLANNING_KEYS
 from vilma.scenario.result import PlanningLog
 from vilma.scenario.spec import Scenario
 from vilma.sim import SimConfig
 from vilma.trajectory import Trajectory
 from vilma.world.states import YAW, V, X, Y
+
+if TYPE_CHECKING:  # the roads extra
+    from vilma.world.commonroad import RoadNetwork
 
 MOT_THRESHOLD = 2.5
 """Farthest a track may be from a true object to match it in the CLEAR MOT scores [m]: half a car's length and
@@ -41,7 +46,7 @@ class Planning(LocalPlanning):
     def __init__(self, scenario: Scenario, path: Trajectory, driver: Driver, sim: SimConfig,
                  observed: bool = True) -> None:
         super().__init__(scenario.planner, scenario.perception, sim.laser, path, driver,
-                         road_bounds(scenario.road.network, path) if scenario.road else NO_ROAD)
+                         _road_bounds(scenario.road.network, path.xy.tobytes()) if scenario.road else NO_ROAD)
         self.sim, self.observed = sim, observed
         self.frames: list[MotFrame] = []
         self.log = PlanningLog()
@@ -97,3 +102,13 @@ class Planning(LocalPlanning):
             self.kind, PLANNER, self.cycles, total / max(self.cycles, 1), longest, self.fallbacks, self.evasions,
             self.reason, mot.mota, mot.motp, mot.precision, mot.recall, mot.position_rmse, mot.velocity_rmse,
             mot.id_switches), strict=True))
+
+
+@lru_cache(maxsize=8)  # a benchmark or a sweep plans one route many times, its path made anew (alike) each run
+def _road_bounds(network: RoadNetwork, xy: bytes) -> RoadBounds:
+    """:func:`~vilma.control.local_planning.road_bounds` on ``network`` of the route through the points ``xy`` (x, y
+    pairs, float64) [m]: read-only, shared by the runs."""
+    bounds = road_bounds(network, Trajectory(np.frombuffer(xy).reshape(-1, 2)))
+    for a in bounds:
+        a.flags.writeable = False
+    return bounds
