@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
 from vilma.app.batch import BUNDLED
 from vilma.control.driver import Driver
@@ -50,6 +52,32 @@ def test_compiled_and_python_loops_drive_alike(name, overrides, tmp_path):
     _same(compiled, python)
     csv = [(tmp_path / loop / "timeseries.csv").read_bytes() for loop in ("compiled", "python")]
     assert csv[0] == csv[1]  # no wall-clock column in it
+
+
+def _messages(recording: Path) -> list[tuple[str, int, bytes]]:
+    """A recording's messages by log time [ns], topic and data (but a plan's and a log row's: they hold wall times)."""
+    with recording.open("rb") as f:
+        return sorted((m.log_time, c.topic, b"" if c.topic.endswith(("/planning/plan", "/drive_log")) else m.data)
+                      for _, c, m in make_reader(f).iter_messages())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "overrides"), [
+    ("planned_slower_lead", {}),  # laser perception: scans at each 100 ms, planning cycles 20 ms after them
+    ("planned_slower_lead", {"perception": "truth", "duration": "25"}),  # the objects sensor's lists
+    ("planned_cut_in", {}),
+])
+def test_a_planned_run_compiled_up_to_its_cycles_and_scans_drives_and_records_alike(name, overrides, tmp_path):
+    s = load_scenario(BUNDLED / f"{name}.yaml", overrides)
+    assert compiled_ok(Simulator(s.sim), Driver(s.sim.vehicle, s.driver, step=s.sim.step), planned=True)
+    compiled = record_run(s, tmp_path / "compiled", plots=False)
+    python = record_run(s, tmp_path / "python", plots=False, compiled=False)
+    _same(compiled, python)
+    assert [dataclasses.replace(r.planning, cycle_ms=[]) for r in (compiled, python)] == \
+        [dataclasses.replace(python.planning, cycle_ms=[])] * 2
+    recorded = [_messages(tmp_path / loop / "run.mcap") for loop in ("compiled", "python")]
+    assert recorded[0] == recorded[1]
+    assert {"perception/objects", "planning/plan"} <= {topic.split("/", 2)[2] for _, topic, _ in recorded[0]}
 
 
 def test_a_compiled_run_drives_alike_whether_or_not_an_observer_takes_the_readings():

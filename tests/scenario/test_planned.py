@@ -19,8 +19,9 @@ from tests.scenario.commonroad_files import TUTORIAL, tutorial_with_car
 from vilma.app import batch
 from vilma.app.cli import main
 from vilma.planning import PlannerParams
-from vilma.scenario import SpecError, load_scenario, parse_scenario
+from vilma.scenario import SpecError, load_scenario, parse_scenario, planned
 from vilma.scenario.fields import load_yaml
+from vilma.scenario.result import RunObserver
 from vilma.scenario.runner import run
 from vilma.vehicle.params import vilma
 from vilma.world.commonroad import load
@@ -222,6 +223,25 @@ def test_after_a_cut_in_the_gap_never_closes_below_what_braking_from_the_gap_lef
         if present[0] and abs(states[0, Y]) < CAR_WIDTH / 2 + EGO.width / 2:  # in the ego's lane, overlapping it
             gaps.append(states[0, X] - CAR_LENGTH / 2 - (x + EGO.body_offset + EGO.length / 2))
     assert gaps and min(gaps) >= 6.0 + (12.0 - 10.0) * 2.0 - 2.0**2 / (2 * PlannerParams().comfort_accel)
+
+
+def test_tracks_and_plans_are_made_into_bus_messages_only_for_observers(monkeypatch):
+    s = load_scenario("planned_slower_lead", {"duration": "3"})
+    topics = []
+
+    class Taker(RunObserver):
+        def add_captures(self, captures):
+            topics.extend(topic for topic, _ in captures)
+
+    run(s, observers=[Taker()])
+    assert {"perception/objects", "planning/plan"} <= set(topics)
+
+    def unmade(*args, **kwargs):
+        raise AssertionError("a bus message made for nobody")
+
+    monkeypatch.setattr(planned, "local_plan", unmade)
+    monkeypatch.setattr(planned, "track_list", unmade)
+    assert run(s).metrics["planning_cycles"] > 1
 
 
 @pytest.mark.slow

@@ -9,7 +9,15 @@ from hypothesis import strategies as st
 from tests.conftest import STEP, drive, physics_only
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sim import Simulator
-from vilma.vehicle.actuators import MODE_IDS, CommandError, actuate, actuator_step, targets, validate_command
+from vilma.vehicle.actuators import (
+    MODE_IDS,
+    CommandError,
+    actuate,
+    actuator_step,
+    command_limits,
+    targets,
+    validate_command,
+)
 from vilma.vehicle.params import ActuatorParams, plant_consts, vilma
 from vilma.vehicle.state import BRAKE, DRIVE, STEER, VX, VehicleState
 
@@ -38,6 +46,12 @@ def test_out_of_range_values_are_clamped_and_reported():
     cmd, notes = validate_command(ActuatorCommand(steer=1.0, brake=-5.0), P)
     assert cmd.steer == P.max_steer and cmd.brake == 0.0
     assert len(notes) == 2 and "'steer'" in notes[0] and "clamped to 0.6" in notes[0]
+
+
+def test_the_limits_a_caller_keeps_are_the_ones_checked():
+    narrow = dataclasses.replace(P, max_steer=0.5 * P.max_steer)
+    cmd, notes = validate_command(ActuatorCommand(steer=P.max_steer), P, command_limits(narrow))
+    assert cmd.steer == narrow.max_steer and len(notes) == 1
 
 
 @given(st.floats(allow_nan=True, allow_infinity=True), st.floats(allow_nan=True, allow_infinity=True),

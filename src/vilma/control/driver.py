@@ -147,11 +147,12 @@ under way, arrived, pose known and the pose (x, y [m], yaw [rad], speed [m/s], y
 actuation delay, and the progress on the path (segment, s, left [m], cross-track [m])."""
 
 
-def driver_state() -> np.record:
-    """A fresh driver state (a record compiled code reads and writes by field name)."""
-    ds = np.zeros(1, DRIVER_STATE).view(np.recarray)[0]
-    ds.velocity_limit = math.inf
-    return ds
+def driver_state() -> np.ndarray:
+    """A fresh driver state, one row (1,) of :data:`DRIVER_STATE`: its element is a record compiled code reads and
+    writes by field name."""
+    row = np.zeros(1, DRIVER_STATE)
+    row["velocity_limit"] = math.inf
+    return row
 
 
 PROGRESS_WINDOW = 40
@@ -293,8 +294,12 @@ class Driver:
         self.consts = DriverConsts(self.speed_ticks, self.path_ticks, self.period_ticks, self.period,
                                    p.actuation_delay, p.stop_deceleration, p.rest_speed, vehicle.mass)
         self.estimator = make_estimator(p.pose_source, vehicle)
-        self.state = driver_state()
-        """The compiled driver's state (:data:`DRIVER_STATE`)."""
+        row = driver_state()
+        self.state = row.view(np.recarray)[0]
+        """The compiled driver's state (:data:`DRIVER_STATE`), its fields as attributes."""
+        self._ds = row[0]
+        """The same state as a plain structured scalar, for the per-period path: its fields by item (``ds["x"]``)
+        are read and written several times faster than the record's attributes, and compiled calls take it faster."""
         self.task = _Task()
         self.stamp_ns = 0
         """Stamp of the latest pose [ns]."""
@@ -349,16 +354,16 @@ class Driver:
         """
         if path.speed is None:
             raise ValueError("drive plan: the trajectory has no speeds")
-        ds = self.state
-        moving = _moving(path, ds.yaw)
+        ds = self._ds
+        moving = _moving(path, ds["yaw"])
         if self.task.mode != DriverMode.PLAN:
             self._start(_Task(DriverMode.PLAN, speed=math.nan, path=moving))
         else:
             self.task.path = moving
-            ds.has_progress = False  # the progress is on the new path
+            ds["has_progress"] = False  # the progress is on the new path
             if moving.speed[-1] >= self.params.rest_speed:  # it drives on: a stop under way is called off
-                ds.stopping = ds.arrived = False
-        ds.stopping |= not moving.speed.any()  # a plan at rest all along: a stop where the car stands
+                ds["stopping"] = ds["arrived"] = False
+        ds["stopping"] |= not moving.speed.any()  # a plan at rest all along: a stop where the car stands
 
     def _start(self, task: _Task) -> None:
         self.task = task
@@ -373,28 +378,28 @@ class Driver:
     def step_args(self) -> tuple:
         """The arguments of :func:`driver_step` for the present task."""
         path = self.task.path
-        return (self.consts, self.state, (path or _NO_PATH).arrays, path is not None, self.speed_ctrl.consts,
+        return (self.consts, self._ds, (path or _NO_PATH).arrays, path is not None, self.speed_ctrl.consts,
                 self.speed_ctrl.state, self.path_ctrl.consts, self.path_ctrl.state)
 
     def update(self, readings: dict[str, Readings]) -> ActuatorCommand | None:
         """Take one period's readings; returns the command to send now, or None in manual mode."""
         pose = self.estimator.update(readings)
-        ds = self.state
+        ds = self._ds
         if pose is not None:
             self.stamp_ns = pose.stamp_ns
-            ds.has_pose, ds.x, ds.y, ds.yaw, ds.pose_speed, ds.yaw_rate = (True, pose.x, pose.y, pose.yaw,
-                                                                            pose.speed, pose.yaw_rate)
-            ds.measured = self._measured_speed(readings, pose)
+            ds["has_pose"], ds["x"], ds["y"], ds["yaw"] = True, pose.x, pose.y, pose.yaw
+            ds["pose_speed"], ds["yaw_rate"] = pose.speed, pose.yaw_rate
+            ds["measured"] = self._measured_speed(readings, pose)
         if not driver_step(*self.step_args()):
             return None
         return self.command()
 
     def command(self) -> ActuatorCommand:
         """The command the driver's state holds."""
-        ds = self.state
-        return ActuatorCommand(stamp_ns=self.stamp_ns, steer=float(ds.steer),
-                               longitudinal=LONGITUDINAL[int(ds.command_mode)], drive=float(ds.drive),
-                               brake=float(ds.brake), velocity_limit=float(ds.velocity_limit), autonomous=True)
+        ds = self._ds
+        return ActuatorCommand(stamp_ns=self.stamp_ns, steer=float(ds["steer"]),
+                               longitudinal=LONGITUDINAL[int(ds["command_mode"])], drive=float(ds["drive"]),
+                               brake=float(ds["brake"]), velocity_limit=float(ds["velocity_limit"]), autonomous=True)
 
     def _measured_speed(self, readings: dict[str, Readings], pose: PoseEstimate) -> float:
         vel = readings.get("velocity")
@@ -406,14 +411,14 @@ class Driver:
     @property
     def status(self) -> DriverStatus:
         """What the driver is doing, for the ``driver/status`` topic."""
-        t, ds = self.task, self.state
-        if ds.has_progress:
-            index, progress, remaining, cross = int(ds.index), ds.progress, ds.remaining, ds.cross
+        t, ds = self.task, self._ds
+        if ds["has_progress"]:
+            index, progress, remaining, cross = int(ds["index"]), ds["progress"], ds["remaining"], ds["cross"]
         else:
             index, progress, remaining, cross = 0, 0.0, 0.0, math.nan
         target = target_speed(ds, (t.path or _NO_PATH).arrays) if t.mode != DriverMode.MANUAL else 0.0
-        return DriverStatus(self.stamp_ns, t.mode.value, float(target), float(ds.measured), index,
-                            float(progress), float(remaining), float(cross), bool(ds.arrived), t.error)
+        return DriverStatus(self.stamp_ns, t.mode.value, float(target), float(ds["measured"]), index,
+                            float(progress), float(remaining), float(cross), bool(ds["arrived"]), t.error)
 
 
 def _moving(path: Trajectory, yaw: float) -> Trajectory:

@@ -86,6 +86,7 @@ class LocalPlanning:
             raise ValueError(f"planner replan_period {params.replan_period:g} s is not a whole number of driver "
                              f"periods of {driver.period:g} s; make it one")
         self.params, self.kind, self.driver, self.path, self.road = params, kind, driver, path, road
+        self._targeted = params  # the parameters of the last cycle (:meth:`_targeting`)
         self.frame = FrenetFrame(path)
         (self.goal,), _ = self.frame.to_frenet([path.xy[-1, 0]], [path.xy[-1, 1]])
         # the compiled kernels loaded (or, on a first run, compiled) now, not inside the first cycle's timing
@@ -135,7 +136,7 @@ class LocalPlanning:
         if est is None:
             return None
         t0 = time.perf_counter()
-        params = dataclasses.replace(self.params, target_speed=self._speed_ahead(est.x, est.y))
+        params = self._targeting(self._speed_ahead(est.x, est.y))
         state, keep = self._start(est, t, params)
         self.predicted = predict(self.tracks, params.times)
         result = plan(state, self.frame, self.predicted, params, goal=self.goal, keep=keep, road=self.road)
@@ -152,6 +153,13 @@ class LocalPlanning:
             path = Trajectory(path.xy, np.zeros(len(path)))  # the driver's stop on its end, now
         self.driver.drive_plan(path)
         return result
+
+    def _targeting(self, speed: float) -> PlannerParams:
+        """The planner's parameters with the target ``speed`` [m/s]: made (and checked) again only when it changes,
+        which on a road of one speed limit it never does."""
+        if self._targeted.target_speed != speed:
+            self._targeted = dataclasses.replace(self.params, target_speed=speed)
+        return self._targeted
 
     def _speed_ahead(self, x: float, y: float) -> float:
         """The route's speed for the car at ``(x, y)`` [m] [m/s]: the lowest from which it brakes at its comfortable

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from enum import IntEnum
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -205,10 +206,14 @@ def _combine(fa, lat, lon, edges, objects, car, margin, check_all, out, status):
             status[c] = 0 if ok else 1
     checked = (status == 0) | check_all
     near = _near(objects, out, checked, abs(car.offset) + math.hypot(car.half_length + margin, car.half_width + margin))
+    close = np.zeros(n_t, dtype=np.bool_)  # the steps some object is near at: the others need no check (most)
+    for k in range(n_t):
+        for o in range(near.shape[0]):
+            close[k] |= near[o, k]
     for c in range(status.shape[0]):
         if checked[c]:
             for k in range(n_t):
-                if _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
+                if close[k] and _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
                     status[c] = 2
                     break
 
@@ -287,13 +292,25 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
 
 def _lateral(state: FrenetState, offsets: list[float], p: PlannerParams, keep: tuple[float, float] | None):
     """Lateral quintics (n, 6) to the end ``offsets`` [m], their durations (n,), costs (n,) and end offsets (n,);
-    and ``keep`` (end offset [m], duration [s]) if its offset is among them."""
-    T = np.repeat(np.asarray(p.lateral_durations), len(offsets))
-    d1 = np.tile(np.asarray(offsets), len(p.lateral_durations))
+    and ``keep`` (end offset [m], duration [s]) if its offset is among them. Made once for the cycles that start
+    alike (a car keeping its lane starts each at no offset), copied."""
+    start = np.array(state[3:]).tobytes()  # d, d_dot, d_ddot by their bits: the sign of a zero carries on
+    made = _lateral_from(start, tuple(offsets), p.lateral_durations, (p.jerk_weight, p.time_weight, p.offset_weight),
+                         keep)
+    return tuple(a.copy() for a in made)
+
+
+@lru_cache(maxsize=64)
+def _lateral_from(start: bytes, offsets: tuple[float, ...], durations: tuple[float, ...],
+                  weights: tuple[float, float, float], keep: tuple[float, float] | None):
+    """:func:`_lateral` from the lateral state ``start`` (d, d_dot, d_ddot as float64 bytes) with the ``weights``
+    of jerk, time and offset."""
+    T = np.repeat(np.asarray(durations), len(offsets))
+    d1 = np.tile(np.asarray(offsets), len(durations))
     if keep is not None and keep[0] in offsets:
         T, d1 = np.append(T, keep[1]), np.append(d1, keep[0])
-    coeffs = quintic(state.d, state.d_dot, state.d_ddot, d1, 0.0, 0.0, T)
-    return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + p.offset_weight * d1**2, d1
+    coeffs = quintic(*np.frombuffer(start), d1, 0.0, 0.0, T)
+    return coeffs, T, weights[0] * jerk_cost(coeffs, T) + weights[1] * T + weights[2] * d1**2, d1
 
 
 def _motions(frame, lat, lat_T, lon, lon_T, objects, p, road=NO_ROAD, check_all=False):

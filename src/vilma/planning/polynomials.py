@@ -11,10 +11,19 @@ from numba import njit
 
 
 def _start(x0, v0, a0, T):
-    x0, v0, a0, T = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x0, v0, a0, T)))
+    x0, v0, a0, T = (np.asarray(v, dtype=np.float64) for v in (x0, v0, a0, T))
     if not (T > 0).all():
         raise ValueError(f"a polynomial's duration must be > 0 s, got {T.min()!r}")
     return x0, v0, a0, T
+
+
+def _coefficients(*columns) -> np.ndarray:
+    """The coefficients (..., 6) of columns that broadcast (filled in place: stacking broadcast copies costs a
+    planning cycle more than the arithmetic)."""
+    out = np.empty((*np.broadcast_shapes(*(np.shape(c) for c in columns)), 6))
+    for k, c in enumerate(columns):
+        out[..., k] = c
+    return out
 
 
 def quintic(x0, v0, a0, x1, v1, a1, T) -> np.ndarray:
@@ -29,7 +38,7 @@ def quintic(x0, v0, a0, x1, v1, a1, T) -> np.ndarray:
     c3 = (10.0 * h - 4.0 * p * T + 0.5 * q * T**2) / T**3
     c4 = (-15.0 * h + 7.0 * p * T - q * T**2) / T**4
     c5 = (6.0 * h - 3.0 * p * T + 0.5 * q * T**2) / T**5
-    return np.stack(np.broadcast_arrays(x0, v0, 0.5 * a0, c3, c4, c5), axis=-1)
+    return _coefficients(x0, v0, 0.5 * a0, c3, c4, c5)
 
 
 def quartic(x0, v0, a0, v1, a1, T) -> np.ndarray:
@@ -40,7 +49,7 @@ def quartic(x0, v0, a0, v1, a1, T) -> np.ndarray:
     q = a1 - a0  # and to the second derivative
     c3 = (3.0 * p - q * T) / (3.0 * T**2)
     c4 = (q * T - 2.0 * p) / (4.0 * T**3)
-    return np.stack(np.broadcast_arrays(x0, v0, 0.5 * a0, c3, c4, np.zeros_like(x0)), axis=-1)
+    return _coefficients(x0, v0, 0.5 * a0, c3, c4, 0.0)
 
 
 def evaluate(coeffs, T, t) -> np.ndarray:

@@ -48,18 +48,19 @@ def _truth_periods(sim: Simulator) -> tuple[int, int]:
     return tuple(1 if p is None else sim.clock.period_ticks(p.rate_hz, "sensor") for p in (s.pose, s.velocity))
 
 
-def compiled_ok(sim: Simulator, driver: Driver) -> bool:
+def compiled_ok(sim: Simulator, driver: Driver, planned: bool = False) -> bool:
     """Whether :func:`run_compiled` reproduces the Python loop for this simulator and driver.
 
     The driver must steer either by the exact pose, the pose and velocity sensors noise-free and sampling at
     driver period ends (their period a divisor or a multiple of the driver's), or by the EKF with the IMU,
     wheel speeds and GPS on the car and its speed (not the original's formula); the actuators have no
     dead time, the watchdog not fire between two periods, and reactive traffic step at the driver period; a
-    driver on a planner's local trajectories needs the Python loop (the planner replans between its periods).
+    driver on a planner's local trajectories needs the Python loop (the planner replans between its periods) but
+    when ``planned``: the caller runs it up to each cycle and scan only (:meth:`~vilma.scenario.runner.Car.loop`).
     """
     p, r = driver.period_ticks, sim.config.reactive
     wd = sim.clock.ticks_for(sim.config.watchdog_timeout)
-    return driver.task.mode != DriverMode.PLAN and sim.compiled_ok and _source_ok(sim, driver) and \
+    return (planned or driver.task.mode != DriverMode.PLAN) and sim.compiled_ok and _source_ok(sim, driver) and \
         (wd == 0 or wd > p) and (r is None or sim.clock.ticks_for(r.period) == p)
 
 
@@ -141,9 +142,9 @@ def _read_truth(z, tick, ds, truth, pose_period, vel_period, original_speed):
 def _catch_up(est: TruthEstimator, ds: np.record, truth: np.ndarray, stamp_ns: int) -> None:
     """Leave the estimator as the Python loop would have: latest velocity reading and pose."""
     est.speed, est.yaw_rate = float(truth[0]), float(truth[1])
-    if ds.has_pose:
-        est.estimate = PoseEstimate(stamp_ns, float(ds.x), float(ds.y), float(ds.yaw), float(ds.pose_speed),
-                                    float(ds.yaw_rate), 0.0, 0.0, 0.0)
+    if ds["has_pose"]:  # by item: a record's attributes cost a planned run's short blocks more
+        est.estimate = PoseEstimate(stamp_ns, float(ds["x"]), float(ds["y"]), float(ds["yaw"]),
+                                    float(ds["pose_speed"]), float(ds["yaw_rate"]), 0.0, 0.0, 0.0)
 
 
 class CompiledDrive:
@@ -173,15 +174,24 @@ class CompiledDrive:
         """Whether periods are left and the car has not stopped at rest."""
         return self.done < self.periods and not self.stopped
 
-    def start(self) -> tuple:
-        """The arguments of :func:`_loop` for up to a block of periods from where the simulator is."""
+    def start(self, most: int = BLOCK) -> tuple:
+        """The arguments of :func:`_loop` for up to ``most`` periods (at most a block) from where the simulator is."""
         sim, driver = self.sim, self.driver
         self._kernel = p = sim.kernel_start(BLOCK * driver.period_ticks, sensing=self.ekf or self.on_block is not None)
-        n = min(BLOCK, self.periods - self.done)
+        n = min(most, BLOCK, self.periods - self.done)
         e = block_inputs(sim, driver.estimator, p.tick, n * driver.period_ticks) if self.ekf else None
         return (p.model, p.integrator, p.z, p.consts, p.step, p.step_ns, p.tick, p.periods, *p.records, n, p.mode,
                 p.cmd, p.limits, *driver.step_args(), driver.params.original_speed, self.stop_at_rest, self.rows,
                 self.truth, *self.truth_periods, p.traffic, sim.config.vehicle.body_offset, e)
+
+    def block(self, most: int = BLOCK) -> int:
+        """Run up to ``most`` periods (at most a block) from where the simulator is: :meth:`start`, :func:`_loop`
+        and :meth:`end`; the periods run."""
+        args = self.start(most)
+        wall = time.perf_counter()
+        ran = _loop(*args)
+        self.end(ran, time.perf_counter() - wall)
+        return ran[0]
 
     def end(self, ran: tuple[int, int, bool], wall: float) -> None:
         """Take the block :func:`_loop` ran: ``ran`` its return value, ``wall`` [s] the wall time it took."""
@@ -218,8 +228,5 @@ def run_compiled(sim: Simulator, driver: Driver, log: DriveLog, periods: int, st
     """
     drive = CompiledDrive(sim, driver, log, periods, stop_at_rest, on_block)
     while drive.running:
-        args = drive.start()
-        wall = time.perf_counter()
-        ran = _loop(*args)
-        drive.end(ran, time.perf_counter() - wall)
+        drive.block()
     return drive.stopped

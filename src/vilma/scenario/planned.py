@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -13,13 +15,16 @@ from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning, road_bounds
 from vilma.core.messages import MAX_TRACKS, Message, PoseEstimate
 from vilma.perception import MotFrame, clear_mot, laser_pose
-from vilma.planning import NO_ROAD, Plan, local_plan, track_list
+from vilma.planning import NO_ROAD, Plan, RoadBounds, local_plan, track_list
 from vilma.scenario.plan_keys import PLANNER, PLANNING_KEYS
 from vilma.scenario.result import PlanningLog
 from vilma.scenario.spec import Scenario
 from vilma.sim import SimConfig
 from vilma.trajectory import Trajectory
 from vilma.world.states import YAW, V, X, Y
+
+if TYPE_CHECKING:  # the roads extra
+    from vilma.world.commonroad import RoadNetwork
 
 MOT_THRESHOLD = 2.5
 """Farthest a track may be from a true object to match it in the CLEAR MOT scores [m]: half a car's length and
@@ -34,13 +39,15 @@ class Planning(LocalPlanning):
     now and each replan period (:meth:`period_done` each driver period), :meth:`scores` at the end. The tracks after
     each scan and each cycle's plan wait in :attr:`messages` (bus messages) for the runner to hand on and clear.
 
-    ``path`` is the route with its speeds, ending at the goal (:meth:`~vilma.scenario.spec.Scenario.reference_path`).
+    ``path`` is the route with its speeds, ending at the goal (:meth:`~vilma.scenario.spec.Scenario.reference_path`);
+    ``observed``: whether anyone takes the messages (else none are made: a tenth of an unobserved run's time).
     """
 
-    def __init__(self, scenario: Scenario, path: Trajectory, driver: Driver, sim: SimConfig) -> None:
+    def __init__(self, scenario: Scenario, path: Trajectory, driver: Driver, sim: SimConfig,
+                 observed: bool = True) -> None:
         super().__init__(scenario.planner, scenario.perception, sim.laser, path, driver,
-                         road_bounds(scenario.road.network, path) if scenario.road else NO_ROAD)
-        self.sim = sim
+                         _road_bounds(scenario.road.network, path.xy.tobytes()) if scenario.road else NO_ROAD)
+        self.sim, self.observed = sim, observed
         self.frames: list[MotFrame] = []
         self.log = PlanningLog()
         self.messages: list[tuple[str, Message]] = []
@@ -54,8 +61,9 @@ class Planning(LocalPlanning):
             if self.take(msg, pose):
                 self.log.scan_t.append(msg.stamp_ns * 1e-9)
                 self.log.tracks.append(len(self.tracks))
-                self.messages.append(("perception/objects", track_list(msg.stamp_ns, self.kind,
-                                                                       self.tracks[:MAX_TRACKS])))
+                if self.observed:
+                    self.messages.append(("perception/objects", track_list(msg.stamp_ns, self.kind,
+                                                                           self.tracks[:MAX_TRACKS])))
                 if self.kind == "truth":
                     self._score(msg.stamp_ns, truth[:2], self.sim.objects.range)
                 else:
@@ -68,9 +76,10 @@ class Planning(LocalPlanning):
             self.log.cycle_t.append(t)
             self.log.cycle_ms.append(self.last_ms)
             self.log.modes.append(result.mode)
-            self.messages.append(("planning/plan", local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS],
-                                                              self.predicted[:MAX_TRACKS], RECORDED_CANDIDATES,
-                                                              self.last_ms)))
+            if self.observed:
+                self.messages.append(("planning/plan", local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS],
+                                                                  self.predicted[:MAX_TRACKS], RECORDED_CANDIDATES,
+                                                                  self.last_ms)))
         return result
 
     def _score(self, stamp_ns: int, centre: tuple[float, float], reach: float) -> None:
@@ -93,3 +102,13 @@ class Planning(LocalPlanning):
             self.kind, PLANNER, self.cycles, total / max(self.cycles, 1), longest, self.fallbacks, self.evasions,
             self.reason, mot.mota, mot.motp, mot.precision, mot.recall, mot.position_rmse, mot.velocity_rmse,
             mot.id_switches), strict=True))
+
+
+@lru_cache(maxsize=8)  # a benchmark or a sweep plans one route many times, its path made anew (alike) each run
+def _road_bounds(network: RoadNetwork, xy: bytes) -> RoadBounds:
+    """:func:`~vilma.control.local_planning.road_bounds` on ``network`` of the route through the points ``xy`` (x, y
+    pairs, float64) [m]: read-only, shared by the runs."""
+    bounds = road_bounds(network, Trajectory(np.frombuffer(xy).reshape(-1, 2)))
+    for a in bounds:
+        a.flags.writeable = False
+    return bounds

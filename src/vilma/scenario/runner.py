@@ -20,7 +20,7 @@ from numba.core.event import TimingListener, install_listener
 from vilma.control.driver import Driver
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.fields import SpecError
-from vilma.scenario.lockstep import compiled_ok, run_compiled
+from vilma.scenario.lockstep import CompiledDrive, compiled_ok, run_compiled
 from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, plain, scorecard, timing
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
@@ -156,7 +156,7 @@ class Car:
         if s.task.kind == "plan":
             from vilma.scenario.planned import Planning  # perception and planning: for a plan only
 
-            self.planning = Planning(s, self.path, self.driver, sim.config)
+            self.planning = Planning(s, self.path, self.driver, sim.config, observed=bool(self.observers))
             self.planning.cycle(self.t_start)
             self.hand_on()
         self.periods = round((s.duration - self.t_start) / (period * sim.clock.step_s))
@@ -223,7 +223,9 @@ class Car:
     def loop(self, realtime: float | None, compiled: bool) -> None:
         """After :meth:`begin`: step until the task is done or time is up, compiled if it may (see :func:`run`)."""
         sim, driver, period = self.sim, self.driver, self.driver.period_ticks
-        if realtime is None and compiled and compiled_ok(sim, driver):
+        if realtime is None and compiled and self.planning is not None and compiled_ok(sim, driver, planned=True):
+            self.loop_planned()
+        elif realtime is None and compiled and self.planning is None and compiled_ok(sim, driver):
             run_compiled(sim, driver, self.log, self.periods, self.follows, self.block_taker)
         elif realtime is None:
             for _ in range(self.periods):
@@ -233,6 +235,18 @@ class Car:
         else:
             Pacer(sim, speed=realtime, period=period * sim.clock.step_s).run(
                 self.scenario.duration - self.t_start, on_period=self.step, should_stop=self.finished)
+
+    def loop_planned(self) -> None:
+        """:meth:`loop` of a plan, compiled up to each planning cycle and each scan (the Python loop's events: the
+        blocks end on them, the tracks and plans are made as it makes them, the drive is the same)."""
+        sim, planning, period = self.sim, self.planning, self.driver.period_ticks
+        drive = CompiledDrive(sim, self.driver, self.log, self.periods, self.follows, self.on_block)
+        while drive.done < self.periods and not self.finished():  # (not drive.running: a stop short of the goal)
+            tick = sim.clock.tick  # to the end of the period of each scene sensor's next scan, and of the next cycle
+            scans = [-(-((tick // p + 1) * p - tick) // period) for p in sim.scene_periods.tolist()]
+            for _ in range(drive.block(min(planning.every - planning.periods % planning.every, *scans))):
+                planning.period_done(sim.time_ns * 1e-9)
+            self.hand_on()
 
     def score(self, loop: float) -> RunResult:
         """The result: the scorecard (against the traffic where it drove when it is ``reactive``) with ``loop`` [s]

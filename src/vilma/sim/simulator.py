@@ -226,7 +226,7 @@ class Simulator(Closeable):
         Raises:
             CommandError: NaN, infinity or an unknown mode; the car keeps its previous command.
         """
-        cmd, notes = validate_command(cmd, self.config.vehicle)
+        cmd, notes = validate_command(cmd, self.config.vehicle, self._limits)
         if notes:
             self._warnings.warning("clamped", "%s", "; ".join(notes))
         self._last_command_tick = self.clock.tick
@@ -353,6 +353,12 @@ class Simulator(Closeable):
         return args
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
+
+    @property
+    def scene_periods(self) -> np.ndarray:
+        """Sample periods [ticks] of the scene sensors (the objects sensor, the planar laser): their scans are made at
+        the ticks that are multiples of them."""
+        return self._periods[len(self.sensors):]
 
     @property
     def compiled_ok(self) -> bool:

@@ -57,8 +57,9 @@ def clamp_command(limits, mode, cmd):
         cmd[k] = min(max(cmd[k], limits[mode, k, 0]), limits[mode, k, 1])
 
 
-def validate_command(cmd: ActuatorCommand, p: VehicleParams) -> tuple[ActuatorCommand, tuple[str, ...]]:
-    """Check a command against the car.
+def validate_command(cmd: ActuatorCommand, p: VehicleParams,
+                     limits: np.ndarray | None = None) -> tuple[ActuatorCommand, tuple[str, ...]]:
+    """Check a command against the car (``limits``: its :func:`command_limits`, if the caller keeps them).
 
     Returns:
         The command with out-of-range values clamped, and one note per clamped field.
@@ -77,7 +78,8 @@ def validate_command(cmd: ActuatorCommand, p: VehicleParams) -> tuple[ActuatorCo
     cmd = msgspec.structs.replace(cmd, longitudinal=mode)
     notes: list[str] = []
     changes: dict[str, float] = {}
-    for name, (lo, hi) in zip(COMMAND_FIELDS, command_limits(p)[MODE_IDS[mode]].tolist(), strict=True):
+    limits = command_limits(p) if limits is None else limits
+    for name, (lo, hi) in zip(COMMAND_FIELDS, limits[MODE_IDS[mode]].tolist(), strict=True):
         v = getattr(cmd, name)
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise CommandError(f"command field '{name}' is {v!r}: must be a number")
