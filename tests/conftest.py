@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 
 import numpy as np
 import pytest
@@ -23,6 +26,9 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 os.environ["VILMA_SERVE"] = "off"  # the `vilma` commands tests start run in their own processes, not on a server
+# what vilma keeps made once (course splines) in a folder of this session's, never the user's cache
+os.environ["VILMA_CACHE_DIR"] = tempfile.mkdtemp(prefix="vilma-test-cache-")
+atexit.register(shutil.rmtree, os.environ["VILMA_CACHE_DIR"], ignore_errors=True)
 
 
 @pytest.fixture

@@ -88,10 +88,10 @@ if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonR
 
 @lru_cache(maxsize=8)  # a sweep or a benchmark drives one course many times: one spline for them all
 def _course(points: tuple[tuple[float, float], ...]) -> Trajectory:
-    """:func:`~vilma.trajectory.course.spline_course` through ``points`` (a trajectory is immutable: shared)."""
-    from vilma.trajectory.course import spline_course  # scipy.interpolate, 0.3-0.5 s to import: for courses only
+    """:func:`~vilma.trajectory.course.course` through ``points`` (a trajectory is immutable: shared)."""
+    from vilma.trajectory.course import course
 
-    return spline_course(points)
+    return course(points)
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Scenario:
