@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -33,8 +34,10 @@ class SegmentParams:
 def scan_points(ranges: np.ndarray, bearings: np.ndarray) -> np.ndarray:
     """The returns of a planar scan in the laser frame (x forward, y left), (rays, 2) [m]; no return (inf or NaN
     range) gives NaN."""
+    bearings = np.asarray(bearings, float)
+    cos, sin = _trig(bearings.tobytes())
     r = np.where(np.isfinite(ranges), ranges, np.nan)  # inf * cos(pi / 2) would warn
-    return np.stack([r * np.cos(bearings), r * np.sin(bearings)], axis=-1)
+    return np.stack([r * cos.reshape(bearings.shape), r * sin.reshape(bearings.shape)], axis=-1)
 
 
 def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = SegmentParams()) -> list[np.ndarray]:
@@ -53,17 +56,43 @@ def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = Se
     if ranges.ndim != 1 or ranges.shape != bearings.shape:
         raise ValueError(f"a scan needs as many ranges as bearings in 1-D arrays, got shapes {ranges.shape} and "
                          f"{bearings.shape}")
-    if not (np.isfinite(bearings).all() and (np.diff(bearings) > 0).all()):
-        raise ValueError("a scan's bearings must be finite and increasing [rad]: give the rays in scan order")
+    near, sin_dphi, sin_rest = _breakpoints(bearings.tobytes(), params.angle)
     if (ranges < 0).any():
         raise ValueError(f"a scan's ranges must be >= 0 [m] (inf or NaN: no return), got {ranges.min()!r}")
     points = scan_points(ranges, bearings)  # NaN without a return: every comparison with it is False
     gap = np.hypot(*np.diff(points, axis=0).T)
-    dphi = np.diff(bearings)
-    near = dphi < params.angle
-    reach = np.full(len(dphi), -np.inf)
-    reach[near] = ranges[:-1][near] * np.sin(dphi[near]) / np.sin(params.angle - dphi[near]) + 3 * params.range_noise
+    reach = np.full(len(gap), -np.inf)
+    reach[near] = ranges[:-1][near] * sin_dphi / sin_rest + 3 * params.range_noise
     joined = np.concatenate([[False], gap <= reach])  # whether each ray joins the cluster of the ray before
     hit = np.flatnonzero(np.isfinite(ranges))
-    clusters = np.split(hit, np.flatnonzero(~joined[hit])[1:])
-    return [c for c in clusters if len(c) >= params.min_points]
+    starts = np.flatnonzero(~joined[hit]).tolist() + [len(hit)]
+    return [hit[a:b] for a, b in zip(starts[:-1], starts[1:], strict=True) if b - a >= params.min_points]
+
+
+@lru_cache(maxsize=8)  # a laser's bearings are the same each scan
+def _trig(bearings: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """The cosines and sines of the bearings (float64 bytes) [rad], read-only."""
+    b = np.frombuffer(bearings)
+    out = np.cos(b), np.sin(b)
+    for x in out:
+        x.flags.writeable = False
+    return out
+
+
+@lru_cache(maxsize=8)
+def _breakpoints(bearings: bytes, angle: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For the bearings (float64 bytes) [rad] and lambda ``angle`` [rad]: which neighbours are less than lambda
+    apart, and for those sin(dphi) and sin(lambda - dphi), read-only.
+
+    Raises:
+        ValueError: bearings not finite or not increasing.
+    """
+    b = np.frombuffer(bearings)
+    if not (np.isfinite(b).all() and (np.diff(b) > 0).all()):
+        raise ValueError("a scan's bearings must be finite and increasing [rad]: give the rays in scan order")
+    dphi = np.diff(b)
+    near = dphi < angle
+    out = near, np.sin(dphi[near]), np.sin(angle - dphi[near])
+    for x in out:
+        x.flags.writeable = False
+    return out

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -14,6 +15,7 @@ from vilma.core.geometry import wrap_angle
 from vilma.perception.boxes import BOX_LENGTH, BOX_WIDTH, BOX_X, BOX_Y, BOX_YAW
 
 _H = np.eye(2, 4)  # the boxes measure the position of the state x, y, vx, vy
+_I2, _I4 = np.eye(2), np.eye(4)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -105,8 +107,10 @@ class Tracker:
                              "give the scans in time order (or reset)")
         self._predict(0.0 if self._stamp_ns is None else (stamp_ns - self._stamp_ns) * 1e-9)
         self._stamp_ns = stamp_ns
-        rows, cols = self._associate(boxes[:, [BOX_X, BOX_Y]])
-        self._correct(rows, boxes[cols])
+        S_inv = self._innovation_inverse(self._P) if len(boxes) and len(self._id) else None
+        rows, cols = self._associate(boxes[:, [BOX_X, BOX_Y]], S_inv)
+        if len(rows):
+            self._correct(rows, boxes[cols], S_inv[rows])
         self._scans += 1
         hit = np.zeros(len(self._id), bool)
         hit[rows] = True
@@ -114,7 +118,10 @@ class Tracker:
         self._misses = np.where(hit, 0, self._misses + 1)
         self._confirmed |= self._hits >= self.params.confirm_hits
         self._prune()
-        self._birth(np.delete(boxes, cols, axis=0), stamp_ns)
+        if len(cols) < len(boxes):
+            free = np.ones(len(boxes), bool)
+            free[cols] = False
+            self._birth(boxes[free], stamp_ns)
         return self.tracks()
 
     def tracks(self) -> list[Track]:
@@ -126,41 +133,40 @@ class Tracker:
     def _predict(self, dt: float) -> None:
         """Move the tracks ``dt`` [s] on at constant velocity (discrete white-noise acceleration, Bar-Shalom et
         al. 2001, eq. 6.3.2-4)."""
-        F = np.eye(4)
-        F[0, 2] = F[1, 3] = dt
-        q = self.params.acceleration_noise ** 2 * np.array([[dt ** 4 / 4, dt ** 3 / 2], [dt ** 3 / 2, dt ** 2]])
-        Q = np.zeros((4, 4))
-        Q[np.ix_([0, 2], [0, 2])] = Q[np.ix_([1, 3], [1, 3])] = q
-        self._x = self._x @ F.T
-        self._P = F @ self._P @ F.T + Q
+        if len(self._id):
+            F, Q = _motion(dt, self.params.acceleration_noise)
+            self._x = self._x @ F.T
+            self._P = F @ self._P @ F.T + Q
 
     def _innovation_inverse(self, P: np.ndarray) -> np.ndarray:
         """The inverses of the innovation covariances of tracks of covariances ``P`` (n, 4, 4), (n, 2, 2)."""
-        return np.linalg.inv(P[:, :2, :2] + self.params.position_noise ** 2 * np.eye(2))
+        return np.linalg.inv(P[:, :2, :2] + self.params.position_noise ** 2 * _I2)
 
-    def _associate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The pairs (track rows, box rows) of least total squared Mahalanobis distance, each within the gate."""
+    def _associate(self, z: np.ndarray, S_inv: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The pairs (track rows, box rows) of least total squared Mahalanobis distance, each within the gate, of
+        the boxes' centres ``z`` (m, 2) and the tracks of innovation covariances' inverses ``S_inv`` (n, 2, 2)."""
         if len(self._id) == 0 or len(z) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        y, S_inv = z[None] - self._x[:, None, :2], self._innovation_inverse(self._P)
+        y = z[None] - self._x[:, None, :2]
         d2 = np.einsum("nmi,nij,nmj->nm", y, S_inv, y)
         gated = d2 <= self.params.gate
-        rows, cols = linear_sum_assignment(np.where(gated, d2, 1e3 * self.params.gate))  # outside: never chosen
-        keep = gated[rows, cols]                                                          # over a gated pair
+        if gated.shape == (1, 1):  # one track, one box: the one pair (scipy's answer, without its cost)
+            rows = cols = np.zeros(1, np.int64)
+        else:
+            rows, cols = linear_sum_assignment(np.where(gated, d2, 1e3 * self.params.gate))  # outside: never chosen
+        keep = gated[rows, cols]                                                              # over a gated pair
         return rows[keep], cols[keep]
 
-    def _correct(self, rows: np.ndarray, boxes: np.ndarray) -> None:
-        """The Kalman update of the tracks ``rows`` with their boxes, and their yaw and size."""
-        if len(rows) == 0:
-            return
+    def _correct(self, rows: np.ndarray, boxes: np.ndarray, S_inv: np.ndarray) -> None:
+        """The Kalman update of the tracks ``rows`` with their boxes, and their yaw and size; ``S_inv`` (rows, 2, 2)
+        are their innovation covariances' inverses."""
         x, P = self._x[rows], self._P[rows]
         y = boxes[:, [BOX_X, BOX_Y]] - x[:, :2]
-        K = P[:, :, :2] @ self._innovation_inverse(P)
-        self._x[rows] = x + np.einsum("nij,nj->ni", K, y)
-        self._P[rows] = (np.eye(4) - K @ _H) @ P
-        speed = np.hypot(self._x[rows, 2], self._x[rows, 3])
-        ref = np.where(speed >= self.params.heading_speed, np.arctan2(self._x[rows, 3], self._x[rows, 2]),
-                       self._yaw[rows])
+        K = P[:, :, :2] @ S_inv
+        self._x[rows] = x = x + np.einsum("nij,nj->ni", K, y)
+        self._P[rows] = (_I4 - K @ _H) @ P
+        speed = np.hypot(x[:, 2], x[:, 3])
+        ref = np.where(speed >= self.params.heading_speed, np.arctan2(x[:, 3], x[:, 2]), self._yaw[rows])
         yaw, size = _aligned(boxes, ref)
         self._yaw[rows] = yaw
         self._size[rows] = np.maximum(self._size[rows], size)
@@ -169,6 +175,8 @@ class Tracker:
         """Drop the tracks missed too often and those not confirmed in time."""
         p = self.params
         keep = (self._misses < p.max_misses) & (self._confirmed | (self._scans < p.confirm_scans))
+        if keep.all():
+            return
         for name in ("_id", "_x", "_P", "_yaw", "_size", "_born_ns", "_scans", "_hits", "_misses", "_confirmed"):
             setattr(self, name, getattr(self, name)[keep])
 
@@ -187,6 +195,19 @@ class Tracker:
                "_misses": np.zeros(n, np.int64), "_confirmed": np.full(n, p.confirm_hits <= 1)}
         for name, value in new.items():
             setattr(self, name, np.concatenate([getattr(self, name), value]))
+
+
+@lru_cache(maxsize=16)  # a scan's dt is nearly always the laser's period
+def _motion(dt: float, acceleration_noise: float) -> tuple[np.ndarray, np.ndarray]:
+    """The constant-velocity model's transition F and process noise Q (4, 4) over ``dt`` [s] for the acceleration
+    noise's standard deviation [m/s^2] (read-only: shared by the scans)."""
+    F = np.eye(4)
+    F[0, 2] = F[1, 3] = dt
+    q = acceleration_noise ** 2 * np.array([[dt ** 4 / 4, dt ** 3 / 2], [dt ** 3 / 2, dt ** 2]])
+    Q = np.zeros((4, 4))
+    Q[np.ix_([0, 2], [0, 2])] = Q[np.ix_([1, 3], [1, 3])] = q
+    F.flags.writeable = Q.flags.writeable = False
+    return F, Q
 
 
 def _aligned(boxes: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
