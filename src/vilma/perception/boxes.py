@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vilma.core.geometry import wrap_angle
+from vilma.core.geometry import wrap
 
 BOX_X, BOX_Y, BOX_YAW, BOX_LENGTH, BOX_WIDTH = range(5)
 """Columns of a box: centre x, y [m], yaw [rad] of its length, length and width [m] (length >= width)."""
@@ -56,8 +56,16 @@ def _closeness(xy, c, s, d0):
 
 
 @njit(cache=True)
-def _fit(xy, starts, step, d0, out):
-    """Fit a box into ``out[k]`` to the points ``xy[starts[k]:starts[k + 1]]`` of each cluster ``k``."""
+def _fit(local, starts, pose, step, d0, out):
+    """Fit a box into ``out[k]`` to the points ``local[starts[k]:starts[k + 1]]`` (laser frame) of each cluster
+    ``k``, in the world frame of the laser at ``pose`` (x, y [m], yaw [rad]), its yaw in (-pi/2, pi/2] (a box turned
+    by pi looks the same)."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    xy = np.empty_like(local)
+    for i in range(local.shape[0]):
+        xy[i, 0] = x + c * local[i, 0] - s * local[i, 1]
+        xy[i, 1] = y + s * local[i, 0] + c * local[i, 1]
     angles = math.ceil(math.pi / 2 / step)
     for k in range(starts.shape[0] - 1):
         pts = xy[starts[k]:starts[k + 1]]
@@ -73,9 +81,9 @@ def _fit(xy, starts, step, d0, out):
         out[k, 0], out[k, 1] = m1 * c - m2 * s, m1 * s + m2 * c
         e1, e2 = c1.max() - c1.min(), c2.max() - c2.min()
         if e1 >= e2:
-            out[k, 2], out[k, 3], out[k, 4] = theta, e1, e2
+            out[k, 2], out[k, 3], out[k, 4] = wrap(2 * theta) / 2, e1, e2
         else:
-            out[k, 2], out[k, 3], out[k, 4] = theta + math.pi / 2, e2, e1
+            out[k, 2], out[k, 3], out[k, 4] = wrap(2 * (theta + math.pi / 2)) / 2, e2, e1
 
 
 def fit_boxes(points: np.ndarray, clusters: list[np.ndarray], pose: tuple[float, float, float],
@@ -91,18 +99,16 @@ def fit_boxes(points: np.ndarray, clusters: list[np.ndarray], pose: tuple[float,
     The box is the smallest rectangle at the best orientation around the points: it spans only the faces the laser
     saw (one face seen gives a width of about zero).
     """
-    x, y, yaw = pose
-    c, s = math.cos(yaw), math.sin(yaw)
     rays = np.concatenate(clusters) if clusters else np.zeros(0, np.int64)
     local = points[rays]
-    if not (all(len(k) for k in clusters) and np.isfinite(local).all()):
+    sizes = [len(k) for k in clusters]
+    if not (all(sizes) and np.isfinite(local).all()):
         raise ValueError("each cluster to fit a box to needs one ray or more, all with returns (finite points): "
                          "give the clusters of segment()")
-    world = np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
-    starts = np.concatenate([[0], np.cumsum([len(k) for k in clusters], dtype=np.int64)])
+    starts = np.zeros(len(clusters) + 1, np.int64)
+    np.cumsum(sizes, out=starts[1:])
     out = np.empty((len(clusters), 5))
-    _fit(world, starts, params.angle_step, params.min_distance, out)
-    out[:, BOX_YAW] = wrap_angle(2 * out[:, BOX_YAW]) / 2  # to (-pi/2, pi/2]: a box turned by pi looks the same
+    _fit(local, starts, (float(pose[0]), float(pose[1]), float(pose[2])), params.angle_step, params.min_distance, out)
     return out
 
 

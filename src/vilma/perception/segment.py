@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from itertools import pairwise
 
 import numpy as np
 
@@ -65,8 +66,8 @@ def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = Se
     reach[near] = ranges[:-1][near] * sin_dphi / sin_rest + 3 * params.range_noise
     joined = np.concatenate([[False], gap <= reach])  # whether each ray joins the cluster of the ray before
     hit = np.flatnonzero(np.isfinite(ranges))
-    starts = np.flatnonzero(~joined[hit]).tolist() + [len(hit)]
-    return [hit[a:b] for a, b in zip(starts[:-1], starts[1:], strict=True) if b - a >= params.min_points]
+    starts = [*np.flatnonzero(~joined[hit]).tolist(), len(hit)]  # the first is 0: hit[0] joins no ray before it
+    return [hit[a:b] for a, b in pairwise(starts) if b - a >= params.min_points]
 
 
 @lru_cache(maxsize=8)  # a laser's bearings are the same each scan
