@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import accumulate
 
 import numpy as np
 from numba import njit
@@ -105,8 +106,7 @@ def fit_boxes(points: np.ndarray, clusters: list[np.ndarray], pose: tuple[float,
     if not (all(sizes) and np.isfinite(local).all()):
         raise ValueError("each cluster to fit a box to needs one ray or more, all with returns (finite points): "
                          "give the clusters of segment()")
-    starts = np.zeros(len(clusters) + 1, np.int64)
-    np.cumsum(sizes, out=starts[1:])
+    starts = np.fromiter(accumulate(sizes, initial=0), np.int64, len(sizes) + 1)
     out = np.empty((len(clusters), 5))
     _fit(local, starts, (float(pose[0]), float(pose[1]), float(pose[2])), params.angle_step, params.min_distance, out)
     return out

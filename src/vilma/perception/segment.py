@@ -38,7 +38,10 @@ def scan_points(ranges: np.ndarray, bearings: np.ndarray) -> np.ndarray:
     bearings = np.asarray(bearings, float)
     cos, sin = _trig(bearings.tobytes())
     r = np.where(np.isfinite(ranges), ranges, np.nan)  # inf * cos(pi / 2) would warn
-    return np.stack([r * cos.reshape(bearings.shape), r * sin.reshape(bearings.shape)], axis=-1)
+    points = np.empty((*r.shape, 2))
+    np.multiply(r, cos.reshape(bearings.shape), out=points[..., 0])
+    np.multiply(r, sin.reshape(bearings.shape), out=points[..., 1])
+    return points
 
 
 def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = SegmentParams()) -> list[np.ndarray]:
