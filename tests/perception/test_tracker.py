@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -51,6 +52,25 @@ def test_a_target_at_constant_velocity_is_tracked_within_the_filters_steady_cova
     # error of the 2-D velocity is at most the trace of its velocity block
     assert math.sqrt(np.mean(np.square(errors))) <= 2 * math.sqrt(steady[2, 2] + steady[3, 3])
     assert t.yaw == pytest.approx(math.atan2(v[1], v[0]), abs=1e-12) and t.age == pytest.approx(9.9)
+
+
+def test_scans_at_irregular_intervals_each_predict_over_their_own_interval():
+    """Scans 0.1, 0.05, 0.1 and 0.25 s apart (the model of each interval made once and kept): the track's
+    covariance is the Kalman filter's, each prediction over its own interval (Bar-Shalom et al. 2001, eq. 6.3.2-4)."""
+    p = TrackerParams(confirm_hits=1)
+    tracker, R = Tracker(p), p.position_noise ** 2 * np.eye(2)
+    P = np.diag([p.position_noise ** 2] * 2 + [p.initial_speed ** 2] * 2)  # a new track's
+    tracker.update(0, [box(10.0, 0.0)])
+    stamps = [0, DT_NS, DT_NS + DT_NS // 2, 2 * DT_NS + DT_NS // 2, 5 * DT_NS]
+    for before, now in pairwise(stamps):
+        dt = (now - before) * 1e-9
+        F = np.kron(np.array([[1.0, dt], [0.0, 1.0]]), np.eye(2))
+        G = np.kron(np.array([[dt ** 2 / 2], [dt]]), np.eye(2))
+        P = F @ P @ F.T + p.acceleration_noise ** 2 * G @ G.T
+        K = P[:, :2] @ np.linalg.inv(P[:2, :2] + R)
+        P = (np.eye(4) - K @ np.eye(2, 4)) @ P
+        (t,) = tracker.update(now, [box(10.0, 0.0)])
+        np.testing.assert_allclose(t.covariance, P, rtol=1e-9, atol=1e-12)
 
 
 def test_two_crossing_targets_keep_their_ids():
