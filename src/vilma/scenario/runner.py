@@ -20,7 +20,7 @@ from numba.core.event import TimingListener, install_listener
 from vilma.control.driver import Driver
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.fields import SpecError
-from vilma.scenario.lockstep import CompiledDrive, compiled_ok, run_compiled
+from vilma.scenario.lockstep import CompiledDrive, advance_by_kernel, compiled_ok, run_compiled
 from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, plain, scorecard, timing
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
@@ -148,7 +148,7 @@ class Car:
         """Take the first readings (the estimator starts) and give the driver its task; :attr:`periods` are then
         left to drive."""
         s, sim, period = self.scenario, self.sim, self.driver.period_ticks
-        self.step(sim.advance(period))
+        self.step(advance_by_kernel(sim, period))
         task = start_task(self.driver, s, self.path)
         self.t_start = sim.time_ns * 1e-9
         if task is not None:
