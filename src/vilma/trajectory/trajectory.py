@@ -51,15 +51,15 @@ def _project_track(xy, seg, seg_len, s0, heading, pts, window, jump):
     """Project a sequence of points, each searched near the previous one (all segments when it is lost)."""
     n, m = pts.shape[0], seg.shape[0]
     out = np.empty((n, 3))  # s, cross-track, heading
-    prev = -1
+    prev, first = -1, np.int64(0)  # an int64, not the literal 0: one compiled _nearest for this and path_project
     for k in range(n):
         x, y = pts[k, 0], pts[k, 1]
         if prev < 0:
-            i, t, d = _nearest(xy, seg, seg_len, x, y, 0, m)
+            i, t, d = _nearest(xy, seg, seg_len, x, y, first, m)
         else:
             i, t, d = _nearest(xy, seg, seg_len, x, y, max(0, prev - window), min(m, prev + window + 1))
             if d > jump * jump:
-                i, t, d = _nearest(xy, seg, seg_len, x, y, 0, m)
+                i, t, d = _nearest(xy, seg, seg_len, x, y, first, m)
         prev = i
         h = heading[i]
         px, py = xy[i, 0] + t * seg[i, 0], xy[i, 1] + t * seg[i, 1]
