@@ -39,7 +39,7 @@ def vilma(config: SimConfig, read: bool = False) -> float:
     for _ in range(round(SIM_SECONDS / FRAME)):
         readings = sim.run_for(FRAME)
         if read:
-            readings = [(r.stamps, r.values) for r in readings.values()]
+            readings = [(r.stamp_ns, r.values) for r in readings.values()]
     return time.perf_counter() - t0
 
 
