@@ -200,6 +200,9 @@ def test_when_even_the_emergency_stop_collides_it_swerves_within_the_tyres_grip_
 def test_the_evasive_end_offsets_are_the_lateral_ones_and_every_half_metre_between_their_extremes():
     params = dataclasses.replace(P, lateral_offsets=(-1.2, 0.0, 1.0))
     assert params.evasive_offsets == pytest.approx((-1.2, -0.7, -0.2, 0.0, 0.3, 0.8, 1.0))
+    wide = dataclasses.replace(P, lateral_offsets=(-60.0, 0.0, 60.0), evasive_grip=0.0)  # no evasive tier to sample
+    assert wide.candidate_count == 3 * len(P.lateral_durations) * len(P.position_offsets) * (
+        len(P.position_durations) + 1)
 
 
 def test_when_no_candidate_is_feasible_it_stops_at_the_comfortable_deceleration():
@@ -292,6 +295,7 @@ def test_the_separating_axis_check_agrees_with_polygon_intersection(x, y, yaw_a,
     ({"replan_period": 4.0}, "longer than the horizon"),
     ({"margin": -0.1}, "planner margin must be >= 0"),
     ({"evasive_grip": 1.5}, "planner evasive_grip must be within 0 .. 1"),
+    ({"lateral_offsets": (-60.0, 0.0, 60.0)}, "evasive tier's end offsets are every 0.5 m"),
     ({"position_offsets": (0.0, 1.0)}, "position_offsets must be <= 0 m"),
 ])
 def test_bad_parameters_are_a_one_line_error(change, message):

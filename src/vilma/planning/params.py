@@ -117,8 +117,10 @@ class PlannerParams:
             raise ValueError(f"planner evasive_grip must be within 0 .. 1 (a fraction of the tyres' grip), got "
                              f"{self.evasive_grip!r}")
         if self.candidate_count > MAX_CANDIDATES:
+            evasive = (f" (the evasive tier's end offsets are every {EVASIVE_SPACING:g} m between the extreme lateral "
+                       "offsets: narrow them, or set evasive_grip: 0)") if self.evasive_grip > 0 else ""
             raise ValueError(f"planner samples {self.candidate_count} candidates, over the limit of "
-                             f"{MAX_CANDIDATES}; sample fewer offsets, speeds or durations")
+                             f"{MAX_CANDIDATES}; sample fewer offsets, speeds or durations{evasive}")
 
     @property
     def steps(self) -> int:
