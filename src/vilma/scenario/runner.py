@@ -223,10 +223,11 @@ class Car:
     def loop(self, realtime: float | None, compiled: bool) -> None:
         """After :meth:`begin`: step until the task is done or time is up, compiled if it may (see :func:`run`)."""
         sim, driver, period = self.sim, self.driver, self.driver.period_ticks
-        if realtime is None and compiled and self.planning is not None and compiled_ok(sim, driver, planned=True):
-            self.loop_planned()
-        elif realtime is None and compiled and self.planning is None and compiled_ok(sim, driver):
-            run_compiled(sim, driver, self.log, self.periods, self.follows, self.block_taker)
+        if realtime is None and compiled and compiled_ok(sim, driver, planned=self.planning is not None):
+            if self.planning is not None:
+                self.loop_planned()
+            else:
+                run_compiled(sim, driver, self.log, self.periods, self.follows, self.block_taker)
         elif realtime is None:
             for _ in range(self.periods):
                 if self.finished():

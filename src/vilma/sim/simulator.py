@@ -15,7 +15,7 @@ import logging
 import math
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -36,9 +36,6 @@ from vilma.vehicle.integrate import INTEGRATORS, constrain, empty_records
 from vilma.vehicle.params import plant_consts
 from vilma.vehicle.state import N3, NX, NZ, VX, YAW, VehicleState, X, Y
 from vilma.world.idm import IdmArrays
-
-if TYPE_CHECKING:  # the roads extra
-    pass
 
 log = logging.getLogger(__name__)
 
