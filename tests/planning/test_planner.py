@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from vilma.planning import FrenetFrame, FrenetState, PlannerParams, RoadBounds, Status, plan
 from vilma.planning.params import MAX_CANDIDATES, MAX_STEPS
 from vilma.planning.planner import boxes_overlap
-from vilma.trajectory import Trajectory
+from vilma.trajectory import Arrival, Trajectory
 
 P = PlannerParams()
 CAR = P.vehicle
@@ -241,6 +241,26 @@ def test_a_far_goal_at_speed_is_approached_by_the_steady_slow_down():
     # only by the slow-down over 2 * 183.5 / 22 = 16.7 s, beyond every sampled duration
     p = plan(FrenetState(0.5, 22.0, 0.0, 0.0), STRAIGHT, NONE, dataclasses.replace(P, target_speed=22.0), goal=184.0)
     assert p.mode == "stop" and 0 < p.speed[-1] < 22.0
+
+
+def test_a_free_candidate_in_the_goals_window_is_chosen_over_cheaper_ones():
+    # 2 m left of the reference at 10 m/s: the cheapest return takes longer than 1.5 s, so the goal 15-25 m ahead,
+    # within 0.5 m of the reference and by 1.6 s, is reached only by the swiftest returns
+    start = FrenetState(0.0, 10.0, 0.0, 2.0, 0.0, 0.0)
+    window = Arrival((15.0, 25.0), (0.0, 1.6), d=((15.0, -0.5, 0.5), (25.0, -0.5, 0.5)))
+    cheapest = plan(start, STRAIGHT, NONE, P)
+    arrives = plan(start, STRAIGHT, NONE, P, arrivals=(window,))
+
+    def inside(p):
+        s, d = p.frenet[:, 0], p.frenet[:, 3]
+        return bool(np.any((p.t <= 1.6) & (s >= 15.0) & (s <= 25.0) & (np.abs(d) <= 0.5)))
+
+    assert not inside(cheapest) and inside(arrives)
+    assert arrives.cost > cheapest.cost and arrives.mode == "velocity"
+    _assert_within_limits([(0.0, arrives)])
+    # a window no candidate reaches changes nothing
+    missed = dataclasses.replace(window, t=(0.0, 0.5))
+    assert plan(start, STRAIGHT, NONE, P, arrivals=(missed,)).cost == cheapest.cost
 
 
 def test_a_tight_curve_beyond_the_steering_limit_is_infeasible():

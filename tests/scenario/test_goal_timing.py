@@ -19,7 +19,7 @@ from tests.scenario.commonroad_files import write_commonroad
 from vilma.scenario import parse_scenario
 from vilma.scenario.fields import load_yaml
 from vilma.scenario.runner import run
-from vilma.world.commonroad import EXTENSION_M, GOAL_SPACING_M, load
+from vilma.world.commonroad import ACROSS_SPACING_M, ACROSS_STEP_M, EXTENSION_M, GOAL_SPACING_M, load
 
 START_X, SPEED = 10.0, 10.0  # the ego's start [m] and speed [m/s]; no sign: the lanelets' speed is the start's
 GOAL_X = 60.0  # the goal rectangle's centre [m], 4 m long: 48-52 m of arc from the start
@@ -55,10 +55,15 @@ def test_the_path_runs_on_along_the_lanelet_that_follows_the_route(tmp_path):
     assert task.path[0] == pytest.approx([START_X, 0.0], abs=0.1)  # the reference path's point nearest the start
     assert task.path[-1, 0] == pytest.approx(100.0 + EXTENSION_M, abs=10.0)  # centre points every 10 m
     assert task.path[-1, 0] >= 100.0 + EXTENSION_M and np.all(task.path[:, 1] == 0.0)
-    (arc, time, speed), = task.arrivals
+    (arc, time, speed, across), = task.arrivals
     x0 = task.path[0, 0]
     assert arc == pytest.approx((GOAL_X - 2 - x0, GOAL_X + 2 - x0), abs=GOAL_SPACING_M)
     assert time == pytest.approx((5.0, 6.0)) and speed == (-np.inf, np.inf)
+    # the 4 m square across the path along its centre line: 2 m each side all along (its edges are outside)
+    s, lo, hi = np.array(across).T
+    assert s[0] == arc[0] and s[-1] == arc[1] and np.all(np.diff(s) <= ACROSS_SPACING_M + 1e-9)
+    assert lo == pytest.approx(np.full(len(s), -2.0), abs=ACROSS_STEP_M) and np.all(lo > -2.0)
+    assert hi == pytest.approx(np.full(len(s), 2.0), abs=ACROSS_STEP_M) and np.all(hi < 2.0)
 
 
 @pytest.mark.slow

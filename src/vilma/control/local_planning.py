@@ -21,7 +21,7 @@ from vilma.core.messages import Message, ObjectList, PointCloud, PoseEstimate
 from vilma.perception import SegmentParams, Track, Tracker, fit_boxes, laser_pose, predict, scan_points, segment
 from vilma.planning import NO_ROAD, FrenetFrame, FrenetState, Plan, PlannerParams, RoadBounds, plan
 from vilma.plant3d.laser import LaserParams
-from vilma.trajectory import Trajectory
+from vilma.trajectory import Arrival, Trajectory
 from vilma.vehicle.params import VehicleParams
 
 if TYPE_CHECKING:  # the roads extra
@@ -70,7 +70,8 @@ class LocalPlanning:
 
     ``kind`` is the perception: ``truth`` (the objects sensor's lists, topic ``objects``) or ``laser`` (the scans
     of ``laser``, topic ``laser``); ``path`` the route with its speeds, ending at the goal; ``road`` its road's
-    edges, if known.
+    edges, if known; ``arrivals`` the goal region's windows along ``path``, times on the sim clock (``arrivals`` of
+    :func:`~vilma.planning.plan`).
 
     Raises:
         ValueError: a laser perception without a laser, or a replan period that is not a whole number of driver
@@ -78,7 +79,7 @@ class LocalPlanning:
     """
 
     def __init__(self, params: PlannerParams, kind: str, laser: LaserParams | None, path: Trajectory,
-                 driver: Driver, road: RoadBounds = NO_ROAD) -> None:
+                 driver: Driver, road: RoadBounds = NO_ROAD, arrivals: tuple[Arrival, ...] = ()) -> None:
         if kind == "laser" and laser is None:
             raise ValueError("laser perception needs the laser sensor: start the driver with the scenario's laser")
         every = params.replan_period / driver.period
@@ -86,6 +87,7 @@ class LocalPlanning:
             raise ValueError(f"planner replan_period {params.replan_period:g} s is not a whole number of driver "
                              f"periods of {driver.period:g} s; make it one")
         self.params, self.kind, self.driver, self.path, self.road = params, kind, driver, path, road
+        self.arrivals = arrivals
         self._targeted = params  # the parameters of the last cycle (:meth:`_targeting`)
         self.frame = FrenetFrame(path)
         (self.goal,), _ = self.frame.to_frenet([path.xy[-1, 0]], [path.xy[-1, 1]])
@@ -139,7 +141,9 @@ class LocalPlanning:
         params = self._targeting(self._speed_ahead(est.x, est.y))
         state, keep = self._start(est, t, params)
         self.predicted = predict(self.tracks, params.times)
-        result = plan(state, self.frame, self.predicted, params, goal=self.goal, keep=keep, road=self.road)
+        ahead = tuple(dataclasses.replace(w, t=(w.t[0] - t, w.t[1] - t)) for w in self.arrivals if w.t[1] >= t)
+        result = plan(state, self.frame, self.predicted, params, goal=self.goal, keep=keep, road=self.road,
+                      arrivals=ahead)
         self.last_ms = spent = (time.perf_counter() - t0) * 1e3
         self.spent_ms = [self.spent_ms[0] + spent, max(self.spent_ms[1], spent)]
         self.cycles += 1

@@ -28,7 +28,7 @@ from numba import njit
 from vilma.planning.frenet import FrenetFrame, FrenetState, frame_pose, frenet_motion
 from vilma.planning.params import PlannerParams
 from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic
-from vilma.trajectory import Trajectory
+from vilma.trajectory import Arrival, Trajectory
 
 SLOWDOWN_HORIZONS = 100
 """The steady slow-down to a target is planned over at most this many horizons: longer, it keeps the speed over
@@ -337,10 +337,15 @@ def _check(state: FrenetState, objects: np.ndarray, p: PlannerParams) -> np.ndar
 
 
 def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerParams,
-         goal: float | None = None, keep: tuple[float, float] | None = None, road: RoadBounds = NO_ROAD) -> Plan:
+         goal: float | None = None, keep: tuple[float, float] | None = None, road: RoadBounds = NO_ROAD,
+         arrivals: tuple[Arrival, ...] = ()) -> Plan:
     """Plan from the car's ``state`` along ``reference`` among predicted ``objects`` (n_obj, n_t, 5: x, y [m],
     yaw [rad], length, width [m] at ``params.times``), stopping at arc length ``goal`` [m] if given, within the
     ``road``'s edges if given.
+
+    ``arrivals`` are a goal region's windows (along ``reference``, times from now): while some free candidate is
+    in one of them within the horizon, the cheapest of those is the plan (a CommonRoad goal is reached in its time
+    window, which no cost sees).
 
     ``keep``, a lateral motion's end offset [m] (one of the planner's) and the time left to it [s], is the lane
     change under way, sampled besides the lateral durations (Werling's consistent replanning). One leading away
@@ -356,13 +361,13 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     out infeasible by its curvature.
     """
     objects = _check(state, objects, params)
-    found, candidates = _search(state, reference, objects, params, goal, keep, road)
+    found, candidates = _search(state, reference, objects, params, goal, keep, road, arrivals)
     if found is not None:
         return found
     stop, collides = _fallback(state, reference, objects, params, candidates)
     if collides and params.evasive_grip > 0:
         evasive = params.evasive
-        found, _ = _search(state, reference, objects, evasive, goal, keep, road)
+        found, _ = _search(state, reference, objects, evasive, goal, keep, road, arrivals)
         if found is not None:
             return replace(found, mode="evasive", reason=f"{stop.reason}: swerving instead, at up to "
                                                          f"{evasive.max_lateral_accel:.1f} m/s^2 across")
@@ -370,7 +375,8 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
 
 
 def _search(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, params: PlannerParams,
-            goal: float | None, keep: tuple[float, float] | None, road: RoadBounds) -> tuple[Plan | None, Candidates]:
+            goal: float | None, keep: tuple[float, float] | None, road: RoadBounds,
+            arrivals: tuple[Arrival, ...]) -> tuple[Plan | None, Candidates]:
     """The cheapest free candidate's plan (None if none is free) and every candidate (:func:`plan`)."""
     stop = None if goal is None else _Target("stop", float(goal), 0.0)
     s, d = reference.to_frenet(objects[:, :2, 0], objects[:, :2, 1]) if len(objects) else (None, None)
@@ -396,6 +402,10 @@ def _search(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, par
     kept = np.concatenate([k.ravel() for k in kept])[free]
     if kept.any() and abs(keep[0]) > abs(state.d):
         free = free[kept]
+    if arrivals and len(free):
+        arrive = np.concatenate([_arriving(g[1], g[2], arrivals, params.times).ravel() for g in groups])[free]
+        if arrive.any():
+            free = free[arrive]
     if len(free) == 0:
         return None, candidates
     chosen = int(free[np.argmin(cost[free])])
@@ -407,6 +417,22 @@ def _search(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, par
     return Plan(params.times, *out[:, chosen], frenet, float(cost[chosen]),
                 "velocity" if target is None else target.mode, candidates,
                 lateral=(float(lateral[i, 0]), float(lateral[i, 1]))), candidates
+
+
+def _arriving(lat_m: np.ndarray, lon_m: np.ndarray, arrivals: tuple[Arrival, ...], t: np.ndarray) -> np.ndarray:
+    """Whether each pair of lateral and longitudinal motions (3, n, n_t: position, rate, acceleration) is in one of
+    the ``arrivals`` at one of the times ``t`` [s] (n_lat, n_lon)."""
+    s, v, d = lon_m[0], lon_m[1], lat_m[0]
+    out = np.zeros((d.shape[0], s.shape[0]), bool)
+    for w in arrivals:
+        on = ((t >= w.t[0]) & (t <= w.t[1]))[None] & (s >= w.s[0]) & (s <= w.s[1]) & (v >= w.v[0]) & (v <= w.v[1])
+        if not on.any():
+            continue
+        if w.d:
+            arc, lo, hi = np.asarray(w.d).T
+            on = on[None] & (d[:, None] >= np.interp(s, arc, lo)[None]) & (d[:, None] <= np.interp(s, arc, hi)[None])
+        out |= on.any(axis=-1)
+    return out
 
 
 def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p: PlannerParams,

@@ -20,7 +20,7 @@ from vilma.scenario.plan_keys import PLANNER, PLANNING_KEYS
 from vilma.scenario.result import PlanningLog
 from vilma.scenario.spec import Scenario
 from vilma.sim import SimConfig
-from vilma.trajectory import Trajectory
+from vilma.trajectory import Arrival, Trajectory
 from vilma.world.states import YAW, V, X, Y
 
 if TYPE_CHECKING:  # the roads extra
@@ -45,8 +45,10 @@ class Planning(LocalPlanning):
 
     def __init__(self, scenario: Scenario, path: Trajectory, driver: Driver, sim: SimConfig,
                  observed: bool = True) -> None:
+        road = scenario.road
         super().__init__(scenario.planner, scenario.perception, sim.laser, path, driver,
-                         _road_bounds(scenario.road.network, path.xy.tobytes()) if scenario.road else NO_ROAD)
+                         _road_bounds(road.network, path.xy.tobytes()) if road else NO_ROAD,
+                         tuple(Arrival(*w) for w in road.arrivals) if road else ())
         self.sim, self.observed = sim, observed
         self.frames: list[MotFrame] = []
         self.log = PlanningLog()

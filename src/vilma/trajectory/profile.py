@@ -38,11 +38,14 @@ def speed_profile(path: Trajectory, speed: float | None, max_lateral_accel: floa
 @dataclass(frozen=True, slots=True)
 class Arrival:
     """A window to be in: arc lengths along the path [m], times from its start [s], speeds [m/s] (closed
-    intervals), as a CommonRoad goal's position, time and velocity."""
+    intervals), as a CommonRoad goal's position, time and velocity; and the offsets across the path within it."""
 
     s: tuple[float, float]
     t: tuple[float, float]
     v: tuple[float, float] = (-math.inf, math.inf)
+    d: tuple[tuple[float, float, float], ...] = ()
+    """The position's extent across the path: at arcs ``s`` [m] along the window, the offsets [m] (left positive)
+    ``lo`` .. ``hi`` inside it, as ``(s, lo, hi)`` rows (interpolated between them); none: any offset."""
 
 
 def arrival_profile(path: Trajectory, v0: float, accel: float, decel: float,

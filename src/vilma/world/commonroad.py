@@ -40,6 +40,12 @@ the car is not already braking to its final stop in a goal region at the route's
 2 m/s^2)."""
 GOAL_SPACING_M = 0.1
 """Spacing [m] of the path samples that locate a goal region along the path."""
+ACROSS_SPACING_M = 0.5
+"""Spacing [m] along the path of the lines across it that measure a goal region's width."""
+ACROSS_STEP_M = 0.05
+"""Resolution [m] of a goal region's extent across the path."""
+ACROSS_REACH_M = 20.0
+"""Farthest [m] a goal region's extent is measured from the path, each side."""
 MAX_FILE_BYTES = 64 << 20
 """The largest scenario file read [bytes] (the benchmark's largest are a few MB)."""
 
@@ -118,7 +124,8 @@ class EgoTask:
     """The planning problem's goal region (position, orientation, velocity, time intervals)."""
     arrivals: tuple = field(compare=False)
     """Each goal state's windows along :attr:`path`: ((arc lo, hi) [m], (time lo, hi) [s from the initial
-    state], (speed lo, hi) [m/s]), for a speed profile timed to arrive (a state the path misses left out)."""
+    state], (speed lo, hi) [m/s], its extent across the path), the fields of :class:`~vilma.trajectory.Arrival`,
+    for a speed profile timed to arrive and a plan that arrives (a state the path misses left out)."""
     time_step: int
     """The initial state's time step."""
     dt: float
@@ -244,7 +251,8 @@ def _arrivals(goal: GoalRegion, xy: np.ndarray, time_step: int, dt: float) -> tu
     x, y = np.interp(s, arc, xy[:, 0]), np.interp(s, arc, xy[:, 1])
     out = []
     for state in goal.state_list:
-        inside = contains_xy(_geometry(state.position), x, y) if state.has_value("position") else np.ones(len(s), bool)
+        where = _geometry(state.position) if state.has_value("position") else None
+        inside = np.ones(len(s), bool) if where is None else contains_xy(where, x, y)
         if not inside.any():
             continue
         first = int(inside.argmax())
@@ -252,8 +260,30 @@ def _arrivals(goal: GoalRegion, xy: np.ndarray, time_step: int, dt: float) -> tu
         last = first + (int(rest.argmax()) if rest.any() else len(rest)) - 1
         steps, speed = state.time_step, state.velocity if state.has_value("velocity") else None  # time: mandatory
         out.append(((float(s[first]), float(s[last])), ((steps.start - time_step) * dt, (steps.end - time_step) * dt),
-                    (-np.inf, np.inf) if speed is None else (float(speed.start), float(speed.end))))
+                    (-np.inf, np.inf) if speed is None else (float(speed.start), float(speed.end)),
+                    () if where is None else _across(where, s[first:last + 1], x[first:last + 1], y[first:last + 1])))
     return tuple(out)
+
+
+def _across(where, s: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple:
+    """The extent of the shape ``where`` across a stretch of path inside it (arcs ``s``, points ``x``, ``y`` [m]):
+    ``(s, lo, hi)`` rows every :data:`ACROSS_SPACING_M` and at the stretch's end, the offsets [m] (left positive)
+    of the run of a line across the path, through its point, that lies inside."""
+    keep = np.unique(np.append(np.searchsorted(s, np.arange(s[0], s[-1], ACROSS_SPACING_M)), len(s) - 1))
+    heading = np.arctan2(np.gradient(y), np.gradient(x))[keep] if len(s) > 1 else np.zeros(1)
+    centre = round(ACROSS_REACH_M / ACROSS_STEP_M)  # the index of d = 0, the path's point
+    d = ACROSS_STEP_M * np.arange(-centre, centre + 1)
+    across = np.column_stack([-np.sin(heading), np.cos(heading)])  # the left normals
+    inside = contains_xy(where, x[keep, None] + across[:, :1] * d, y[keep, None] + across[:, 1:] * d)
+    rows = []
+    for k, row in zip(keep, inside, strict=True):
+        if not row[centre]:  # the path's point on the shape's edge
+            continue
+        out_left, out_right = ~row[centre:], ~row[centre::-1]
+        hi = d[centre + int(out_left.argmax()) - 1] if out_left.any() else d[-1]
+        lo = d[centre - int(out_right.argmax()) + 1] if out_right.any() else d[0]
+        rows.append((float(s[k]), float(lo), float(hi)))
+    return tuple(rows)
 
 
 def _geometry(shape):
