@@ -1,4 +1,4 @@
-"""The local planning's velocity target: the route's speed, braked to from ahead."""
+"""The local planning's velocity target (the route's speed, braked to from ahead) and its predictions."""
 
 import math
 
@@ -7,8 +7,10 @@ import pytest
 
 from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning, default_planner
+from vilma.perception import Track
 from vilma.trajectory import Trajectory
 from vilma.vehicle.params import vilma
+from vilma.world.lanes import Lanes
 
 CAR = vilma()
 
@@ -24,3 +26,21 @@ def test_the_target_is_the_lowest_speed_that_brakes_comfortably_to_the_routes_sp
     assert local._speed_ahead(35.0, 0.0) == pytest.approx(math.sqrt(4.0**2 + 2 * b * 5.0))  # 5 m before the bend
     assert local._speed_ahead(50.0, 0.0) == pytest.approx(4.0)
     assert local._speed_ahead(190.0, 0.0) == pytest.approx(10.0)  # the route's end at its own speed
+
+
+def test_tracks_moving_on_a_known_lane_are_predicted_along_each_way_on_and_the_others_straight_on():
+    # a lane east to 20 m forking into one on east and one north; a car on it at 10 m, 5 m/s, and one at walking pace
+    east, on, north = ([[0.0, 0.0], [20.0, 0.0]], [[20.0, 0.0], [60.0, 0.0]], [[20.0, 0.0], [20.0, 40.0]])
+    lanes = Lanes.of([east, on, north], [[3.5, 3.5]] * 3, [[1, 2], [], []])
+    path = Trajectory(np.column_stack([np.arange(0.0, 100.0), np.full(100, -3.5)]), np.full(100, 10.0))
+    params = default_planner(CAR)
+    local = LocalPlanning(params, "truth", None, path, Driver(CAR, step=0.01), lanes=lanes)
+    moving = Track(1, 10.0, 0.0, 0.0, 5.0, 0.0, 4.5, 1.8, np.eye(4), 1.0)
+    slow = Track(2, 5.0, 0.0, 0.0, 0.5, 0.0, 4.5, 1.8, np.eye(4), 1.0)
+    local.tracks = [moving, slow]
+    tracks, predicted = local._predict(params)
+    assert [t.id for t in tracks] == [1, 1, 2]
+    s = 5.0 * params.horizon  # 15 m on: 10 m to the fork, 5 m past it
+    np.testing.assert_allclose(predicted[0, -1, :3], [25.0, 0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(predicted[1, -1, :3], [20.0, s - 10.0, math.pi / 2], atol=1e-9)
+    np.testing.assert_allclose(predicted[2, -1, :2], [5.0 + 0.5 * params.horizon, 0.0])  # straight on

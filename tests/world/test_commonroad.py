@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.resources
+import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -150,3 +151,19 @@ def test_any_damaged_file_is_read_or_refused_in_one_line(tmp_path, cut, junk):
         load(p)
     except CommonRoadError as e:
         assert "\n" not in str(e) and str(p) in str(e)
+
+
+def test_the_lanes_are_the_lanelets_centres_and_widths_and_an_object_is_on_the_lane_of_its_direction():
+    road = load(OVER).network
+    lanes, lanelets = road.lanes, _lanelets(OVER)  # 1000 along +x, 1001 beside it the other way
+    ids = [lanelet.lanelet_id for lanelet in road.lanelets.lanelets]
+    for i, lid in enumerate(ids):
+        left, right = lanelets[lid]
+        np.testing.assert_allclose(lanes.centres[i], (left + right) / 2, atol=1e-9)
+        half = np.hypot(*(left - right).T) / 2  # a segment's: the wider of its ends'
+        np.testing.assert_allclose(lanes.half_width[lanes.lane == i], np.maximum(half[:-1], half[1:]), atol=1e-9)
+    assert lanes.successors == ((), ())
+    x, y = (lanelets[1000][0][40] + lanelets[1000][1][40]) / 2  # a point on 1000's centre
+    heading = math.atan2(*(lanelets[1000][0][41] - lanelets[1000][0][40])[::-1])
+    assert ids[lanes.lane[lanes.locate(x, y, heading)]] == 1000
+    assert lanes.locate(x, y, heading + math.pi) is None  # against 1000's direction and off 1001

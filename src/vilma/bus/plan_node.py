@@ -37,7 +37,8 @@ MAX_SPACING_RATIO = 1e6
 class PlanSetup:
     """How a driver node plans a ``plan`` order: the planner (None: :func:`default_planner` for the driver's car),
     the perception (``truth`` or ``laser``), the laser a ``laser`` perception reads, and the road network whose
-    edges the plans keep within (:func:`~vilma.control.local_planning.road_bounds`; None: unbounded)."""
+    edges the plans keep within (:func:`~vilma.control.local_planning.road_bounds`; None: unbounded) and whose lanes
+    the tracks are predicted along."""
 
     params: PlannerParams | None = None
     perception: str = "truth"
@@ -70,7 +71,7 @@ class LivePlan:
 
     def _publish(self, t_ns: int, result: Plan | None) -> None:
         if result is not None:
-            self.bus.publish(self._plans, local_plan(t_ns, result, self.local.tracks[:MAX_TRACKS],
+            self.bus.publish(self._plans, local_plan(t_ns, result, self.local.predicted_tracks[:MAX_TRACKS],
                                                      self.local.predicted[:MAX_TRACKS],
                                                      planning_ms=self.local.last_ms))
 
@@ -100,7 +101,8 @@ def start_plan(order: DriverOrder, driver: Driver, setup: PlanSetup, bus: Bus, c
         raise ValueError(f"goal {list(goal)} is behind the car on the route; give a goal ahead of it")
     params = setup.params or default_planner(driver.vehicle)
     road = NO_ROAD if setup.road is None else road_bounds(setup.road, route)
-    return LivePlan(bus, car, LocalPlanning(params, setup.perception, setup.laser, route, driver, road))
+    lanes = None if setup.road is None else setup.road.lanes
+    return LivePlan(bus, car, LocalPlanning(params, setup.perception, setup.laser, route, driver, road, lanes=lanes))
 
 
 def _route(order: DriverOrder, driver: Driver, est: PoseEstimate) -> Trajectory:

@@ -1,8 +1,9 @@
 """Local planning for the driver: each replan period perceive, predict, plan and hand the plan to the driver.
 
 Perception is ``truth`` (the objects sensor's noisy true objects taken as tracks with their velocities) or
-``laser`` (each scan segmented, boxed and tracked: :mod:`vilma.perception`). The tracks' futures are predicted at
-constant velocity over the planner's horizon and the plan (:func:`vilma.planning.plan`) starts from the car's
+``laser`` (each scan segmented, boxed and tracked: :mod:`vilma.perception`). The tracks' futures are predicted over
+the planner's horizon along each way on their lane where the road's lanes are known, else at constant velocity,
+and the plan (:func:`vilma.planning.plan`) starts from the car's
 estimated state in the route's Frenet frame; a planner with no free candidate stops the car (its fallback). The
 batch runner (:mod:`vilma.scenario.planned`, which scores it) and the bus's driver node run it alike.
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -23,6 +25,7 @@ from vilma.planning import NO_ROAD, FrenetFrame, FrenetState, Plan, PlannerParam
 from vilma.plant3d.laser import LaserParams
 from vilma.trajectory import Arrival, Trajectory
 from vilma.vehicle.params import VehicleParams
+from vilma.world.lanes import Lanes
 
 if TYPE_CHECKING:  # the roads extra
     from vilma.world.commonroad import RoadNetwork
@@ -46,6 +49,11 @@ STOP_REACH = 1.0
 """How near [m] the end of a plan that stops is for the car at a crawl to stop on it at once."""
 ROAD_SPACING = 0.5
 """How far apart along the route the road's edges are found [m]: a fraction of a car's length."""
+LANE_SPEED = 1.0
+"""A track slower than this [m/s] is predicted straight on (standing, its direction of motion is noise)."""
+LANE_REACH_STEP = 10.0
+"""A track's reach along its lane [m] (its speed over the horizon and its length) is rounded up to this, so that
+the tracks on a segment share their ways."""
 PREVIEW = 1.0
 """How far ahead in the plan the speed controller aims [s]: about the lag of a speed loop (pi_ff's 1 / kp, 0.83 s,
 and its shaped reference's)."""
@@ -71,7 +79,7 @@ class LocalPlanning:
     ``kind`` is the perception: ``truth`` (the objects sensor's lists, topic ``objects``) or ``laser`` (the scans
     of ``laser``, topic ``laser``); ``path`` the route with its speeds, ending at the goal; ``road`` its road's
     edges, if known; ``arrivals`` the goal region's windows along ``path``, times on the sim clock (``arrivals`` of
-    :func:`~vilma.planning.plan`).
+    :func:`~vilma.planning.plan`); ``lanes`` the road's lanes to predict along, if known.
 
     Raises:
         ValueError: a laser perception without a laser, or a replan period that is not a whole number of driver
@@ -79,7 +87,8 @@ class LocalPlanning:
     """
 
     def __init__(self, params: PlannerParams, kind: str, laser: LaserParams | None, path: Trajectory,
-                 driver: Driver, road: RoadBounds = NO_ROAD, arrivals: tuple[Arrival, ...] = ()) -> None:
+                 driver: Driver, road: RoadBounds = NO_ROAD, arrivals: tuple[Arrival, ...] = (),
+                 lanes: Lanes | None = None) -> None:
         if kind == "laser" and laser is None:
             raise ValueError("laser perception needs the laser sensor: start the driver with the scenario's laser")
         every = params.replan_period / driver.period
@@ -87,7 +96,7 @@ class LocalPlanning:
             raise ValueError(f"planner replan_period {params.replan_period:g} s is not a whole number of driver "
                              f"periods of {driver.period:g} s; make it one")
         self.params, self.kind, self.driver, self.path, self.road = params, kind, driver, path, road
-        self.arrivals = arrivals
+        self.arrivals, self.lanes = arrivals, lanes
         self._targeted = params  # the parameters of the last cycle (:meth:`_targeting`)
         self.frame = FrenetFrame(path)
         (self.goal,), _ = self.frame.to_frenet([path.xy[-1, 0]], [path.xy[-1, 1]])
@@ -98,7 +107,9 @@ class LocalPlanning:
         self.tracker = Tracker()
         self.tracks: list[Track] = []
         self.predicted = np.zeros((0, len(params.times), 5))
-        """The tracks' boxes the last plan was made among, (tracks, times, 5) (:func:`~vilma.perception.predict`)."""
+        """The tracks' boxes the last plan was made among, (futures, times, 5) (:func:`~vilma.perception.predict`)."""
+        self.predicted_tracks: list[Track] = []
+        """The track of each row of :attr:`predicted` (a track on a lane that forks has one a way)."""
         self.last: tuple[float, Plan] | None = None  # when the driven plan began [s], and the plan
         self.cycles = self.fallbacks = self.evasions = 0
         self.reason: str | None = None
@@ -140,7 +151,7 @@ class LocalPlanning:
         t0 = time.perf_counter()
         params = self._targeting(self._speed_ahead(est.x, est.y))
         state, keep = self._start(est, t, params)
-        self.predicted = predict(self.tracks, params.times)
+        self.predicted_tracks, self.predicted = self._predict(params)
         ahead = tuple(dataclasses.replace(w, t=(w.t[0] - t, w.t[1] - t)) for w in self.arrivals if w.t[1] >= t)
         result = plan(state, self.frame, self.predicted, params, goal=self.goal, keep=keep, road=self.road,
                       arrivals=ahead)
@@ -157,6 +168,22 @@ class LocalPlanning:
             path = Trajectory(path.xy, np.zeros(len(path)))  # the driver's stop on its end, now
         self.driver.drive_plan(path)
         return result
+
+    def _predict(self, params: PlannerParams) -> tuple[list[Track], np.ndarray]:
+        """The tracks' futures at the planner's times (:func:`~vilma.perception.predict`) and the track of each: a
+        track moving on a lane (:meth:`~vilma.world.lanes.Lanes.locate`) along each way on from there within its
+        reach over the horizon, the others straight on."""
+        if self.lanes is None:
+            return self.tracks, predict(self.tracks, params.times)
+        tracks, lanes = [], []
+        for track in self.tracks:
+            segment = None if track.speed < LANE_SPEED else self.lanes.locate(track.x, track.y,
+                                                                                 math.atan2(track.vy, track.vx))
+            ways = (None,) if segment is None else _ways(self.lanes, segment, math.ceil(
+                (track.speed * params.horizon + track.length) / LANE_REACH_STEP) * LANE_REACH_STEP)
+            tracks += [track] * len(ways)
+            lanes += ways
+        return tracks, predict(tracks, params.times, lanes)
 
     def _targeting(self, speed: float) -> PlannerParams:
         """The planner's parameters with the target ``speed`` [m/s]: made (and checked) again only when it changes,
@@ -206,6 +233,13 @@ class LocalPlanning:
     def at_goal(self, x: float, y: float, tolerance: float) -> bool:
         """Whether ``(x, y)`` [m] is within ``tolerance`` [m] of the goal."""
         return math.hypot(x - self.path.xy[-1, 0], y - self.path.xy[-1, 1]) <= tolerance
+
+
+@lru_cache(maxsize=256)
+def _ways(lanes: Lanes, segment: int, reach: float) -> tuple[Trajectory, ...]:
+    """The ways on from ``segment`` of ``lanes`` within ``reach`` [m] (:meth:`~vilma.world.lanes.Lanes.ahead`) as
+    trajectories, made once for the tracks on that segment."""
+    return tuple(Trajectory(xy) for xy in lanes.ahead(segment, reach))
 
 
 def _previewed(p: Plan, steps: int) -> Trajectory:

@@ -48,7 +48,8 @@ class Planning(LocalPlanning):
         road = scenario.road
         super().__init__(scenario.planner, scenario.perception, sim.laser, path, driver,
                          _road_bounds(road.network, path.xy.tobytes()) if road else NO_ROAD,
-                         tuple(Arrival(*w) for w in road.arrivals) if road else ())
+                         tuple(Arrival(*w) for w in road.arrivals) if road else (),
+                         road.network.lanes if road else None)
         self.sim, self.observed = sim, observed
         self.frames: list[MotFrame] = []
         self.log = PlanningLog()
@@ -79,9 +80,9 @@ class Planning(LocalPlanning):
             self.log.cycle_ms.append(self.last_ms)
             self.log.modes.append(result.mode)
             if self.observed:
-                self.messages.append(("planning/plan", local_plan(round(t * 1e9), result, self.tracks[:MAX_TRACKS],
-                                                                  self.predicted[:MAX_TRACKS], RECORDED_CANDIDATES,
-                                                                  self.last_ms)))
+                self.messages.append(("planning/plan", local_plan(
+                    round(t * 1e9), result, self.predicted_tracks[:MAX_TRACKS], self.predicted[:MAX_TRACKS],
+                    RECORDED_CANDIDATES, self.last_ms)))
         return result
 
     def _score(self, stamp_ns: int, centre: tuple[float, float], reach: float) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import stat
 import warnings
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from xml.etree.ElementTree import ParseError
 
@@ -32,6 +33,7 @@ with warnings.catch_warnings():  # commonroad-io's generated protobuf modules us
     from commonroad_route_planner.route_planner import RoutePlanner
     from shapely import LineString, Point, contains_xy, unary_union
 
+from vilma.world.lanes import Lanes
 from vilma.world.traffic import Traffic, traffic
 
 EXTENSION_M = 50.0
@@ -66,6 +68,15 @@ class RoadNetwork:
             signs = SupportedTrafficSignCountry.ZAMUNDA
         self._signs = TrafficSignInterpreter(signs, lanelets)
         self._road = unary_union([lanelet.polygon.shapely_object for lanelet in lanelets.lanelets])
+
+    @cached_property
+    def lanes(self) -> Lanes:
+        """The lanelets' centre lines, widths and successors, for prediction (:class:`~vilma.world.lanes.Lanes`)."""
+        lanelets = self.lanelets.lanelets
+        index = {lanelet.lanelet_id: i for i, lanelet in enumerate(lanelets)}
+        return Lanes.of([lanelet.center_vertices for lanelet in lanelets],
+                        [np.hypot(*(lanelet.left_vertices - lanelet.right_vertices).T) for lanelet in lanelets],
+                        [[index[j] for j in lanelet.successor if j in index] for lanelet in lanelets])
 
     def lanelet_at(self, x: float, y: float) -> int | None:
         """The id of a lanelet holding the point ``(x, y)`` [m] (the lowest where lanelets overlap), or None."""
