@@ -32,14 +32,16 @@ SCENES = ("perception/objects/scene", "planning/plan/scene")
 @functools.cache
 def planned_cycle() -> tuple[TrackList, LocalPlan]:
     """A planning cycle on a straight road at 15 m/s behind a standing lead (track 7, 4.5 m x 1.8 m at x 25 m,
-    yaw 0), with a car crossing ahead at 1 m/s (track 9, yaw pi/2): free, infeasible and colliding candidates."""
+    yaw 0), with a car crossing ahead at 1 m/s (track 9, yaw pi/2; two futures, straight on and along a lane that
+    turns right): free, infeasible and colliding candidates."""
     tracks = [Track(7, 25.0, 0.0, 0.0, 0.0, 0.0, 4.5, 1.8, np.diag([0.1, 0.2, 0.3, 0.4]), 2.5),
               Track(9, 20.0, 6.0, math.pi / 2, 0.0, 1.0, 4.0, 2.0, np.eye(4), 1.0)]
+    futures = [*tracks, tracks[1]]
     p = PlannerParams()
-    boxes = predict(tracks, p.times)
+    boxes = predict(futures, p.times, [None, None, Trajectory.from_points([(20.0, 5.0), (20.0, 7.0), (30.0, 7.0)])])
     cycle = plan(FrenetState(0.0, 15.0, 0.0, 0.0), FrenetFrame(Trajectory.from_points([(0.0, 0.0), (1000.0, 0.0)])),
                  boxes, p)
-    return track_list(STAMP_NS, "truth", tracks), local_plan(STAMP_NS, cycle, tracks, boxes)
+    return track_list(STAMP_NS, "truth", tracks), local_plan(STAMP_NS, cycle, futures, boxes)
 
 
 def _xy(points: list[dict]) -> np.ndarray:
@@ -93,9 +95,11 @@ def check_plan_scene(update: dict, cycle: LocalPlan) -> None:
         for line, xy in zip(lines, want, strict=True):
             np.testing.assert_array_equal(_xy(line["points"]), xy)
             assert line["thickness"] < chosen["thickness"]
-    for p in cycle.predictions:
-        (line,) = entities[f"prediction/{p.id}"]["lines"]
-        np.testing.assert_array_equal(_xy(line["points"]), np.column_stack([p.x, p.y]))
+    for i in {p.id for p in cycle.predictions}:  # a track's futures, in order
+        lines, want = entities[f"prediction/{i}"]["lines"], [p for p in cycle.predictions if p.id == i]
+        assert len(lines) == len(want)
+        for line, p in zip(lines, want, strict=True):
+            np.testing.assert_array_equal(_xy(line["points"]), np.column_stack([p.x, p.y]))
 
 
 def test_the_cycle_has_every_kind_of_candidate():

@@ -6,7 +6,7 @@ the ``map`` frame, written beside their topics (:data:`~vilma.record.schemas.COM
   ``ArrowPrimitive`` as long as :data:`ARROW_S` of travel, and its id as a ``TextPrimitive`` above it.
 - ``planning/plan/scene``, from each :class:`~vilma.core.messages.LocalPlan`: ``LINE_STRIP`` lines, the trajectory
   chosen (``plan/chosen``, thick), the candidates drawn by status (``plan/candidates/free``, ``.../infeasible``,
-  ``.../colliding``, thin) and the predicted futures (``prediction/<track id>``).
+  ``.../colliding``, thin) and the predicted futures (``prediction/<track id>``, a line a way on its lane).
 
 Each update first deletes the previous one's entities, and each entity lasts :data:`LIFETIME_S`: a planner that
 stops leaves nothing stale behind.
@@ -87,8 +87,10 @@ def plan_scene(plan: LocalPlan) -> dict:
         lines = [_strip(c.x, c.y, CANDIDATE[name], PATH_WIDTH) for c in plan.candidates if c.status == status]
         if lines:
             entities.append(scene_entity(f"plan/candidates/{name}", t, lines=lines))
-    entities += [scene_entity(f"prediction/{p.id}", t, lines=[_strip(p.x, p.y, PREDICTED, PATH_WIDTH)])
-                 for p in plan.predictions]
+    futures: dict[int, list] = {}  # a track's futures (one a way on its lane) in one entity
+    for p in plan.predictions:
+        futures.setdefault(p.id, []).append(_strip(p.x, p.y, PREDICTED, PATH_WIDTH))
+    entities += [scene_entity(f"prediction/{i}", t, lines=lines) for i, lines in futures.items()]
     return _update(t, entities)
 
 
