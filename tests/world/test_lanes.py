@@ -51,3 +51,20 @@ def test_a_loop_of_lanes_ends_where_it_meets_itself_and_the_ways_are_capped():
     many = Lanes.of([_line(0, 0, 10, 0)] + [_line(10, 0, 20, k) for k in range(6)], [np.full(11, 3.0)] * 7,
                     [list(range(1, 7))] + [[]] * 6)
     assert len(many.ahead(0, 50.0)) == MAX_BRANCHES
+
+
+def test_from_the_segment_it_was_on_an_object_stays_on_that_lane_while_it_is_on_it():
+    lanes = _fork()
+    was = lanes.locate(5.0, 0.5, 0.0)
+    # on along it, past its end (the successors, which overlap there: the nearest), turned round (the other lane)
+    for x, y, heading in ((7.5, 0.5, 0.0), (12.0, -1.0, 0.2), (21.0, 0.3, 0.0), (20.2, 3.0, 1.5), (5.0, 3.5, math.pi)):
+        assert lanes.locate(x, y, heading, near=was) == lanes.locate(x, y, heading)
+    # past a fork into one lane on east and one 30 degrees left, on the one east it stays on it where the other's
+    # centre line is nearer (0.15 m against 0.4 m)
+    c, s = math.cos(math.pi / 6), math.sin(math.pi / 6)
+    fork = Lanes.of([_line(0, 0, 20, 0), _line(20, 0, 40, 0), _line(20, 0, 20 + 20 * c, 20 * s)],
+                    [np.full(11, 3.5)] * 3, [[1, 2], [], []])
+    east = fork.locate(22.0, 0.05, 0.0)
+    assert fork.lane[east] == 1
+    assert fork.lane[fork.locate(21.0, 0.4, 0.3, near=east)] == 1
+    assert fork.lane[fork.locate(21.0, 0.4, 0.3)] == 2  # the whole search: the nearest centre line

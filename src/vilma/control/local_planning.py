@@ -97,6 +97,7 @@ class LocalPlanning:
                              f"periods of {driver.period:g} s; make it one")
         self.params, self.kind, self.driver, self.path, self.road = params, kind, driver, path, road
         self.arrivals, self.lanes = arrivals, lanes
+        self._on: dict[int, int] = {}  # the lane segment each track was on at the last cycle
         self._targeted = params  # the parameters of the last cycle (:meth:`_targeting`)
         self.frame = FrenetFrame(path)
         (self.goal,), _ = self.frame.to_frenet([path.xy[-1, 0]], [path.xy[-1, 1]])
@@ -175,14 +176,17 @@ class LocalPlanning:
         reach over the horizon, the others straight on."""
         if self.lanes is None:
             return self.tracks, predict(self.tracks, params.times)
-        tracks, lanes = [], []
+        tracks, lanes, on = [], [], {}
         for track in self.tracks:
-            segment = None if track.speed < LANE_SPEED else self.lanes.locate(track.x, track.y,
-                                                                                 math.atan2(track.vy, track.vx))
+            segment = None if track.speed < LANE_SPEED else self.lanes.locate(
+                track.x, track.y, math.atan2(track.vy, track.vx), self._on.get(track.id))
+            if segment is not None:
+                on[track.id] = segment
             ways = (None,) if segment is None else _ways(self.lanes, segment, math.ceil(
                 (track.speed * params.horizon + track.length) / LANE_REACH_STEP) * LANE_REACH_STEP)
             tracks += [track] * len(ways)
             lanes += ways
+        self._on = on
         return tracks, predict(tracks, params.times, lanes)
 
     def _targeting(self, speed: float) -> PlannerParams:

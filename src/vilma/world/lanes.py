@@ -15,6 +15,8 @@ import numpy as np
 
 LANE_HEADING = math.radians(45.0)
 """Most angle between an object's motion and the lane it is on [rad]."""
+NEAR_SEGMENTS = 8
+"""How many segments on from the one an object was on :meth:`Lanes.locate` looks at first."""
 MAX_BRANCHES = 4
 """Most ways on a lane leads within the reach asked (the first found, depth first)."""
 
@@ -47,9 +49,16 @@ class Lanes:
         return cls(centres, tuple(tuple(int(j) for j in s) for s in successors), a, b, lane.astype(np.int64),
                    point.astype(np.int64), half)
 
-    def locate(self, x: float, y: float, heading: float) -> int | None:
+    def locate(self, x: float, y: float, heading: float, near: int | None = None) -> int | None:
         """The segment an object at ``(x, y)`` [m] moving towards ``heading`` [rad] is on: the nearest within half
-        its lanelet's width whose direction is within :data:`LANE_HEADING` of the motion; None if none."""
+        its lanelet's width whose direction is within :data:`LANE_HEADING` of the motion; None if none. With
+        ``near`` (the segment it was on), the object stays on that lanelet while it is still on one of its segments
+        from ``near`` to :data:`NEAR_SEGMENTS` on (projecting within one, not past its ends): a few scalars, not
+        the whole network, and no hopping between lanelets that overlap (a fork's)."""
+        if near is not None:
+            found = self._near(x, y, heading, near)
+            if found is not None:
+                return found
         ab = self.b - self.a
         length2 = np.maximum((ab**2).sum(axis=1), 1e-12)
         t = np.clip(((x - self.a[:, 0]) * ab[:, 0] + (y - self.a[:, 1]) * ab[:, 1]) / length2, 0.0, 1.0)
@@ -58,6 +67,25 @@ class Lanes:
         gap = np.where((gap <= self.half_width) & (along >= math.cos(LANE_HEADING)), gap, np.inf)
         k = int(np.argmin(gap)) if len(gap) else 0
         return k if len(gap) and math.isfinite(gap[k]) else None
+
+    def _near(self, x: float, y: float, heading: float, near: int) -> int | None:
+        """:meth:`locate` among the segments of ``near``'s lanelet from ``near`` to :data:`NEAR_SEGMENTS` on, each
+        only where the object projects within it."""
+        best, gap_best = None, math.inf
+        c, s = math.cos(heading), math.sin(heading)
+        for k in range(near, min(near + NEAR_SEGMENTS + 1, len(self.lane))):
+            if self.lane[k] != self.lane[near]:
+                break
+            (ax, ay), (bx, by) = self.a[k].tolist(), self.b[k].tolist()
+            dx, dy = bx - ax, by - ay
+            length = math.hypot(dx, dy)
+            if length == 0.0 or (dx * c + dy * s) / length < math.cos(LANE_HEADING):
+                continue
+            u = ((x - ax) * dx + (y - ay) * dy) / (length * length)
+            gap = math.hypot(ax + u * dx - x, ay + u * dy - y)
+            if 0.0 <= u <= 1.0 and gap <= self.half_width[k] and gap < gap_best:
+                best, gap_best = k, gap
+        return best
 
     def ahead(self, segment: int, reach: float) -> tuple[np.ndarray, ...]:
         """The centre lines from the start of ``segment`` on along each chain of successors until ``reach`` [m]
