@@ -145,6 +145,16 @@ def test_behind_a_slower_lead_car_it_follows_at_a_safe_gap_and_perception_is_sco
     assert m["detection_precision"] > 0.5 and m["identity_switches"] == 0
 
 
+def test_a_car_behind_is_scored_against_the_objects_sensor_but_not_the_forward_laser(tmp_path):
+    # 15 m behind the ego in its lane and slower: within both sensors' reach, outside the laser's 180 degrees ahead
+    xml = _road(tmp_path, 30.0, 10.0, 15.0, 5.0)
+    m = {p: run(_scenario(tmp_path, f"world: {{commonroad: {xml.name}}}\ntask: {{plan: true, speed: 10}}\n"
+                                    f"planner: {{lateral_offsets: [0]}}\nlaser: true\nperception: {p}\nduration: 2\n"
+                                    )).metrics for p in ("truth", "laser")}
+    assert m["truth"]["detection_recall"] > 0.5  # the objects sensor sees all round
+    assert m["laser"]["detection_recall"] is None and m["laser"]["mota"] is None  # nothing there to see: undefined
+
+
 @pytest.mark.parametrize(("text", "where", "message"), [
     ("perception: radar\n", "s.yaml:2", "unknown perception 'radar'; use one of truth, laser"),
     ("planner: {horizon: -1}\n", "s.yaml:2", "planner horizon must be a finite number > 0"),

@@ -1,6 +1,7 @@
 """A planned run (``task: {plan: ...}``): the car's local planning
 (:class:`~vilma.control.local_planning.LocalPlanning`), its perception scored against the true traffic on every scan
-(CLEAR MOT), the scorecard's planning keys, and its tracks and plans as bus messages for the run's observers."""
+(CLEAR MOT; the objects within the sensor's range and field of view), the scorecard's planning keys, and its tracks
+and plans as bus messages for the run's observers."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy as np
 
 from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning, road_bounds
+from vilma.core.geometry import wrap_angle
 from vilma.core.messages import MAX_TRACKS, Message, PoseEstimate
 from vilma.perception import MotFrame, clear_mot, laser_pose
 from vilma.planning import NO_ROAD, Plan, RoadBounds, local_plan, track_list
@@ -51,6 +53,8 @@ class Planning(LocalPlanning):
                          tuple(Arrival(*w) for w in road.arrivals) if road else (),
                          road.network.lanes if road else None)
         self.sim, self.observed = sim, observed
+        self._radius = np.zeros(0) if sim.traffic is None else np.hypot(*sim.traffic.outline.T).max(axis=0)
+        """Each obstacle's outline's farthest point from its reference point [m]."""
         self.frames: list[MotFrame] = []
         self.log = PlanningLog()
         self.messages: list[tuple[str, Message]] = []
@@ -59,7 +63,7 @@ class Planning(LocalPlanning):
     def perceive(self, captures: Sequence[tuple[str, Message]], pose: PoseEstimate | None,
                  truth: tuple[float, float, float]) -> None:
         """Take a block's scans (the simulator's captures) seen from the estimated ``pose``; ``truth`` is the car's
-        true x, y [m] and yaw [rad], to score the scans against the objects within the sensor's reach."""
+        true x, y [m] and yaw [rad], to score the scans against the objects the sensor can see (:meth:`_score`)."""
         for _, msg in captures:
             if self.take(msg, pose):
                 self.log.scan_t.append(msg.stamp_ns * 1e-9)
@@ -68,9 +72,10 @@ class Planning(LocalPlanning):
                     self.messages.append(("perception/objects", track_list(msg.stamp_ns, self.kind,
                                                                            self.tracks[:MAX_TRACKS])))
                 if self.kind == "truth":
-                    self._score(msg.stamp_ns, truth[:2], self.sim.objects.range)
+                    self._score(msg.stamp_ns, truth, self.sim.objects.range, 2.0 * math.pi)
                 else:
-                    self._score(msg.stamp_ns, laser_pose(truth, self.mount)[:2], self.sim.laser.max_range)
+                    self._score(msg.stamp_ns, laser_pose(truth, self.mount), self.sim.laser.max_range,
+                                math.radians(self.sim.laser.fov))
 
     def cycle(self, t: float) -> Plan | None:
         """Plan at sim time ``t`` [s] (:meth:`LocalPlanning.cycle`), kept in :attr:`log` and :attr:`messages`."""
@@ -85,12 +90,19 @@ class Planning(LocalPlanning):
                     RECORDED_CANDIDATES, self.last_ms)))
         return result
 
-    def _score(self, stamp_ns: int, centre: tuple[float, float], reach: float) -> None:
-        """A CLEAR MOT frame: the tracks now against the true objects within ``reach`` [m] of ``centre``."""
+    def _score(self, stamp_ns: int, sensor: tuple[float, float, float], reach: float, fov: float) -> None:
+        """A CLEAR MOT frame: the tracks now against the true objects the sensor at ``sensor`` (x, y [m], yaw [rad])
+        can see: centred within ``reach`` [m], and some part of them (the circle round their outline) within its
+        field of view ``fov`` [rad] about its yaw (a forward laser cannot miss what is behind it)."""
         ids, s = np.zeros(0, np.int64), np.zeros((0, 4))
         if self.sim.traffic is not None:
             states, present = self.sim.traffic.at(stamp_ns * 1e-9 + self.sim.traffic_t0)
-            near = present & (np.hypot(states[:, X] - centre[0], states[:, Y] - centre[1]) <= reach)
+            dx, dy = states[:, X] - sensor[0], states[:, Y] - sensor[1]
+            gap = np.hypot(dx, dy)
+            near = present & (gap <= reach)
+            if fov < 2.0 * math.pi:
+                half = np.arcsin(np.minimum(self._radius / np.maximum(gap, 1e-9), 1.0))  # the outline's half angle
+                near &= np.abs(wrap_angle(np.arctan2(dy, dx) - sensor[2])) <= 0.5 * fov + half
             ids, s = self.sim.traffic.ids[near], states[near]
         tracks = np.array([(t.id, t.x, t.y, t.vx, t.vy) for t in self.tracks]).reshape(-1, 5)
         self.frames.append(MotFrame(ids, s[:, [X, Y]], s[:, V, None] * np.column_stack([np.cos(s[:, YAW]),
