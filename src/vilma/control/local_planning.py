@@ -3,9 +3,9 @@
 Perception is ``truth`` (the objects sensor's noisy true objects taken as tracks with their velocities) or
 ``laser`` (each scan segmented, boxed and tracked: :mod:`vilma.perception`). The tracks' futures are predicted over
 the planner's horizon along each way on their lane where the road's lanes are known, else at constant velocity,
-and the plan (:func:`vilma.planning.plan`) starts from the car's
-estimated state in the route's Frenet frame; a planner with no free candidate stops the car (its fallback). The
-batch runner (:mod:`vilma.scenario.planned`, which scores it) and the bus's driver node run it alike.
+and the plan (:func:`vilma.planning.plan`) starts from the car's estimated state in the route's Frenet frame; a
+planner with no free candidate stops the car (its fallback). The batch runner (:mod:`vilma.scenario.planned`, which
+scores it) and the bus's driver node run it alike.
 """
 
 from __future__ import annotations
