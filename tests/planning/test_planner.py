@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vilma.planning import FrenetFrame, FrenetState, PlannerParams, RoadBounds, Status, plan
+from vilma.planning.candidates import boxes_overlap
 from vilma.planning.params import MAX_CANDIDATES, MAX_STEPS
-from vilma.planning.planner import boxes_overlap
 from vilma.trajectory import Arrival, Trajectory
 
 P = PlannerParams()

@@ -17,15 +17,17 @@ exception; only malformed parameters or inputs raise ValueError.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from enum import IntEnum
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
-from vilma.planning.frenet import FrenetFrame, FrenetState, frame_pose, frenet_motion
+from vilma.planning.candidates import combine, first_free
+from vilma.planning.frenet import FrenetFrame, FrenetState
 from vilma.planning.params import PlannerParams
 from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic
 from vilma.trajectory import Arrival, Trajectory
@@ -44,13 +46,34 @@ class Status(IntEnum):
     COLLIDING = 2
 
 
-class Candidates(NamedTuple):
-    """The candidates of a cycle, for drawing: paths (n, n_t) [m], :class:`Status` (n,) and costs (n,)."""
+class Candidates:
+    """The candidates of a cycle, for drawing: paths ``x``, ``y`` (n, n_t) [m], :class:`Status` ``status`` (n,) and
+    ``cost`` (n,). A cycle checks only the candidates it prefers to its choice: the paths and statuses of all are
+    evaluated when first asked for."""
 
-    x: np.ndarray
-    y: np.ndarray
-    status: np.ndarray
-    cost: np.ndarray
+    __slots__ = ("_evaluate", "_evaluated", "cost")
+
+    def __init__(self, cost: np.ndarray, evaluate: Callable[[], tuple[np.ndarray, np.ndarray]]) -> None:
+        self.cost = cost
+        self._evaluate = evaluate  # () -> (Cartesian motions (6, n, n_t), statuses (n,))
+        self._evaluated: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _all(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._evaluated is None:
+            self._evaluated, self._evaluate = self._evaluate(), None
+        return self._evaluated
+
+    @property
+    def x(self) -> np.ndarray:
+        return self._all()[0][0]
+
+    @property
+    def y(self) -> np.ndarray:
+        return self._all()[0][1]
+
+    @property
+    def status(self) -> np.ndarray:
+        return self._all()[1]
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,109 +136,6 @@ class _Car(NamedTuple):
     max_accel: float
     max_decel: float
     max_lateral_accel: float
-
-
-@njit(cache=True)
-def boxes_overlap(ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl, bhw):
-    """Whether two oriented boxes (centre, yaw, half length, half width) overlap: no separating axis among their
-    four edge normals (touching counts as overlap)."""
-    dx, dy = bx - ax, by - ay
-    ca, sa, cb, sb = math.cos(ayaw), math.sin(ayaw), math.cos(byaw), math.sin(byaw)
-    for ux, uy in ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb)):
-        ra = ahl * abs(ca * ux + sa * uy) + ahw * abs(-sa * ux + ca * uy)
-        rb = bhl * abs(cb * ux + sb * uy) + bhw * abs(-sb * ux + cb * uy)
-        if abs(dx * ux + dy * uy) > ra + rb:
-            return False
-    return True
-
-
-@njit(cache=True)
-def _collides(car, x, y, yaw, objects, k, near, margin):
-    """Whether the car at ``(x, y, yaw)`` overlaps any of the ``near`` object boxes at step ``k``."""
-    hl, hw = car.half_length + margin, car.half_width + margin
-    cx, cy = x + car.offset * math.cos(yaw), y + car.offset * math.sin(yaw)
-    r = math.hypot(hl, hw)
-    for o in range(objects.shape[0]):
-        if not near[o, k]:
-            continue
-        ox, oy, oyaw, ol, ow = objects[o, k, 0], objects[o, k, 1], objects[o, k, 2], objects[o, k, 3], objects[o, k, 4]
-        reach = r + 0.5 * math.hypot(ol, ow)
-        if (ox - cx) ** 2 + (oy - cy) ** 2 > reach * reach:
-            continue  # the bounding circles are apart
-        if boxes_overlap(cx, cy, yaw, hl, hw, ox, oy, oyaw, 0.5 * ol, 0.5 * ow):
-            return True
-    return False
-
-
-@njit(cache=True)
-def _near(objects, out, checked, reach):
-    """(n_obj, n_t): whether an object's bounding circle at a step comes within ``reach`` [m] of the box around
-    the points of the ``checked`` candidates at that step (the others cannot touch any of them)."""
-    n_obj, n_t = objects.shape[0], objects.shape[1]
-    near = np.zeros((n_obj, n_t), dtype=np.bool_)
-    for k in range(n_t):
-        lo_x, hi_x, lo_y, hi_y = np.inf, -np.inf, np.inf, -np.inf
-        for c in range(checked.shape[0]):
-            if checked[c]:
-                lo_x, hi_x = min(lo_x, out[0, c, k]), max(hi_x, out[0, c, k])
-                lo_y, hi_y = min(lo_y, out[1, c, k]), max(hi_y, out[1, c, k])
-        for o in range(n_obj):
-            r = reach + 0.5 * math.hypot(objects[o, k, 3], objects[o, k, 4])
-            near[o, k] = lo_x - r <= objects[o, k, 0] <= hi_x + r and lo_y - r <= objects[o, k, 1] <= hi_y + r
-    return near
-
-
-@njit(cache=True)
-def _combine(fa, lat, lon, edges, objects, car, margin, check_all, out, status):
-    """Every lateral (3, n_lat, n_t) with every longitudinal (3, n_lon, n_t) motion: Cartesian motion into
-    ``out`` (6, n_lat * n_lon, n_t: x, y, yaw, speed, accel, curvature) and the :class:`Status` of each
-    (the infeasible checked for collisions too with ``check_all``); off the road's left and right ``edges``
-    (2, n_lon, n_t) [m] where each longitudinal motion is (or (2, 0, 0): unbounded) is infeasible."""
-    n_lat, n_lon, n_t = lat.shape[1], lon.shape[1], lat.shape[2]
-    bounded = edges.shape[1] > 0
-    # the reference's pose (x, y, theta, k, dk) and its heading's sine and cosine where each longitudinal motion
-    # is at each step: shared by every lateral one
-    ref = np.empty((n_lon, n_t, 7))
-    for j in range(n_lon):
-        for k in range(n_t):
-            x, y, theta, kr, dk = frame_pose(fa, lon[0, j, k])
-            ref[j, k, 0], ref[j, k, 1], ref[j, k, 2], ref[j, k, 3], ref[j, k, 4] = x, y, theta, kr, dk
-            ref[j, k, 5], ref[j, k, 6] = math.sin(theta), math.cos(theta)
-    for i in range(n_lat):
-        for j in range(n_lon):
-            c = i * n_lon + j
-            ok = True
-            for k in range(n_t):
-                theta, kr, dk = ref[j, k, 2], ref[j, k, 3], ref[j, k, 4]
-                d = lat[0, i, k]
-                s_dot = lon[1, j, k]
-                yaw, v, a, kappa = frenet_motion(theta, kr, dk, s_dot, lon[2, j, k], d, lat[1, i, k], lat[2, i, k])
-                out[0, c, k] = ref[j, k, 0] - d * ref[j, k, 5]
-                out[1, c, k] = ref[j, k, 1] + d * ref[j, k, 6]
-                out[2, c, k], out[3, c, k], out[4, c, k], out[5, c, k] = yaw, v, a, kappa
-                if (s_dot < -1e-6 or 1.0 - kr * d <= 0.0 or abs(kappa) > car.max_curvature
-                        or a > car.max_accel or a < -car.max_decel or abs(kappa) * v * v > car.max_lateral_accel):
-                    ok = False
-                elif bounded:  # the box's extent across the reference, against the road's edges
-                    phi = yaw - theta
-                    centre = d + car.offset * math.sin(phi)
-                    half = (car.half_width + margin) * abs(math.cos(phi)) + (car.half_length + margin) * abs(
-                        math.sin(phi))
-                    if centre + half > edges[0, j, k] or centre - half < edges[1, j, k]:
-                        ok = False
-            status[c] = 0 if ok else 1
-    checked = (status == 0) | check_all
-    near = _near(objects, out, checked, abs(car.offset) + math.hypot(car.half_length + margin, car.half_width + margin))
-    close = np.zeros(n_t, dtype=np.bool_)  # the steps some object is near at: the others need no check (most)
-    for k in range(n_t):
-        for o in range(near.shape[0]):
-            close[k] |= near[o, k]
-    for c in range(status.shape[0]):
-        if checked[c]:
-            for k in range(n_t):
-                if close[k] and _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
-                    status[c] = 2
-                    break
 
 
 def _car(p: PlannerParams) -> _Car:
@@ -291,37 +211,42 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
 
 
 def _lateral(state: FrenetState, offsets: list[float], p: PlannerParams, keep: tuple[float, float] | None):
-    """Lateral quintics (n, 6) to the end ``offsets`` [m], their durations (n,), costs (n,) and end offsets (n,);
-    and ``keep`` (end offset [m], duration [s]) if its offset is among them. Made once for the cycles that start
-    alike (a car keeping its lane starts each at no offset), copied."""
+    """Lateral motions (3, n, n_t: offset [m], its rate and acceleration at ``p.times``) to the end ``offsets`` [m]
+    in each lateral duration, their costs (n,) and end offsets and durations (n, 2) [m, s]; and ``keep`` (end offset
+    [m], duration [s]) if its offset is among them. Made once for the cycles that start alike (a car keeping its lane
+    starts each at no offset): read-only."""
     start = np.array(state[3:]).tobytes()  # d, d_dot, d_ddot by their bits: the sign of a zero carries on
-    made = _lateral_from(start, tuple(offsets), p.lateral_durations, (p.jerk_weight, p.time_weight, p.offset_weight),
-                         keep)
-    return tuple(a.copy() for a in made)
+    weights = (p.jerk_weight, p.time_weight, p.offset_weight, p.deviation_weight)
+    return _lateral_from(start, tuple(offsets), p.lateral_durations, weights, keep, p.steps, p.dt)
 
 
 @lru_cache(maxsize=64)
 def _lateral_from(start: bytes, offsets: tuple[float, ...], durations: tuple[float, ...],
-                  weights: tuple[float, float, float], keep: tuple[float, float] | None):
+                  weights: tuple[float, float, float, float], keep: tuple[float, float] | None, steps: int, dt: float):
     """:func:`_lateral` from the lateral state ``start`` (d, d_dot, d_ddot as float64 bytes) with the ``weights``
-    of jerk, time and offset."""
+    of jerk, time, end offset and mean squared offset, over ``steps`` of ``dt`` [s]."""
     T = np.repeat(np.asarray(durations), len(offsets))
     d1 = np.tile(np.asarray(offsets), len(durations))
     if keep is not None and keep[0] in offsets:
         T, d1 = np.append(T, keep[1]), np.append(d1, keep[0])
     coeffs = quintic(*np.frombuffer(start), d1, 0.0, 0.0, T)
-    return coeffs, T, weights[0] * jerk_cost(coeffs, T) + weights[1] * T + weights[2] * d1**2, d1
+    motion = evaluate(coeffs, T, np.arange(steps + 1) * dt)[:3]
+    cost = weights[0] * jerk_cost(coeffs, T) + weights[1] * T + weights[2] * d1**2
+    made = motion, cost + weights[3] * (motion[0] ** 2).mean(axis=1), np.column_stack([d1, T])
+    for a in made:
+        a.flags.writeable = False
+    return made
 
 
-def _motions(frame, lat, lat_T, lon, lon_T, objects, p, road=NO_ROAD, check_all=False):
-    t = p.times
-    lat_m, lon_m = evaluate(lat, lat_T, t)[:3], evaluate(lon, lon_T, t)[:3]
-    n = lat_m.shape[1] * lon_m.shape[1]
-    out, status = np.empty((6, n, len(t))), np.empty(n, dtype=np.int8)
-    edges = (np.stack([np.interp(lon_m[0], road.s, road.left), np.interp(lon_m[0], road.s, road.right)])
-             if len(road.s) else np.empty((2, 0, 0)))
-    _combine(frame.arrays, lat_m, lon_m, edges, objects, _car(p), p.margin, check_all, out, status)
-    return lat_m, lon_m, out, status
+_UNBOUNDED = np.empty((2, 0, 0))
+_ONE = np.zeros(1, dtype=np.intp)
+
+
+def _evaluated(fa, lat, lon, edges, ci, cj, objects, car, margin, check_all) -> tuple[np.ndarray, np.ndarray]:
+    """Every candidate's Cartesian motion (6, n, n_t) and :class:`Status` (n,) (:func:`~.candidates.combine`)."""
+    out, status = np.empty((6, len(ci), lat.shape[2])), np.empty(len(ci), dtype=np.int8)
+    combine(fa, lat, lon, edges, ci, cj, objects, car, margin, check_all, out, status)
+    return out, status
 
 
 def _check(state: FrenetState, objects: np.ndarray, p: PlannerParams) -> np.ndarray:
@@ -374,49 +299,75 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     return stop
 
 
+class _Sampled(NamedTuple):
+    """A cycle's candidates: lateral ``ci`` (n,) of ``lat`` (3, n_lat, n_t) with longitudinal ``cj`` (n,) of ``lon``
+    (3, n_lon, n_t), their ``cost`` (n,) and ``order`` of preference (n,); each lateral motion's end offset and
+    duration (n_lat, 2) [m, s]; and the first candidate of each target's group and the target."""
+
+    lat: np.ndarray
+    lon: np.ndarray
+    ci: np.ndarray
+    cj: np.ndarray
+    cost: np.ndarray
+    order: np.ndarray
+    lateral: np.ndarray
+    groups: list[tuple[int, _Target | None]]
+
+
+def _sample(state: FrenetState, lanes: dict[_Target | None, list[float]], p: PlannerParams,
+            keep: tuple[float, float] | None, arrivals: tuple[Arrival, ...]) -> _Sampled:
+    """Each target's lateral motions (to its end offsets ``lanes[target]``) with its longitudinal ones, in the order
+    :func:`plan` prefers them: the lateral motion to keep (while it leads away from the reference), then those in
+    a goal region's window, then the cheapest (the first of equals)."""
+    lat, lon, ci, cj, cost, kept, arrive, lateral, groups = [], [], [], [], [], [], [], [], []
+    n_lat = n_lon = n = 0
+    for target, offsets in lanes.items():
+        lat_m, lat_cost, ends = _lateral(state, offsets, p, keep)
+        coeffs, T, lon_cost = _longitudinal(state, target, p)
+        lon_m = evaluate(coeffs, T, p.times)[:3]
+        i, j = np.divmod(np.arange(len(lat_cost) * len(lon_cost)), len(lon_cost))
+        groups.append((n, target))
+        lat.append(lat_m), lon.append(lon_m), ci.append(n_lat + i), cj.append(n_lon + j), lateral.append(ends)
+        cost.append((p.lateral_weight * lat_cost[:, None] + p.longitudinal_weight * lon_cost[None, :]).ravel())
+        kept.append(i == len(lat_cost) - 1 if keep is not None and keep[0] in offsets else np.zeros(len(i), bool))
+        if arrivals:
+            arrive.append(_arriving(lat_m, lon_m, arrivals, p.times).ravel())
+        n_lat, n_lon, n = n_lat + len(lat_cost), n_lon + len(lon_cost), n + len(i)
+    cost = np.concatenate(cost)
+    keys = [cost, ~np.isnan(cost)]  # (argmin's order: a NaN before any number)
+    if arrivals:
+        keys.append(~np.concatenate(arrive))
+    if keep is not None and abs(keep[0]) > abs(state.d):
+        keys.append(~np.concatenate(kept))
+    return _Sampled(np.concatenate(lat, axis=1), np.concatenate(lon, axis=1), np.concatenate(ci), np.concatenate(cj),
+                    cost, np.lexsort(keys), np.concatenate(lateral), groups)
+
+
 def _search(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, params: PlannerParams,
             goal: float | None, keep: tuple[float, float] | None, road: RoadBounds,
             arrivals: tuple[Arrival, ...]) -> tuple[Plan | None, Candidates]:
-    """The cheapest free candidate's plan (None if none is free) and every candidate (:func:`plan`)."""
+    """The preferred free candidate's plan (None if none is free) and every candidate (:func:`plan`)."""
     stop = None if goal is None else _Target("stop", float(goal), 0.0)
     s, d = reference.to_frenet(objects[:, :2, 0], objects[:, :2, 1]) if len(objects) else (None, None)
     lanes: dict[_Target | None, list[float]] = {}  # each target, and the end offsets that plan for it
-    kept = []  # the candidates of the lateral motion to keep, in each group
     for lane in dict.fromkeys(params.lateral_offsets):
         lead = None if s is None else _lead_target(state, s, d, objects, lane, params)
         targets = [t for t in (lead, stop) if t is not None and _binds(t, state, params)]
         lanes.setdefault(min(targets, key=lambda t: t.s + t.speed * params.horizon, default=None), []).append(lane)
-    groups = []
-    for target, offsets in lanes.items():
-        lat, lat_T, lat_cost, lat_end = _lateral(state, offsets, params, keep)
-        lon, lon_T, lon_cost = _longitudinal(state, target, params)
-        lat_m, lon_m, out, status = _motions(reference, lat, lat_T, lon, lon_T, objects, params, road)
-        lat_cost = lat_cost + params.deviation_weight * (lat_m[0] ** 2).mean(axis=1)
-        cost = (params.lateral_weight * lat_cost[:, None] + params.longitudinal_weight * lon_cost[None, :]).ravel()
-        groups.append((target, lat_m, lon_m, out, status, cost, np.column_stack([lat_end, lat_T])))
-        kept.append(np.zeros((len(lat_T), len(lon_T)), bool))
-        kept[-1][-1] = keep is not None and keep[0] in offsets  # (_lateral appends it)
-    out, status, cost = (np.concatenate([g[k] for g in groups], axis=1 if k == 3 else 0) for k in (3, 4, 5))
-    candidates = Candidates(out[0], out[1], status, cost)
-    free = np.flatnonzero(status == Status.FEASIBLE)
-    kept = np.concatenate([k.ravel() for k in kept])[free]
-    if kept.any() and abs(keep[0]) > abs(state.d):
-        free = free[kept]
-    if arrivals and len(free):
-        arrive = np.concatenate([_arriving(g[1], g[2], arrivals, params.times).ravel() for g in groups])[free]
-        if arrive.any():
-            free = free[arrive]
-    if len(free) == 0:
+    c = _sample(state, lanes, params, keep, arrivals)
+    edges = (np.stack([np.interp(c.lon[0], road.s, road.left), np.interp(c.lon[0], road.s, road.right)])
+             if len(road.s) else _UNBOUNDED)
+    fa, car, out = reference.arrays, _car(params), np.empty((6, len(params.times)))
+    candidates = Candidates(c.cost, partial(_evaluated, fa, c.lat, c.lon, edges, c.ci, c.cj, objects, car,
+                                            params.margin, False))
+    chosen = first_free(fa, c.lat, c.lon, edges, c.ci, c.cj, c.order, objects, car, params.margin, out)
+    if chosen < 0:
         return None, candidates
-    chosen = int(free[np.argmin(cost[free])])
-    starts = np.cumsum([0] + [len(g[4]) for g in groups])
-    g = int(np.searchsorted(starts, chosen, "right")) - 1
-    (target, lat_m, lon_m), lateral = groups[g][:3], groups[g][6]
-    i, j = divmod(chosen - int(starts[g]), lon_m.shape[1])
-    frenet = np.column_stack([lon_m[0, j], lon_m[1, j], lon_m[2, j], lat_m[0, i], lat_m[1, i], lat_m[2, i]])
-    return Plan(params.times, *out[:, chosen], frenet, float(cost[chosen]),
-                "velocity" if target is None else target.mode, candidates,
-                lateral=(float(lateral[i, 0]), float(lateral[i, 1]))), candidates
+    target = c.groups[bisect_right([g[0] for g in c.groups], chosen) - 1][1]
+    i, j = c.ci[chosen], c.cj[chosen]
+    frenet = np.column_stack([c.lon[0, j], c.lon[1, j], c.lon[2, j], c.lat[0, i], c.lat[1, i], c.lat[2, i]])
+    return Plan(params.times, *out, frenet, float(c.cost[chosen]), "velocity" if target is None else target.mode,
+                candidates, lateral=(float(c.lateral[i, 0]), float(c.lateral[i, 1]))), candidates
 
 
 def _arriving(lat_m: np.ndarray, lon_m: np.ndarray, arrivals: tuple[Arrival, ...], t: np.ndarray) -> np.ndarray:
@@ -442,21 +393,24 @@ def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p
     it still collides."""
     infeasible = int((candidates.status == Status.INFEASIBLE).sum())
     why = f"no free candidate: {infeasible} infeasible, {len(candidates.status) - infeasible} colliding"
-    lat = quintic(state.d, state.d_dot, state.d_ddot, state.d, 0.0, 0.0, min(p.lateral_durations))[None]
+    settle = min(p.lateral_durations)
+    lat = evaluate(quintic(state.d, state.d_dot, state.d_ddot, state.d, 0.0, 0.0, settle)[None], settle, p.times)[:3]
     v0 = max(state.s_dot, 0.0)
 
     def stop(decel):
         lon = np.array([[state.s, v0, -0.5 * decel if v0 > 0 else 0.0, 0.0, 0.0, 0.0]])
         stopped = v0 / decel if v0 > 0 else p.dt  # at rest from then on (a longer polynomial would reverse)
-        return _motions(reference, lat, [min(p.lateral_durations)], lon, [stopped], objects, p, check_all=True)
+        lon_m = evaluate(lon, stopped, p.times)[:3]
+        return (lon_m, *_evaluated(reference.arrays, lat, lon_m, _UNBOUNDED, _ONE, _ONE, objects, _car(p), p.margin,
+                                   True))
 
     decel, name = p.vehicle.actuators.stop_deceleration, "comfortable"
-    lat_m, lon_m, out, status = stop(decel)
+    lon_m, out, status = stop(decel)
     if status[0] == Status.COLLIDING:
         decel, name = p.vehicle.actuators.max_decel, "emergency"
-        lat_m, lon_m, out, status = stop(decel)
+        lon_m, out, status = stop(decel)
     reason = f"{why}; {name} stop at {decel:g} m/s^2 within {v0 * v0 / (2 * decel):.1f} m"
     if status[0] == Status.COLLIDING:
         reason += ", which still collides"
-    frenet = np.column_stack([lon_m[0, 0], lon_m[1, 0], lon_m[2, 0], lat_m[0, 0], lat_m[1, 0], lat_m[2, 0]])
+    frenet = np.column_stack([lon_m[0, 0], lon_m[1, 0], lon_m[2, 0], lat[0, 0], lat[1, 0], lat[2, 0]])
     return Plan(p.times, *out[:, 0], frenet, math.inf, "fallback", candidates, reason), status[0] == Status.COLLIDING
