@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 from numpy.polynomial import polynomial as npoly
 from scipy.integrate import quad
 
-from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic
+from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic, to_rest
 
 value = st.floats(-50.0, 50.0)
 duration = st.floats(0.5, 10.0)
@@ -70,8 +70,23 @@ def test_jerk_cost_is_the_integral_of_the_squared_jerk(x0, v0, a0, x1, v1, a1, T
     assert jerk_cost(c, T) == pytest.approx(numeric, rel=1e-7, abs=1e-9)
 
 
+@settings(deadline=None)  # the first example loads the compiled code
+@given(value, value, value, st.lists(st.tuples(value, value, st.floats(0.05, 300.0)), min_size=1, max_size=40))
+def test_polynomials_to_rest_in_one_call_are_the_quintics_and_quartics_and_their_jerk_costs_bit_for_bit(
+        x0, v0, a0, ends):
+    """The planner's longitudinal motions in one compiled call change no planning outcome: the same bits as the
+    quintic's and quartic's closed forms and the jerk integral (durations up to the slow-down's 100 horizons)."""
+    x1, v1, T = (np.array(c) for c in zip(*ends, strict=True))
+    for x, want in ((x1, quintic(x0, v0, a0, x1, v1, 0.0, T)), (None, quartic(x0, v0, a0, v1, 0.0, T))):
+        coeffs, cost = to_rest(x0, v0, a0, x, v1, T)
+        np.testing.assert_array_equal(coeffs, want)
+        np.testing.assert_array_equal(cost, jerk_cost(want, T))
+
+
 def test_a_duration_that_is_not_positive_is_an_error():
     with pytest.raises(ValueError, match="duration must be > 0 s"):
         quintic(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match="duration must be > 0 s"):
+        to_rest(0.0, 0.0, 0.0, None, np.ones(2), np.array([1.0, 0.0]))
     with pytest.raises(ValueError, match="duration must be > 0 s"):
         quartic(0.0, 0.0, 0.0, 1.0, 0.0, [1.0, -1.0])

@@ -29,7 +29,7 @@ import numpy as np
 from vilma.planning.candidates import combine, first_free
 from vilma.planning.frenet import FrenetFrame, FrenetState
 from vilma.planning.params import PlannerParams
-from vilma.planning.polynomials import evaluate, jerk_cost, quartic, quintic
+from vilma.planning.polynomials import evaluate, jerk_cost, quintic, to_rest
 from vilma.trajectory import Arrival, Trajectory
 
 SLOWDOWN_HORIZONS = 100
@@ -188,7 +188,7 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         T = np.append(T, p.speed_durations)
         reach = np.append(reach, state.s_dot - 0.6 * p.vehicle.actuators.max_decel * np.asarray(p.speed_durations))
         v1 = np.maximum(reach, 0.0)
-        coeffs = quartic(state.s, state.s_dot, state.s_ddot, v1, 0.0, T)
+        coeffs, jerk = to_rest(state.s, state.s_dot, state.s_ddot, None, v1, T)
         miss = p.speed_weight * (v1 - p.target_speed) ** 2
     else:
         durations = list(p.position_durations)
@@ -203,11 +203,11 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         end = target.s + v1 * T + dev
         if v0 > v1:  # an end the car reaches only braking harder than comfortably moves on to where it does
             end = np.maximum(end, state.s + (v0 * v0 - v1 * v1) / (2.0 * b) + v1 * np.maximum(T - (v0 - v1) / b, 0))
-        coeffs = quintic(state.s, state.s_dot, state.s_ddot, end, v1, 0.0, T)
+        coeffs, jerk = to_rest(state.s, state.s_dot, state.s_ddot, end, np.full(len(T), v1), T)
         miss = p.position_weight * (end - target.s - v1 * T) ** 2
         if target.mode == "follow":  # the speed given up behind a slower lead, so that passing it competes
             miss = miss + p.speed_weight * max(p.target_speed - v1, 0.0) ** 2
-    return coeffs, T, p.jerk_weight * jerk_cost(coeffs, T) + p.time_weight * T + miss
+    return coeffs, T, p.jerk_weight * jerk + p.time_weight * T + miss
 
 
 def _lateral(state: FrenetState, offsets: list[float], p: PlannerParams, keep: tuple[float, float] | None):

@@ -90,3 +90,42 @@ def jerk_cost(coeffs, T) -> np.ndarray:
     T = np.asarray(T, dtype=np.float64)
     p, q, r = 6.0 * c[..., 3], 24.0 * c[..., 4], 60.0 * c[..., 5]
     return p * p * T + p * q * T**2 + (q * q + 2.0 * p * r) * T**3 / 3.0 + q * r * T**4 / 2.0 + r * r * T**5 / 5.0
+
+
+_POWERS = np.array([3.0, 4.0, 5.0])[:, None]
+
+
+def to_rest(x0: float, v0: float, a0: float, x1: np.ndarray | None, v1: np.ndarray, T: np.ndarray):
+    """Coefficients (n, 6) and :func:`jerk_cost` (n,) of the polynomials from ``(x0, v0, a0)`` at 0 to rate ``v1``
+    (n,) and no acceleration at ``T`` (n,) [s]: quartics (``x1`` None) or quintics to ``x1`` (n,); the values of
+    :func:`quartic`, :func:`quintic` and :func:`jerk_cost` bit for bit, in one compiled call (numpy's powers)."""
+    T = np.asarray(T, dtype=np.float64)
+    if not (T > 0).all():
+        raise ValueError(f"a polynomial's duration must be > 0 s, got {T.min()!r}")
+    quintics = x1 is not None
+    return _to_rest(x0, v0, a0, x1 if quintics else T, np.asarray(v1, dtype=np.float64), T, T**_POWERS, quintics)
+
+
+@njit(cache=True)
+def _to_rest(x0, v0, a0, x1, v1, T, powers, quintics):
+    """:func:`to_rest` with ``powers`` (3, n): ``T`` to the 3rd, 4th and 5th."""
+    coeffs, cost = np.empty((T.shape[0], 6)), np.empty(T.shape[0])
+    q = 0.0 - a0
+    for n in range(T.shape[0]):
+        t, t2, t3, t4, t5 = T[n], T[n] * T[n], powers[0, n], powers[1, n], powers[2, n]
+        p = v1[n] - v0 - a0 * t
+        c5 = 0.0
+        if quintics:  # the expressions of quintic() and quartic(), in their order
+            h = x1[n] - x0 - v0 * t - 0.5 * a0 * t2
+            c3 = (10.0 * h - 4.0 * p * t + 0.5 * q * t2) / t3
+            c4 = (-15.0 * h + 7.0 * p * t - q * t2) / t4
+            c5 = (6.0 * h - 3.0 * p * t + 0.5 * q * t2) / t5
+        else:
+            c3 = (3.0 * p - q * t) / (3.0 * t2)
+            c4 = (q * t - 2.0 * p) / (4.0 * t3)
+        coeffs[n, 0], coeffs[n, 1], coeffs[n, 2], coeffs[n, 3], coeffs[n, 4] = x0, v0, 0.5 * a0, c3, c4
+        coeffs[n, 5] = c5
+        j0, j1, j2 = 6.0 * c3, 24.0 * c4, 60.0 * c5
+        cost[n] = (j0 * j0 * t + j0 * j1 * t2 + (j1 * j1 + 2.0 * j0 * j2) * t3 / 3.0 + j1 * j2 * t4 / 2.0
+                   + j2 * j2 * t5 / 5.0)
+    return coeffs, cost
