@@ -2,8 +2,8 @@
 
 A candidate is a lateral motion ``ci[c]`` of ``lat`` (3, n_lat, n_t: offset d, its rate and acceleration) with a
 longitudinal one ``cj[c]`` of ``lon`` (3, n_lon, n_t: arc length s, its rate and acceleration) along the frame
-``fa`` (:class:`~vilma.planning.frenet.FrameArrays`). :func:`first_free` checks them in an order of preference
-until one is free (a planning cycle's work); :func:`combine` evaluates and checks all of them (for drawing).
+``fa`` (:class:`~vilma.planning.frenet.FrameArrays`). :func:`check_candidates` checks them in an order of
+preference until one is free (a planning cycle's work), or all of them (for drawing).
 """
 
 from __future__ import annotations
@@ -31,14 +31,12 @@ def boxes_overlap(ax, ay, ayaw, ahl, ahw, bx, by, byaw, bhl, bhw):
 
 
 @njit(cache=True)
-def _collides(car, x, y, yaw, objects, k, near, margin):
-    """Whether the car at ``(x, y, yaw)`` overlaps any of the ``near`` object boxes at step ``k``."""
+def _collides(car, x, y, yaw, objects, k, margin):
+    """Whether the car at ``(x, y, yaw)`` overlaps any of the object boxes at step ``k``."""
     hl, hw = car.half_length + margin, car.half_width + margin
     cx, cy = x + car.offset * math.cos(yaw), y + car.offset * math.sin(yaw)
     r = math.hypot(hl, hw)
     for o in range(objects.shape[0]):
-        if not near[o, k]:
-            continue
         ox, oy, oyaw, ol, ow = objects[o, k, 0], objects[o, k, 1], objects[o, k, 2], objects[o, k, 3], objects[o, k, 4]
         reach = r + 0.5 * math.hypot(ol, ow)
         if (ox - cx) ** 2 + (oy - cy) ** 2 > reach * reach:
@@ -46,24 +44,6 @@ def _collides(car, x, y, yaw, objects, k, near, margin):
         if boxes_overlap(cx, cy, yaw, hl, hw, ox, oy, oyaw, 0.5 * ol, 0.5 * ow):
             return True
     return False
-
-
-@njit(cache=True)
-def _near(objects, out, checked, reach):
-    """(n_obj, n_t): whether an object's bounding circle at a step comes within ``reach`` [m] of the box around
-    the points of the ``checked`` candidates at that step (the others cannot touch any of them)."""
-    n_obj, n_t = objects.shape[0], objects.shape[1]
-    near = np.zeros((n_obj, n_t), dtype=np.bool_)
-    for k in range(n_t):
-        lo_x, hi_x, lo_y, hi_y = np.inf, -np.inf, np.inf, -np.inf
-        for c in range(checked.shape[0]):
-            if checked[c]:
-                lo_x, hi_x = min(lo_x, out[0, c, k]), max(hi_x, out[0, c, k])
-                lo_y, hi_y = min(lo_y, out[1, c, k]), max(hi_y, out[1, c, k])
-        for o in range(n_obj):
-            r = reach + 0.5 * math.hypot(objects[o, k, 3], objects[o, k, 4])
-            near[o, k] = lo_x - r <= objects[o, k, 0] <= hi_x + r and lo_y - r <= objects[o, k, 1] <= hi_y + r
-    return near
 
 
 @njit(cache=True)
@@ -98,58 +78,35 @@ def _motion(ref, lat, lon, edges, i, j, k, car, margin):
 
 
 @njit(cache=True)
-def combine(fa, lat, lon, edges, ci, cj, objects, car, margin, check_all, out, status):
-    """Every candidate's Cartesian motion into ``out`` (6, n, n_t: x, y, yaw, speed, accel, curvature) and its
-    :class:`~vilma.planning.planner.Status` into ``status`` (n,) (the infeasible checked for collisions too with
-    ``check_all``)."""
-    n_t = lat.shape[2]
-    ref = np.empty((lon.shape[1], n_t, 7))
-    for j in range(lon.shape[1]):
-        _reference(fa, lon, j, ref)
-    for c in range(ci.shape[0]):
-        ok = True
-        for k in range(n_t):
-            x, y, yaw, v, a, kappa, fits = _motion(ref, lat, lon, edges, ci[c], cj[c], k, car, margin)
-            out[0, c, k], out[1, c, k], out[2, c, k], out[3, c, k], out[4, c, k], out[5, c, k] = x, y, yaw, v, a, kappa
-            ok = ok and fits
-        status[c] = 0 if ok else 1
-    checked = (status == 0) | check_all
-    near = _near(objects, out, checked, abs(car.offset) + math.hypot(car.half_length + margin, car.half_width + margin))
-    close = np.zeros(n_t, dtype=np.bool_)  # the steps some object is near at: the others need no check (most)
-    for k in range(n_t):
-        for o in range(near.shape[0]):
-            close[k] |= near[o, k]
-    for c in range(status.shape[0]):
-        if checked[c]:
-            for k in range(n_t):
-                if close[k] and _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, near, margin):
-                    status[c] = 2
-                    break
-
-
-@njit(cache=True)
-def first_free(fa, lat, lon, edges, ci, cj, order, objects, car, margin, out):
-    """The first candidate in ``order`` that is feasible and free (-1 if none is), its Cartesian motion in ``out``
-    (6, n_t: as :func:`combine`'s); each checked only up to its first infeasible step or collision."""
+def check_candidates(fa, lat, lon, edges, ci, cj, order, objects, car, margin, whole, check_all, out, status):
+    """Check the candidates in ``order``: each one's Cartesian motion into ``out`` (6, n, n_t: x, y, yaw, speed,
+    accel, curvature) and its :class:`~vilma.planning.planner.Status` into ``status`` (n,); the infeasible checked
+    for collisions too with ``check_all``. With ``whole``, every candidate at every step (to draw them); otherwise
+    only up to the first free one, each up to its first infeasible step or collision (a cycle's choice). The first
+    free candidate in ``order`` (-1 if none is)."""
     n_t = lat.shape[2]
     ref = np.empty((lon.shape[1], n_t, 7))
     ready = np.zeros(lon.shape[1], dtype=np.bool_)
-    near = np.ones((objects.shape[0], n_t), dtype=np.bool_)
+    first = -1
     for c in order:
         j = cj[c]
         if not ready[j]:
             _reference(fa, lon, j, ref)
             ready[j] = True
-        free = True
+        status[c] = 0
         for k in range(n_t):
-            x, y, yaw, v, a, kappa, free = _motion(ref, lat, lon, edges, ci[c], j, k, car, margin)
-            if not free:
+            x, y, yaw, v, a, kappa, fits = _motion(ref, lat, lon, edges, ci[c], j, k, car, margin)
+            out[0, c, k], out[1, c, k], out[2, c, k], out[3, c, k], out[4, c, k], out[5, c, k] = x, y, yaw, v, a, kappa
+            if not fits:
+                status[c] = 1
+                if not whole:
+                    break
+        for k in range(n_t if status[c] == 0 or check_all else 0):
+            if _collides(car, out[0, c, k], out[1, c, k], out[2, c, k], objects, k, margin):
+                status[c] = 2
                 break
-            out[0, k], out[1, k], out[2, k], out[3, k], out[4, k], out[5, k] = x, y, yaw, v, a, kappa
-        for k in range(n_t if free else 0):
-            if _collides(car, out[0, k], out[1, k], out[2, k], objects, k, near, margin):
-                free = False
+        if status[c] == 0 and first < 0:
+            first = c
+            if not whole:
                 break
-        if free:
-            return c
-    return -1
+    return first

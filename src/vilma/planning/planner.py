@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vilma.planning.candidates import combine, first_free
+from vilma.planning.candidates import check_candidates
 from vilma.planning.frenet import FrenetFrame, FrenetState
 from vilma.planning.params import PlannerParams
 from vilma.planning.polynomials import evaluate, jerk_cost, quintic, to_rest
@@ -65,14 +65,17 @@ class Candidates:
 
     @property
     def x(self) -> np.ndarray:
+        """The paths' x (n, n_t) [m]."""
         return self._all()[0][0]
 
     @property
     def y(self) -> np.ndarray:
+        """The paths' y (n, n_t) [m]."""
         return self._all()[0][1]
 
     @property
     def status(self) -> np.ndarray:
+        """Each candidate's :class:`Status` (n,)."""
         return self._all()[1]
 
 
@@ -243,9 +246,10 @@ _ONE = np.zeros(1, dtype=np.intp)
 
 
 def _evaluated(fa, lat, lon, edges, ci, cj, objects, car, margin, check_all) -> tuple[np.ndarray, np.ndarray]:
-    """Every candidate's Cartesian motion (6, n, n_t) and :class:`Status` (n,) (:func:`~.candidates.combine`)."""
+    """Every candidate's Cartesian motion (6, n, n_t) and :class:`Status` (n,) (:func:`.check_candidates`)."""
     out, status = np.empty((6, len(ci), lat.shape[2])), np.empty(len(ci), dtype=np.int8)
-    combine(fa, lat, lon, edges, ci, cj, objects, car, margin, check_all, out, status)
+    check_candidates(fa, lat, lon, edges, ci, cj, np.arange(len(ci)), objects, car, margin, True, check_all, out,
+                     status)
     return out, status
 
 
@@ -319,28 +323,34 @@ def _sample(state: FrenetState, lanes: dict[_Target | None, list[float]], p: Pla
     """Each target's lateral motions (to its end offsets ``lanes[target]``) with its longitudinal ones, in the order
     :func:`plan` prefers them: the lateral motion to keep (while it leads away from the reference), then those in
     a goal region's window, then the cheapest (the first of equals)."""
-    lat, lon, ci, cj, cost, kept, arrive, lateral, groups = [], [], [], [], [], [], [], [], []
+    parts, groups = [], []  # each target's (lat, lon, ci, cj, cost, kept, arrive, lateral); its first candidate
     n_lat = n_lon = n = 0
     for target, offsets in lanes.items():
         lat_m, lat_cost, ends = _lateral(state, offsets, p, keep)
         coeffs, T, lon_cost = _longitudinal(state, target, p)
         lon_m = evaluate(coeffs, T, p.times)[:3]
         i, j = np.divmod(np.arange(len(lat_cost) * len(lon_cost)), len(lon_cost))
+        cost = (p.lateral_weight * lat_cost[:, None] + p.longitudinal_weight * lon_cost[None, :]).ravel()
+        # the motion to keep is the last lateral one (_lateral appends it)
+        kept = i == len(lat_cost) - 1 if keep is not None and keep[0] in offsets else np.zeros(len(i), bool)
+        arrive = _arriving(lat_m, lon_m, arrivals, p.times).ravel() if arrivals else None
+        parts.append((lat_m, lon_m, n_lat + i, n_lon + j, cost, kept, arrive, ends))
         groups.append((n, target))
-        lat.append(lat_m), lon.append(lon_m), ci.append(n_lat + i), cj.append(n_lon + j), lateral.append(ends)
-        cost.append((p.lateral_weight * lat_cost[:, None] + p.longitudinal_weight * lon_cost[None, :]).ravel())
-        kept.append(i == len(lat_cost) - 1 if keep is not None and keep[0] in offsets else np.zeros(len(i), bool))
-        if arrivals:
-            arrive.append(_arriving(lat_m, lon_m, arrivals, p.times).ravel())
         n_lat, n_lon, n = n_lat + len(lat_cost), n_lon + len(lon_cost), n + len(i)
-    cost = np.concatenate(cost)
+    lat, lon, ci, cj, cost, kept, arrive, lateral = zip(*parts, strict=True)
+    cost = _joined(cost)
     keys = [cost, ~np.isnan(cost)]  # (argmin's order: a NaN before any number)
     if arrivals:
-        keys.append(~np.concatenate(arrive))
+        keys.append(~_joined(arrive))
     if keep is not None and abs(keep[0]) > abs(state.d):
-        keys.append(~np.concatenate(kept))
-    return _Sampled(np.concatenate(lat, axis=1), np.concatenate(lon, axis=1), np.concatenate(ci), np.concatenate(cj),
-                    cost, np.lexsort(keys), np.concatenate(lateral), groups)
+        keys.append(~_joined(kept))
+    return _Sampled(np.concatenate(lat, axis=1), _joined(lon, axis=1), _joined(ci), _joined(cj), cost,
+                    np.lexsort(keys), _joined(lateral), groups)
+
+
+def _joined(parts: tuple[np.ndarray, ...], axis: int = 0) -> np.ndarray:
+    """``parts`` concatenated along ``axis``: the one part itself if it is alone (a cycle has mostly one target)."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=axis)
 
 
 def _search(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, params: PlannerParams,
@@ -357,17 +367,20 @@ def _search(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, par
     c = _sample(state, lanes, params, keep, arrivals)
     edges = (np.stack([np.interp(c.lon[0], road.s, road.left), np.interp(c.lon[0], road.s, road.right)])
              if len(road.s) else _UNBOUNDED)
-    fa, car, out = reference.arrays, _car(params), np.empty((6, len(params.times)))
+    fa, car, n = reference.arrays, _car(params), len(c.cost)
     candidates = Candidates(c.cost, partial(_evaluated, fa, c.lat, c.lon, edges, c.ci, c.cj, objects, car,
                                             params.margin, False))
-    chosen = first_free(fa, c.lat, c.lon, edges, c.ci, c.cj, c.order, objects, car, params.margin, out)
+    out, status = np.empty((6, n, len(params.times))), np.empty(n, dtype=np.int8)
+    chosen = check_candidates(fa, c.lat, c.lon, edges, c.ci, c.cj, c.order, objects, car, params.margin, False, False,
+                              out, status)
     if chosen < 0:
         return None, candidates
     target = c.groups[bisect_right([g[0] for g in c.groups], chosen) - 1][1]
     i, j = c.ci[chosen], c.cj[chosen]
     frenet = np.column_stack([c.lon[0, j], c.lon[1, j], c.lon[2, j], c.lat[0, i], c.lat[1, i], c.lat[2, i]])
-    return Plan(params.times, *out, frenet, float(c.cost[chosen]), "velocity" if target is None else target.mode,
-                candidates, lateral=(float(c.lateral[i, 0]), float(c.lateral[i, 1]))), candidates
+    mode = "velocity" if target is None else target.mode
+    return Plan(params.times, *out[:, chosen], frenet, float(c.cost[chosen]), mode, candidates,
+                lateral=(float(c.lateral[i, 0]), float(c.lateral[i, 1]))), candidates
 
 
 def _arriving(lat_m: np.ndarray, lon_m: np.ndarray, arrivals: tuple[Arrival, ...], t: np.ndarray) -> np.ndarray:
