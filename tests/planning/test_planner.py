@@ -247,7 +247,7 @@ def test_a_free_candidate_in_the_goals_window_is_chosen_over_cheaper_ones():
     # 2 m left of the reference at 10 m/s: the cheapest return takes longer than 1.5 s, so the goal 15-25 m ahead,
     # within 0.5 m of the reference and by 1.6 s, is reached only by the swiftest returns
     start = FrenetState(0.0, 10.0, 0.0, 2.0, 0.0, 0.0)
-    window = Arrival((15.0, 25.0), (0.0, 1.6), d=((15.0, -0.5, 0.5), (25.0, -0.5, 0.5)))
+    window = Arrival((15.0, 25.0), (0.0, 1.6), d=np.array([[15.0, 25.0], [-0.5, -0.5], [0.5, 0.5]]))
     cheapest = plan(start, STRAIGHT, NONE, P)
     arrives = plan(start, STRAIGHT, NONE, P, arrivals=(window,))
 

@@ -60,7 +60,7 @@ def test_the_path_runs_on_along_the_lanelet_that_follows_the_route(tmp_path):
     assert arc == pytest.approx((GOAL_X - 2 - x0, GOAL_X + 2 - x0), abs=GOAL_SPACING_M)
     assert time == pytest.approx((5.0, 6.0)) and speed == (-np.inf, np.inf)
     # the 4 m square across the path along its centre line: 2 m each side all along (its edges are outside)
-    s, lo, hi = np.array(across).T
+    s, lo, hi = across
     assert s[0] == arc[0] and s[-1] == arc[1] and np.all(np.diff(s) <= ACROSS_SPACING_M + 1e-9)
     assert lo == pytest.approx(np.full(len(s), -2.0), abs=ACROSS_STEP_M) and np.all(lo > -2.0)
     assert hi == pytest.approx(np.full(len(s), 2.0), abs=ACROSS_STEP_M) and np.all(hi < 2.0)

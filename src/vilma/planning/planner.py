@@ -392,8 +392,8 @@ def _arriving(lat_m: np.ndarray, lon_m: np.ndarray, arrivals: tuple[Arrival, ...
         on = ((t >= w.t[0]) & (t <= w.t[1]))[None] & (s >= w.s[0]) & (s <= w.s[1]) & (v >= w.v[0]) & (v <= w.v[1])
         if not on.any():
             continue
-        if w.d:
-            arc, lo, hi = np.asarray(w.d).T
+        if w.d.shape[1]:
+            arc, lo, hi = w.d
             on = on[None] & (d[:, None] >= np.interp(s, arc, lo)[None]) & (d[:, None] <= np.interp(s, arc, hi)[None])
         out |= on.any(axis=-1)
     return out

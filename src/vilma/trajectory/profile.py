@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -43,9 +43,10 @@ class Arrival:
     s: tuple[float, float]
     t: tuple[float, float]
     v: tuple[float, float] = (-math.inf, math.inf)
-    d: tuple[tuple[float, float, float], ...] = ()
-    """The position's extent across the path: at arcs ``s`` [m] along the window, the offsets [m] (left positive)
-    ``lo`` .. ``hi`` inside it, as ``(s, lo, hi)`` rows (interpolated between them); none: any offset."""
+    d: np.ndarray = field(default_factory=lambda: np.zeros((3, 0)), compare=False)
+    """The position's extent across the path (3, m): at arcs ``s`` [m] along the window (the first row), the
+    offsets [m] (left positive) from ``lo`` to ``hi`` (the next rows) inside it, interpolated between them; no
+    column: any offset."""
 
 
 def arrival_profile(path: Trajectory, v0: float, accel: float, decel: float,

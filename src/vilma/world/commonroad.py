@@ -272,14 +272,15 @@ def _arrivals(goal: GoalRegion, xy: np.ndarray, time_step: int, dt: float) -> tu
         steps, speed = state.time_step, state.velocity if state.has_value("velocity") else None  # time: mandatory
         out.append(((float(s[first]), float(s[last])), ((steps.start - time_step) * dt, (steps.end - time_step) * dt),
                     (-np.inf, np.inf) if speed is None else (float(speed.start), float(speed.end)),
-                    () if where is None else _across(where, s[first:last + 1], x[first:last + 1], y[first:last + 1])))
+                    np.zeros((3, 0)) if where is None else _across(where, s[first:last + 1], x[first:last + 1],
+                                                                  y[first:last + 1])))
     return tuple(out)
 
 
-def _across(where, s: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple:
+def _across(where, s: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """The extent of the shape ``where`` across a stretch of path inside it (arcs ``s``, points ``x``, ``y`` [m]):
-    ``(s, lo, hi)`` rows every :data:`ACROSS_SPACING_M` and at the stretch's end, the offsets [m] (left positive)
-    of the run of a line across the path, through its point, that lies inside."""
+    (3, m), at arcs every :data:`ACROSS_SPACING_M` and at the stretch's end, the offsets [m] (left positive) from
+    and to which a line across the path, through its point, lies inside (read-only)."""
     keep = np.unique(np.append(np.searchsorted(s, np.arange(s[0], s[-1], ACROSS_SPACING_M)), len(s) - 1))
     heading = np.arctan2(np.gradient(y), np.gradient(x))[keep] if len(s) > 1 else np.zeros(1)
     centre = round(ACROSS_REACH_M / ACROSS_STEP_M)  # the index of d = 0, the path's point
@@ -293,8 +294,10 @@ def _across(where, s: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple:
         out_left, out_right = ~row[centre:], ~row[centre::-1]
         hi = d[centre + int(out_left.argmax()) - 1] if out_left.any() else d[-1]
         lo = d[centre - int(out_right.argmax()) + 1] if out_right.any() else d[0]
-        rows.append((float(s[k]), float(lo), float(hi)))
-    return tuple(rows)
+        rows.append((s[k], lo, hi))
+    out = np.array(rows, dtype=np.float64).reshape(-1, 3).T
+    out.flags.writeable = False  # shared by every run of the task
+    return out
 
 
 def _geometry(shape):
