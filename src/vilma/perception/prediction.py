@@ -1,5 +1,5 @@
-"""The tracked objects' futures over a planning horizon: at constant velocity, or along their lane's centreline
-at their speed where the lane is known."""
+"""The tracked objects' futures over a planning horizon: at constant velocity, or at constant velocity in their
+lane's frame (along its centreline and across it) where the lane is known."""
 
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ def predict(tracks: Sequence[Track], times: np.ndarray, lanes: Sequence[Trajecto
     """Each track's box at each of ``times`` [s] from now, (tracks, times, 5): x, y [m], yaw [rad], length, width
     [m] (the columns of :func:`~vilma.perception.boxes.fit_boxes`).
 
-    ``lanes[i]`` (a centreline of two points or more, or None) moves track ``i`` along it; the others keep their
-    velocity and yaw.
+    ``lanes[i]`` (a centreline of two points or more, or None) moves track ``i`` at constant velocity in its frame;
+    the others keep their velocity and yaw.
     """
     times = np.asarray(times, float).reshape(-1)
     if not (np.isfinite(times).all() and (times >= 0).all()):
@@ -39,15 +39,18 @@ def _straight(track: Track, times: np.ndarray) -> np.ndarray:
 
 
 def _along(track: Track, lane: Trajectory, times: np.ndarray) -> np.ndarray:
-    """x, y, yaw at ``times`` moving along ``lane`` at the track's speed, keeping its offset across the lane; past
-    either end straight on along the end's heading."""
+    """x, y, yaw at ``times`` keeping the track's velocity in the frame of ``lane`` where it projects: along the
+    centreline (round its bends) and across it (a lane change goes on), facing its motion in that frame; past either
+    end straight on along the end's heading."""
     if len(lane) < 2 or lane.length == 0:
         raise ValueError(f"a lane to predict along needs two distinct points or more, got {len(lane)}")
     p = lane.project(track.x, track.y)
-    ahead = track.vx * np.cos(p.heading) + track.vy * np.sin(p.heading) >= 0  # moving with the lane or against it
-    s = p.s + (1 if ahead else -1) * track.speed * times
+    c, s0 = np.cos(p.heading), np.sin(p.heading)
+    along, across = track.vx * c + track.vy * s0, -track.vx * s0 + track.vy * c  # [m/s] in the lane's frame
+    s = p.s + along * times
+    d = p.cross_track + across * times
     h = lane.heading[np.clip(np.searchsorted(lane.s, s, "right") - 1, 0, len(lane) - 2)]
     beyond = np.minimum(s, 0) + np.maximum(s - lane.length, 0)  # [m] before the start (< 0) or past the end
-    x = np.interp(s, lane.s, lane.xy[:, 0]) + beyond * np.cos(h) - p.cross_track * np.sin(h)
-    y = np.interp(s, lane.s, lane.xy[:, 1]) + beyond * np.sin(h) + p.cross_track * np.cos(h)
-    return np.column_stack([x, y, h if ahead else wrap_angle(h + np.pi)])
+    x = np.interp(s, lane.s, lane.xy[:, 0]) + beyond * np.cos(h) - d * np.sin(h)
+    y = np.interp(s, lane.s, lane.xy[:, 1]) + beyond * np.sin(h) + d * np.cos(h)
+    return np.column_stack([x, y, wrap_angle(h + np.arctan2(across, along))])
