@@ -11,7 +11,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from vilma.core.geometry import wrap_angle
+from vilma.core.geometry import wrap
 from vilma.perception.boxes import BOX_LENGTH, BOX_WIDTH, BOX_X, BOX_Y, BOX_YAW
 
 _H = np.eye(2, 4)  # the boxes measure the position of the state x, y, vx, vy
@@ -105,10 +105,13 @@ class Tracker:
         if self._stamp_ns is not None and stamp_ns < self._stamp_ns:
             raise ValueError(f"tracker update at {stamp_ns} ns is before the last one at {self._stamp_ns} ns: "
                              "give the scans in time order (or reset)")
+        if not (len(boxes) or len(self._id)):  # nothing seen, nothing tracked (most scans of an empty road)
+            self._stamp_ns = stamp_ns
+            return []
         self._predict(0.0 if self._stamp_ns is None else (stamp_ns - self._stamp_ns) * 1e-9)
         self._stamp_ns = stamp_ns
         S_inv = self._innovation_inverse(self._P) if len(boxes) and len(self._id) else None
-        rows, cols = self._associate(boxes[:, [BOX_X, BOX_Y]], S_inv)
+        rows, cols = self._associate(boxes[:, BOX_X:BOX_Y + 1], S_inv)
         if len(rows):
             self._correct(rows, boxes[cols], S_inv[rows])
         self._scans += 1
@@ -150,21 +153,25 @@ class Tracker:
         y = z[None] - self._x[:, None, :2]
         d2 = np.einsum("nmi,nij,nmj->nm", y, S_inv, y)
         gated = d2 <= self.params.gate
-        if gated.shape == (1, 1):  # one track, one box: the one pair (scipy's answer, without its cost)
-            rows = cols = np.zeros(1, np.int64)
-        else:
-            rows, cols = linear_sum_assignment(np.where(gated, d2, 1e3 * self.params.gate))  # outside: never chosen
-        keep = gated[rows, cols]                                                              # over a gated pair
+        if gated.shape == (1, 1):  # one track, one box: the one pair if gated (scipy's answer, without its cost)
+            rows = np.zeros(int(gated[0, 0]), np.int64)
+            return rows, rows
+        rows, cols = linear_sum_assignment(np.where(gated, d2, 1e3 * self.params.gate))  # outside: never chosen
+        keep = gated[rows, cols]                                                          # over a gated pair
         return rows[keep], cols[keep]
 
     def _correct(self, rows: np.ndarray, boxes: np.ndarray, S_inv: np.ndarray) -> None:
         """The Kalman update of the tracks ``rows`` with their boxes, and their yaw and size; ``S_inv`` (rows, 2, 2)
         are their innovation covariances' inverses."""
-        x, P = self._x[rows], self._P[rows]
-        y = boxes[:, [BOX_X, BOX_Y]] - x[:, :2]
+        every = len(rows) == len(self._id)  # each track has a box (rows ascending): nothing to gather and scatter
+        x, P = (self._x, self._P) if every else (self._x[rows], self._P[rows])
+        y = boxes[:, BOX_X:BOX_Y + 1] - x[:, :2]
         K = P[:, :, :2] @ S_inv
-        self._x[rows] = x = x + np.einsum("nij,nj->ni", K, y)
-        self._P[rows] = (_I4 - K @ _H) @ P
+        x, P = x + np.einsum("nij,nj->ni", K, y), (_I4 - K @ _H) @ P
+        if every:
+            self._x, self._P = x, P
+        else:
+            self._x[rows], self._P[rows] = x, P
         speed = np.hypot(x[:, 2], x[:, 3])
         ref = np.where(speed >= self.params.heading_speed, np.arctan2(x[:, 3], x[:, 2]), self._yaw[rows])
         yaw, size = _aligned(boxes, ref)
@@ -212,8 +219,11 @@ def _motion(dt: float, acceleration_noise: float) -> tuple[np.ndarray, np.ndarra
 
 def _aligned(boxes: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The boxes' yaws turned by the multiple of pi/2 nearest ``ref`` [rad] (a box's orientation is known only up
-    to that), (n,), and their extents along and across it, (n, 2) [m]."""
-    quarter = np.round(wrap_angle(ref - boxes[:, BOX_YAW]) / (np.pi / 2))
-    swap = (quarter % 2).astype(bool)[:, None]
-    size = np.where(swap, boxes[:, [BOX_WIDTH, BOX_LENGTH]], boxes[:, [BOX_LENGTH, BOX_WIDTH]])
-    return wrap_angle(boxes[:, BOX_YAW] + quarter * np.pi / 2), size
+    to that), (n,), and their extents along and across it, (n, 2) [m]. A loop: a scan corrects a few tracks, too few
+    for a dozen array operations to pay (:func:`wrap` gives :func:`wrap_angle`'s values)."""
+    yaw, size = np.empty(len(boxes)), np.empty((len(boxes), 2))
+    for k, (box, r) in enumerate(zip(boxes.tolist(), ref.tolist(), strict=True)):
+        quarter = round(wrap(r - box[BOX_YAW]) / (math.pi / 2))
+        yaw[k] = wrap(box[BOX_YAW] + quarter * math.pi / 2)
+        size[k] = (box[BOX_WIDTH], box[BOX_LENGTH]) if quarter % 2 else (box[BOX_LENGTH], box[BOX_WIDTH])
+    return yaw, size
