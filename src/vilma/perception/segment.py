@@ -9,6 +9,7 @@ from functools import lru_cache
 from itertools import pairwise
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -63,14 +64,41 @@ def segment(ranges: np.ndarray, bearings: np.ndarray, params: SegmentParams = Se
     near, sin_dphi, sin_rest = _breakpoints(bearings.tobytes(), params.angle)
     if (ranges < 0).any():
         raise ValueError(f"a scan's ranges must be >= 0 [m] (inf or NaN: no return), got {ranges.min()!r}")
-    points = scan_points(ranges, bearings)  # NaN without a return: every comparison with it is False
-    gap = np.hypot(*np.diff(points, axis=0).T)
-    reach = np.full(len(gap), -np.inf)
-    reach[near] = ranges[:-1][near] * sin_dphi / sin_rest + 3 * params.range_noise
-    joined = np.concatenate([[False], gap <= reach])  # whether each ray joins the cluster of the ray before
-    hit = np.flatnonzero(np.isfinite(ranges))
-    starts = [*np.flatnonzero(~joined[hit]).tolist(), len(hit)]  # the first is 0: hit[0] joins no ray before it
-    return [hit[a:b] for a, b in pairwise(starts) if b - a >= params.min_points]
+    cos, sin = _trig(bearings.tobytes())
+    rays, starts = _clusters(ranges, cos, sin, near, sin_dphi, sin_rest, 3 * params.range_noise, params.min_points)
+    return [rays[a:b] for a, b in pairwise(starts.tolist())]
+
+
+@njit(cache=True)
+def _clusters(ranges, cos, sin, near, sin_dphi, sin_rest, slack, min_points):
+    """The rays of the clusters of ``min_points`` returns or more, back to back, and where each cluster starts
+    among them and where the last ends, (clusters + 1,) (:func:`segment`; ``near``, ``sin_dphi`` and ``sin_rest``
+    of :func:`_breakpoints`, ``slack`` the 3 sigma [m]). One pass over the rays: a scan has mostly no returns, and a
+    few clusters, too few for a dozen array operations to pay."""
+    rays, starts = np.empty(len(ranges), np.int64), np.zeros(len(ranges) + 1, np.int64)
+    kept = clusters = 0  # rays in the kept clusters and the growing one, clusters kept
+    j = -1  # the pair of rays i - 1, i among the near ones
+    for i in range(len(ranges)):
+        joined = False  # rays lambda or more apart, or a ray without a return, never join
+        if i > 0 and near[i - 1]:
+            j += 1
+            if np.isfinite(ranges[i - 1]) and np.isfinite(ranges[i]):
+                gap = math.hypot(ranges[i] * cos[i] - ranges[i - 1] * cos[i - 1],
+                                 ranges[i] * sin[i] - ranges[i - 1] * sin[i - 1])
+                joined = gap <= ranges[i - 1] * sin_dphi[j] / sin_rest[j] + slack
+        if not np.isfinite(ranges[i]):
+            continue
+        if not joined:  # a new cluster: the last one stays if big enough
+            if kept - starts[clusters] >= min_points:
+                clusters += 1
+                starts[clusters] = kept
+            kept = starts[clusters]
+        rays[kept] = i
+        kept += 1
+    if kept - starts[clusters] >= min_points:
+        clusters += 1
+        starts[clusters] = kept
+    return rays[:starts[clusters]], starts[:clusters + 1]
 
 
 @lru_cache(maxsize=8)  # a laser's bearings are the same each scan
