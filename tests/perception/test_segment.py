@@ -120,3 +120,34 @@ def test_random_boxes_never_crash_and_the_clusters_partition_the_returns(placed,
        st.integers(1, 5))
 def test_any_ranges_never_crash_and_the_clusters_partition_the_returns(ranges, min_points):
     partition(np.array(ranges, float), np.linspace(-1.0, 1.0, len(ranges)), min_points)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.floats(0, 30), st.lists(st.one_of(st.floats(-0.5, 0.5), st.just(math.inf), st.just(math.nan)), max_size=120),
+       st.floats(0.005, 0.3), st.floats(math.radians(1.0), math.radians(60.0)), st.floats(0, 0.5),
+       st.integers(1, 4))
+def test_the_clusters_are_the_runs_that_borges_and_aldons_criterion_joins(first, steps, step, lam, noise, min_points):
+    """Each pair of neighbouring rays, checked alone by eq. 4 (points at most r sin(dphi) / sin(lambda - dphi) +
+    3 sigma apart, rays less than lambda apart, both with a return), joins or splits the clusters, exactly. The
+    returns wander from ``first`` [m] by ``steps`` (surfaces at many angles; inf, NaN: no return)."""
+    ranges, last = [first], first
+    for d in steps:
+        last = max(0.0, last + d) if math.isfinite(d) else last
+        ranges.append(last if math.isfinite(d) else d)
+    b = step * np.arange(len(ranges))
+
+    def joined(n: int) -> bool:  # rays n - 1 and n
+        r0, r1, dphi = ranges[n - 1], ranges[n], b[n] - b[n - 1]
+        if not (dphi < lam and math.isfinite(r0) and math.isfinite(r1)):
+            return False
+        gap = np.hypot(r1 * math.cos(b[n]) - r0 * math.cos(b[n - 1]), r1 * math.sin(b[n]) - r0 * math.sin(b[n - 1]))
+        return gap <= r0 * math.sin(dphi) / math.sin(lam - dphi) + 3 * noise
+
+    runs, run = [], []
+    for n, r in enumerate(ranges):
+        if n and not joined(n):
+            runs, run = [*runs, run], []
+        run += [n] if math.isfinite(r) else []
+    expected = [k for k in [*runs, run] if len(k) >= min_points]
+    params = SegmentParams(angle=lam, range_noise=noise, min_points=min_points)
+    assert [c.tolist() for c in segment(np.array(ranges), b, params)] == expected

@@ -177,3 +177,24 @@ def test_cars_driving_past_the_laser_are_tracked_from_its_scans():
     s = clear_mot(frames, threshold=2 * half_diagonal)
     assert (s.misses, s.false_positives, s.id_switches) == (2 * 3, 0, 0)
     assert s.motp <= half_diagonal
+
+
+def test_a_lone_box_outside_the_lone_tracks_gate_starts_a_track_of_its_own():
+    """A box 20 m from the only track (standing still, its position known within a metre: a squared Mahalanobis
+    distance in the hundreds, far past the gate) updates nothing: the track coasts, a new one is born at the box."""
+    tracker = Tracker(TrackerParams(confirm_hits=2, confirm_scans=3, max_misses=3))
+    (before,) = [tracker.update(k * DT_NS, [box(10.0, 0.0)]) for k in range(2)][1]
+    (coasting,) = tracker.update(2 * DT_NS, [box(30.0, 0.0)])
+    assert (coasting.id, coasting.x, coasting.y) == (1, 10.0, 0.0)  # at rest: predicted where it was
+    assert np.trace(coasting.covariance) > np.trace(before.covariance)  # predicted only, not updated
+    (old, new) = tracker.update(3 * DT_NS, [box(30.0, 0.0)])
+    assert (old.id, old.x, new.id, new.x, new.age) == (1, 10.0, 2, 30.0, DT)
+
+
+def test_scans_with_nothing_seen_and_nothing_tracked_still_keep_the_time_order():
+    tracker = Tracker(TrackerParams(confirm_hits=1))
+    assert tracker.update(5 * DT_NS, []) == [] and tracker.update(6 * DT_NS, np.zeros((0, 5))) == []
+    with pytest.raises(ValueError, match="before the last one at 600000000 ns"):
+        tracker.update(5 * DT_NS, [])
+    (t,) = tracker.update(7 * DT_NS, [box(10.0, 0.0)])
+    assert (t.id, t.x, t.age) == (1, 10.0, 0.0)
