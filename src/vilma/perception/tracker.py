@@ -78,9 +78,26 @@ class Track:
         return math.hypot(self.vx, self.vy)
 
 
+@dataclass(slots=True, kw_only=True)
+class _Book:
+    """A track's bookkeeping: its id, yaw [rad], length and width [m] (the largest seen), the sim time of its first
+    box [ns], its scans and hits so far, its misses in a row, and whether it is confirmed."""
+
+    id: int
+    yaw: float
+    length: float
+    width: float
+    born_ns: int
+    scans: int = 1
+    hits: int = 1
+    misses: int = 0
+    confirmed: bool
+
+
 class Tracker:
     """Tracks the boxes of consecutive scans (:func:`~vilma.perception.boxes.fit_boxes`); :meth:`update` once a
-    scan. The tracks live in arrays, one row each, so that a scan costs a few array operations however many."""
+    scan. The filters' states live in arrays, one row a track, so that a scan's filtering costs a few array
+    operations however many; the bookkeeping in a record a track (a scan sees a few: cheaper than arrays)."""
 
     def __init__(self, params: TrackerParams = TrackerParams()) -> None:
         self.params = params
@@ -89,11 +106,8 @@ class Tracker:
     def reset(self) -> None:
         """Forget every track; ids start again from 1."""
         self._next_id, self._stamp_ns = 1, None
-        self._id = np.zeros(0, np.int64)
         self._x, self._P = np.zeros((0, 4)), np.zeros((0, 4, 4))
-        self._yaw, self._size = np.zeros(0), np.zeros((0, 2))
-        self._born_ns, self._scans, self._hits, self._misses = (np.zeros(0, np.int64) for _ in range(4))
-        self._confirmed = np.zeros(0, bool)
+        self._books: list[_Book] = []
 
     def update(self, stamp_ns: int, boxes: np.ndarray) -> list[Track]:
         """The confirmed tracks after the boxes (n, 5) seen at sim time ``stamp_ns`` [ns] (not before the last)."""
@@ -105,21 +119,16 @@ class Tracker:
         if self._stamp_ns is not None and stamp_ns < self._stamp_ns:
             raise ValueError(f"tracker update at {stamp_ns} ns is before the last one at {self._stamp_ns} ns: "
                              "give the scans in time order (or reset)")
-        if not (len(boxes) or len(self._id)):  # nothing seen, nothing tracked (most scans of an empty road)
+        if not (len(boxes) or self._books):  # nothing seen, nothing tracked (most scans of an empty road)
             self._stamp_ns = stamp_ns
             return []
         self._predict(0.0 if self._stamp_ns is None else (stamp_ns - self._stamp_ns) * 1e-9)
         self._stamp_ns = stamp_ns
-        S_inv = self._innovation_inverse(self._P) if len(boxes) and len(self._id) else None
+        S_inv = self._innovation_inverse(self._P) if len(boxes) and self._books else None
         rows, cols = self._associate(boxes[:, BOX_X:BOX_Y + 1], S_inv)
         if len(rows):
             self._correct(rows, boxes[cols], S_inv[rows])
-        self._scans += 1
-        hit = np.zeros(len(self._id), bool)
-        hit[rows] = True
-        self._hits += hit
-        self._misses = np.where(hit, 0, self._misses + 1)
-        self._confirmed |= self._hits >= self.params.confirm_hits
+        self._count(set(rows.tolist()))
         self._prune()
         if len(cols) < len(boxes):
             free = np.ones(len(boxes), bool)
@@ -129,14 +138,13 @@ class Tracker:
 
     def tracks(self) -> list[Track]:
         """The confirmed tracks now."""
-        return [Track(int(self._id[i]), *self._x[i, :2].tolist(), float(self._yaw[i]), *self._x[i, 2:].tolist(),
-                      *self._size[i].tolist(), self._P[i].copy(), (self._stamp_ns - int(self._born_ns[i])) * 1e-9)
-                for i in np.flatnonzero(self._confirmed)]
+        return [Track(b.id, *x[:2], b.yaw, *x[2:], b.length, b.width, P.copy(), (self._stamp_ns - b.born_ns) * 1e-9)
+                for b, x, P in zip(self._books, self._x.tolist(), self._P, strict=True) if b.confirmed]
 
     def _predict(self, dt: float) -> None:
         """Move the tracks ``dt`` [s] on at constant velocity (discrete white-noise acceleration, Bar-Shalom et
         al. 2001, eq. 6.3.2-4)."""
-        if len(self._id):
+        if self._books:
             F, Q = _motion(dt, self.params.acceleration_noise)
             self._x = self._x @ F.T
             self._P = F @ self._P @ F.T + Q
@@ -148,7 +156,7 @@ class Tracker:
     def _associate(self, z: np.ndarray, S_inv: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """The pairs (track rows, box rows) of least total squared Mahalanobis distance, each within the gate, of
         the boxes' centres ``z`` (m, 2) and the tracks of innovation covariances' inverses ``S_inv`` (n, 2, 2)."""
-        if len(self._id) == 0 or len(z) == 0:
+        if not (self._books and len(z)):
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         y = z[None] - self._x[:, None, :2]
         d2 = np.einsum("nmi,nij,nmj->nm", y, S_inv, y)
@@ -163,7 +171,7 @@ class Tracker:
     def _correct(self, rows: np.ndarray, boxes: np.ndarray, S_inv: np.ndarray) -> None:
         """The Kalman update of the tracks ``rows`` with their boxes, and their yaw and size; ``S_inv`` (rows, 2, 2)
         are their innovation covariances' inverses."""
-        every = len(rows) == len(self._id)  # each track has a box (rows ascending): nothing to gather and scatter
+        every = len(rows) == len(self._books)  # each track has a box (rows ascending): nothing to gather and scatter
         x, P = (self._x, self._P) if every else (self._x[rows], self._P[rows])
         y = boxes[:, BOX_X:BOX_Y + 1] - x[:, :2]
         K = P[:, :, :2] @ S_inv
@@ -172,36 +180,39 @@ class Tracker:
             self._x, self._P = x, P
         else:
             self._x[rows], self._P[rows] = x, P
-        speed = np.hypot(x[:, 2], x[:, 3])
-        ref = np.where(speed >= self.params.heading_speed, np.arctan2(x[:, 3], x[:, 2]), self._yaw[rows])
-        yaw, size = _aligned(boxes, ref)
-        self._yaw[rows] = yaw
-        self._size[rows] = np.maximum(self._size[rows], size)
+        speed, heading = np.hypot(x[:, 2], x[:, 3]).tolist(), np.arctan2(x[:, 3], x[:, 2]).tolist()
+        for r, box, v, h in zip(rows.tolist(), boxes.tolist(), speed, heading, strict=True):
+            b = self._books[r]
+            b.yaw, length, width = _aligned(box, h if v >= self.params.heading_speed else b.yaw)
+            b.length, b.width = max(b.length, length), max(b.width, width)
+
+    def _count(self, hit: set[int]) -> None:
+        """Count a scan in each track's bookkeeping, a hit for the tracks ``hit`` (rows), else a miss."""
+        for k, b in enumerate(self._books):
+            b.scans += 1
+            b.hits, b.misses = (b.hits + 1, 0) if k in hit else (b.hits, b.misses + 1)
+            b.confirmed = b.confirmed or b.hits >= self.params.confirm_hits
 
     def _prune(self) -> None:
         """Drop the tracks missed too often and those not confirmed in time."""
         p = self.params
-        keep = (self._misses < p.max_misses) & (self._confirmed | (self._scans < p.confirm_scans))
-        if keep.all():
-            return
-        for name in ("_id", "_x", "_P", "_yaw", "_size", "_born_ns", "_scans", "_hits", "_misses", "_confirmed"):
-            setattr(self, name, getattr(self, name)[keep])
+        keep = [k for k, b in enumerate(self._books)
+                if b.misses < p.max_misses and (b.confirmed or b.scans < p.confirm_scans)]
+        if len(keep) < len(self._books):
+            self._x, self._P, self._books = self._x[keep], self._P[keep], [self._books[k] for k in keep]
 
     def _birth(self, boxes: np.ndarray, stamp_ns: int) -> None:
         """A new tentative track at each box no track took, at rest with the initial speed's uncertainty."""
         n, p = len(boxes), self.params
-        ids = np.arange(self._next_id, self._next_id + n)
-        self._next_id += n
         P = np.zeros((n, 4, 4))
         P[:, [0, 1], [0, 1]] = p.position_noise ** 2
         P[:, [2, 3], [2, 3]] = p.initial_speed ** 2
         x = np.zeros((n, 4))
         x[:, :2] = boxes[:, [BOX_X, BOX_Y]]
-        new = {"_id": ids, "_x": x, "_P": P, "_yaw": boxes[:, BOX_YAW], "_size": boxes[:, [BOX_LENGTH, BOX_WIDTH]],
-               "_born_ns": np.full(n, stamp_ns), "_scans": np.ones(n, np.int64), "_hits": np.ones(n, np.int64),
-               "_misses": np.zeros(n, np.int64), "_confirmed": np.full(n, p.confirm_hits <= 1)}
-        for name, value in new.items():
-            setattr(self, name, np.concatenate([getattr(self, name), value]))
+        self._x, self._P = np.concatenate([self._x, x]), np.concatenate([self._P, P])
+        self._books += [_Book(id=self._next_id + k, yaw=box[BOX_YAW], length=box[BOX_LENGTH], width=box[BOX_WIDTH],
+                              born_ns=stamp_ns, confirmed=p.confirm_hits <= 1) for k, box in enumerate(boxes.tolist())]
+        self._next_id += n
 
 
 @lru_cache(maxsize=16)  # a scan's dt is nearly always the laser's period
@@ -217,13 +228,10 @@ def _motion(dt: float, acceleration_noise: float) -> tuple[np.ndarray, np.ndarra
     return F, Q
 
 
-def _aligned(boxes: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The boxes' yaws turned by the multiple of pi/2 nearest ``ref`` [rad] (a box's orientation is known only up
-    to that), (n,), and their extents along and across it, (n, 2) [m]. A loop: a scan corrects a few tracks, too few
-    for a dozen array operations to pay (:func:`wrap` gives :func:`wrap_angle`'s values)."""
-    yaw, size = np.empty(len(boxes)), np.empty((len(boxes), 2))
-    for k, (box, r) in enumerate(zip(boxes.tolist(), ref.tolist(), strict=True)):
-        quarter = round(wrap(r - box[BOX_YAW]) / (math.pi / 2))
-        yaw[k] = wrap(box[BOX_YAW] + quarter * math.pi / 2)
-        size[k] = (box[BOX_WIDTH], box[BOX_LENGTH]) if quarter % 2 else (box[BOX_LENGTH], box[BOX_WIDTH])
-    return yaw, size
+def _aligned(box: list[float], ref: float) -> tuple[float, float, float]:
+    """The box's yaw turned by the multiple of pi/2 nearest ``ref`` [rad] (a box's orientation is known only up to
+    that), and its extents along and across it [m] (:func:`wrap` gives :func:`~vilma.core.geometry.wrap_angle`'s
+    values)."""
+    quarter = round(wrap(ref - box[BOX_YAW]) / (math.pi / 2))
+    length, width = (box[BOX_WIDTH], box[BOX_LENGTH]) if quarter % 2 else (box[BOX_LENGTH], box[BOX_WIDTH])
+    return wrap(box[BOX_YAW] + quarter * math.pi / 2), length, width
