@@ -125,9 +125,9 @@ class Tracker:
         self._predict(0.0 if self._stamp_ns is None else (stamp_ns - self._stamp_ns) * 1e-9)
         self._stamp_ns = stamp_ns
         S_inv = self._innovation_inverse(self._P) if len(boxes) and self._books else None
-        rows, cols = self._associate(boxes[:, BOX_X:BOX_Y + 1], S_inv)
+        rows, cols, y = self._associate(boxes[:, BOX_X:BOX_Y + 1], S_inv)
         if len(rows):
-            self._correct(rows, boxes[cols], S_inv[rows])
+            self._correct(rows, boxes[cols], y, S_inv if len(rows) == len(self._books) else S_inv[rows])
         self._count(set(rows.tolist()))
         self._prune()
         if len(cols) < len(boxes):
@@ -153,27 +153,27 @@ class Tracker:
         """The inverses of the innovation covariances of tracks of covariances ``P`` (n, 4, 4), (n, 2, 2)."""
         return np.linalg.inv(P[:, :2, :2] + self.params.position_noise ** 2 * _I2)
 
-    def _associate(self, z: np.ndarray, S_inv: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    def _associate(self, z: np.ndarray, S_inv: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The pairs (track rows, box rows) of least total squared Mahalanobis distance, each within the gate, of
-        the boxes' centres ``z`` (m, 2) and the tracks of innovation covariances' inverses ``S_inv`` (n, 2, 2)."""
+        the boxes' centres ``z`` (m, 2) and the tracks of innovation covariances' inverses ``S_inv`` (n, 2, 2), and
+        the pairs' innovations (pairs, 2) [m]."""
         if not (self._books and len(z)):
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2))
         y = z[None] - self._x[:, None, :2]
         d2 = np.einsum("nmi,nij,nmj->nm", y, S_inv, y)
         gated = d2 <= self.params.gate
         if gated.shape == (1, 1):  # one track, one box: the one pair if gated (scipy's answer, without its cost)
             rows = np.zeros(int(gated[0, 0]), np.int64)
-            return rows, rows
+            return rows, rows, y[0, :len(rows)]
         rows, cols = linear_sum_assignment(np.where(gated, d2, 1e3 * self.params.gate))  # outside: never chosen
         keep = gated[rows, cols]                                                          # over a gated pair
-        return rows[keep], cols[keep]
+        return rows[keep], cols[keep], y[rows[keep], cols[keep]]
 
-    def _correct(self, rows: np.ndarray, boxes: np.ndarray, S_inv: np.ndarray) -> None:
-        """The Kalman update of the tracks ``rows`` with their boxes, and their yaw and size; ``S_inv`` (rows, 2, 2)
-        are their innovation covariances' inverses."""
+    def _correct(self, rows: np.ndarray, boxes: np.ndarray, y: np.ndarray, S_inv: np.ndarray) -> None:
+        """The Kalman update of the tracks ``rows`` with their boxes, of innovations ``y`` (rows, 2) [m] and
+        innovation covariances' inverses ``S_inv`` (rows, 2, 2), and their yaw and size."""
         every = len(rows) == len(self._books)  # each track has a box (rows ascending): nothing to gather and scatter
         x, P = (self._x, self._P) if every else (self._x[rows], self._P[rows])
-        y = boxes[:, BOX_X:BOX_Y + 1] - x[:, :2]
         K = P[:, :, :2] @ S_inv
         x, P = x + np.einsum("nij,nj->ni", K, y), (_I4 - K @ _H) @ P
         if every:
