@@ -105,9 +105,9 @@ class Planning(LocalPlanning):
                 near &= np.abs(wrap_angle(np.arctan2(dy, dx) - sensor[2])) <= 0.5 * fov + half
             ids, s = self.sim.traffic.ids[near], states[near]
         tracks = np.array([(t.id, t.x, t.y, t.vx, t.vy) for t in self.tracks]).reshape(-1, 5)
-        self.frames.append(MotFrame(ids, s[:, [X, Y]], s[:, V, None] * np.column_stack([np.cos(s[:, YAW]),
-                                                                                        np.sin(s[:, YAW])]),
-                                    tracks[:, 0].astype(np.int64), tracks[:, 1:3], tracks[:, 3:]))
+        heading = np.array([np.cos(s[:, YAW]), np.sin(s[:, YAW])]).T  # not column_stack: a scan's time counts
+        self.frames.append(MotFrame(ids, s[:, X:Y + 1], s[:, V, None] * heading, tracks[:, 0].astype(np.int64),
+                                    tracks[:, 1:3], tracks[:, 3:]))
 
     def scores(self) -> dict:
         """The scorecard's planning keys (:data:`PLANNING_KEYS`); NaN where a score is undefined."""
