@@ -194,3 +194,15 @@ def test_the_help_imports_neither_numba_nor_scipy_nor_matplotlib():
             "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_a_run_does_not_import_scipy_linalg(tmp_path):
+    """numba's BLAS probe is skipped (:mod:`vilma.core.numba_start`), and no kernel of a course run needs BLAS (the
+    second run: the first builds the course's spline with scipy.interpolate, which imports scipy.linalg)."""
+    code = ("import sys; from vilma.app.cli import main\n"
+            f"code = main(['run', 'course_30kmh_stanley', '--out', {str(tmp_path)!r}, '--overwrite', '-q', "
+            "'--no-plots', '--no-record'])\n"
+            "print(code, 'scipy.linalg' in sys.modules)")
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+            for _ in range(2)]
+    assert runs[1].split() == ["0", "False"]

@@ -18,6 +18,7 @@ from rich.progress import Progress
 from rich.table import Table
 from rich.text import Text
 
+from vilma.core.numba_start import load_array_support
 from vilma.record.run import record_run
 from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the demo and the tests find them
 from vilma.scenario.bundled import find_scenario as find_scenario
@@ -37,6 +38,8 @@ COMPILING = ("compiling vilma's numba code for this machine, once: 15 s for a sc
 """What the first run says when numba's cache is cold (:func:`numba_cache_cold`)."""
 MAX_RUNS = 100_000
 """Runs one ``--set`` sweep may ask for (each is loaded and checked before the first starts)."""
+
+load_array_support()  # before the first kernel loads: spares a command scipy.linalg's import
 
 
 @dataclass(frozen=True, slots=True)
