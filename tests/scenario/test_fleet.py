@@ -37,6 +37,7 @@ def _cars():
 @pytest.mark.slow
 def test_each_car_of_a_fleet_drives_as_it_would_alone(monkeypatch):
     monkeypatch.setattr(fleet, "WAVE", 4)  # two waves
+    monkeypatch.setattr(fleet, "THREADS", 2)  # two threads a wave, whatever the machine's cores
     cars = _cars()
     heard = []
     together = fleet.run_fleet(cars, progress=heard.append)
@@ -50,6 +51,24 @@ def test_each_car_of_a_fleet_drives_as_it_would_alone(monkeypatch):
             {k: v for k, v in alone.metrics.items() if k not in TIMING_KEYS}
     # the seeds were the cars' own: the two EKF cars fused different noise
     assert not np.array_equal(together[0].log.column("est_x"), together[1].log.column("est_x"), equal_nan=True)
+
+
+def test_a_failing_car_stops_the_fleet_with_its_error(monkeypatch):
+    monkeypatch.setattr(fleet, "THREADS", 2)
+    blocks = []
+
+    def end(drive, ran, wall):
+        blocks.append(drive)
+        if len(blocks) == 3:
+            raise RuntimeError("this block failed")
+        end_as_before(drive, ran, wall)
+
+    end_as_before = fleet.CompiledDrive.end
+    monkeypatch.setattr(fleet.CompiledDrive, "end", end)
+    car = load_scenario(BUNDLED / "paper_fig11_speed_10.yaml", {"duration": "300"})  # 30,000 periods: 30 blocks
+    with pytest.raises(RuntimeError, match="this block failed"):
+        fleet.run_fleet([car] * 4)
+    assert len(blocks) < 60  # of 120: the other thread stopped too
 
 
 def test_vilma_run_cars_writes_a_folder_a_car(tmp_path):

@@ -1,9 +1,10 @@
 """Many cars at once: each its own scenario (parameters, seed, sensors, controllers), driven side by side.
 
 :func:`run_fleet` drives the cars a wave at a time (:data:`WAVE`). It sets a wave's cars up, then drives those that
-qualify for the compiled loop (:func:`~vilma.scenario.lockstep.compiled_ok`) block by block: each round, a block of
-driver periods of every car still driving, so they stay within a block of one another in sim time. The others run
-after, one after another, in the runner's Python loop. A car's drive and scorecard are bit-identical to
+qualify for the compiled loop (:func:`~vilma.scenario.lockstep.compiled_ok`) block by block, in a thread a core
+(:data:`THREADS`; the compiled loop runs without the GIL): each round of a thread, a block of driver periods of every
+car of its share still driving, so they stay within a block of one another in sim time. The others run after, one
+after another, in the runner's Python loop. A car's drive and scorecard are bit-identical to
 :func:`~vilma.scenario.runner.run` of its scenario alone: the same kernels on the same inputs (tested).
 
 A block is one compiled call a car. A single call for all the cars (a numba typed list of their arguments) was
@@ -15,8 +16,11 @@ nearly all the time is each car's own plant and driver (microseconds a period).
 from __future__ import annotations
 
 import contextlib
+import os
+import threading
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 
 from numba.core.event import install_listener
 
@@ -31,6 +35,9 @@ WAVE = 100
 """Cars driven side by side at most: the next ones start when these are done, so that memory holds a wave's
 simulators (about 2 MB a car: its sensors' blocks of readings and noise) and every car's log, not every car's
 simulator (2 GB for 1000 cars)."""
+THREADS = len(os.sched_getaffinity(0))
+"""Threads that drive a wave's compiled cars at once: one per core this process may use (the compiled loop runs
+without the GIL)."""
 
 
 def run_fleet(scenarios: Sequence[Scenario],
@@ -75,21 +82,36 @@ def _wave(cars: list[Car], loading: LoadTimer) -> list[RunResult]:
         drives = {i: CompiledDrive(c.sim, c.driver, c.log, c.periods, c.follows, c.block_taker)
                   for i, c in enumerate(cars) if compiled_ok(c.sim, c.driver)}
         slow = [i for i in range(len(cars)) if i not in drives]
-        while drives:
-            for i, d in list(drives.items()):
-                t0 = time.perf_counter() - loading.seconds
-                args = d.start()
-                wall = time.perf_counter()
-                ran = _loop(*args)
-                d.end(ran, time.perf_counter() - wall)
-                loops[i] += time.perf_counter() - loading.seconds - t0
-                if not d.running:
-                    del drives[i]
+        groups = [dict(list(drives.items())[k::THREADS]) for k in range(min(THREADS, len(drives)))]
+        stop = threading.Event()
+        with ThreadPoolExecutor(len(groups) or 1) as pool:
+            threads = [pool.submit(_drive, g, loops, loading, stop) for g in groups]
+            try:
+                wait(threads, return_when=FIRST_EXCEPTION)
+            finally:  # Ctrl-C or a failure: the other threads stop after their block
+                stop.set()
+        for thread in threads:
+            thread.result()
         for i in slow:
             t0 = time.perf_counter() - loading.seconds
             cars[i].loop(None, compiled=False)
             loops[i] += time.perf_counter() - loading.seconds - t0
         return [car.score(loop) for car, loop in zip(cars, loops, strict=True)]
+
+
+def _drive(drives: dict[int, CompiledDrive], loops: list[float], loading: LoadTimer, stop: threading.Event) -> None:
+    """Drive each car of ``drives`` (by its index) a block at a time in turn until it is done, or until ``stop``;
+    adds each block's wall time to the car's ``loops`` entry, the loading of compiled code aside."""
+    while drives and not stop.is_set():
+        for i, d in list(drives.items()):
+            t0 = time.perf_counter() - loading.seconds
+            args = d.start()
+            wall = time.perf_counter()
+            ran = _loop(*args)
+            d.end(ran, time.perf_counter() - wall)
+            loops[i] += time.perf_counter() - loading.seconds - t0
+            if not d.running:
+                del drives[i]
 
 
 def _path(paths: dict, scenario: Scenario) -> Trajectory | None:

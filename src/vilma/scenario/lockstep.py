@@ -93,7 +93,7 @@ def _source_ok(sim: Simulator, driver: Driver) -> bool:
     return all(p % t == 0 or t % p == 0 for t in _truth_periods(sim))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # cars of a fleet run side by side in threads
 def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, out_tick, n, cmd_mode, cmd, limits,
           dc, ds, pa, has_path, speed_c, speed_s, path_c, path_s, original_speed, stop_at_rest, rows, truth,
           pose_period, vel_period, traffic, body_offset, ekf):
