@@ -3,15 +3,23 @@
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+import sys
 
+import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tests.conftest import fit_circle, physics_only
 from vilma.core.messages import ActuatorCommand, Longitudinal
-from vilma.plant3d.car_model import sprung_inertia
+from vilma.plant3d import kernel
+from vilma.plant3d.car_model import CORNERS, sprung_inertia
 from vilma.plant3d.plant import MujocoPlant, ackermann
 from vilma.sim import Simulator
+from vilma.vehicle.models.common import V_SIGN
 from vilma.vehicle.params import GRAVITY, vilma
 from vilma.vehicle.state import VehicleState
 
@@ -112,3 +120,70 @@ def test_turning_rolls_the_body_outward_by_the_roll_stiffness():
     assert ay > 2.0
     assert np.mean(rolls) == pytest.approx(expected, rel=0.25)
     assert np.mean(rolls) > 0  # a left turn rolls the body to the right: positive about x
+
+
+def _by_hand(plant: MujocoPlant, steer: float, drive: float, brake: float) -> None:
+    """One 10 ms step of ``plant`` in a plain Python loop of ``mj_step``, the controls set as the plant's documents
+    say: the drive force limited by the power at the speed along body x and split between the axles as wheel torques,
+    the brakes as the spin joints' friction, the Ackermann angles, drag and rolling resistance along the heading."""
+    m, d, p = plant.model, plant.data, CAR
+    xm = d.xmat[m.body("chassis").id]
+    vx = xm[0] * d.qvel[0] + xm[3] * d.qvel[1] + xm[6] * d.qvel[2]
+    f = min(max(drive, -p.max_drive_force), p.max_drive_force)
+    f = min(max(f, -p.max_power / max(abs(vx), 1e-3)), p.max_power / max(abs(vx), 1e-3))
+    front, rear = p.drive_split_front * f / 2 * p.wheel_radius, (1 - p.drive_split_front) * f / 2 * p.wheel_radius
+    d.ctrl[:] = (front, front, rear, rear, *ackermann(steer, p.wheelbase, p.track))
+    b = min(max(brake, 0.0), p.max_brake_force)
+    bf, br = p.brake_split_front * b / 2 * p.wheel_radius, (1 - p.brake_split_front) * b / 2 * p.wheel_radius
+    m.dof_frictionloss[[m.joint(f"spin_{c}").dofadr[0] for c in CORNERS]] = (bf, bf, br, br)
+    resist = 0.5 * p.air_density * p.drag_area * vx * abs(vx) + p.rolling_resistance * p.mass * 9.81 * math.tanh(
+        vx / V_SIGN)
+    n = math.hypot(xm[0], xm[3])
+    d.xfrc_applied[m.body("chassis").id, 0:2] = (-resist * xm[0] / n, -resist * xm[3] / n)
+    for _ in range(2):
+        mujoco.mj_step(m, d)
+    mujoco.mj_kinematics(m, d)
+
+
+def test_the_compiled_stepping_is_a_plain_python_loop_of_mj_step_bit_for_bit():
+    plant, by_hand = MujocoPlant(CAR), MujocoPlant(CAR)
+    for p in (plant, by_hand):
+        p.reset(VehicleState(vx=5.0, steer=0.1))
+    for steer, drive, brake in [(0.1, 3000.0, 0.0)] * 100 + [(-0.2, 0.0, 4000.0)] * 100 + [(0.0, 9e3, 0.0)] * 50:
+        plant.step(steer, drive, brake, 0.01)
+        _by_hand(by_hand, steer, drive, brake)
+        assert np.array_equal(plant.data.qpos, by_hand.data.qpos) and np.array_equal(plant.data.qvel, by_hand.data.qvel)
+    xm, (x, y, _, vx_w, vy_w) = by_hand.data.xmat[by_hand.model.body("chassis").id], by_hand.data.qpos[:5]
+    c, s = xm[0] / math.hypot(xm[0], xm[3]), xm[3] / math.hypot(xm[0], xm[3])
+    vx_w, vy_w, _, w0, w1, w2 = by_hand.data.qvel[:6]
+    assert plant.planar_state() == (x, y, math.atan2(s, c), c * vx_w + s * vy_w, -s * vx_w + c * vy_w,
+                                    xm[6] * w0 + xm[7] * w1 + xm[8] * w2)
+    assert plant.planar_state()[3] > 5.0 and plant.data.time == pytest.approx(2.5)  # it drove on, braked, drove
+
+
+@settings(max_examples=300)
+@given(st.floats(allow_nan=False, allow_infinity=False), st.floats(allow_nan=False, allow_infinity=False))
+def test_the_compiled_hypot_is_pythons_bit_for_bit(a, b):
+    assert kernel.hypot(a, b) == math.hypot(a, b)
+
+
+CACHED = """
+import numpy as np
+from vilma.plant3d import kernel
+from vilma.plant3d.plant import MujocoPlant
+from vilma.vehicle.params import vilma
+from vilma.vehicle.state import N3, NZ
+plant = MujocoPlant(vilma())
+plant.step(0.0, 100.0, 0.0, 0.01)
+z, cmd, rows = np.zeros(NZ), np.zeros(4), np.zeros(2, np.int64)
+plant.advance(z, 0, cmd, 0.01, 2, 0, np.array([1]), np.zeros((2, NZ)), np.zeros((2, 6)), rows, np.zeros((2, N3)))
+print(*(sum(len(getattr(f.stats, k)) for f in (kernel.hold, kernel.advance)) for k in ("cache_hits", "cache_misses")))
+"""
+
+
+def test_a_second_process_takes_the_compiled_stepping_from_numbas_cache(tmp_path):
+    # MuJoCo's functions are named symbols in the compiled code: an address there would keep numba from caching it
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    runs = [subprocess.run([sys.executable, "-c", CACHED], env=env, capture_output=True, text=True, timeout=900,
+                           check=True).stdout.split() for _ in range(2)]
+    assert runs == [["0", "2"], ["2", "0"]]  # compiled and saved, then loaded

@@ -128,6 +128,19 @@ def test_the_plant_counts_each_new_touch():
     assert plant.collisions == 0
 
 
+def test_a_touch_held_is_one_collision_and_one_after_backing_off_is_another():
+    plant = MujocoPlant(CAR, World(boxes=(Box(pos=(6.0, 0.0, 0.5), size=(0.3, 2.0, 0.5)),),
+                                   cones=(Cone(pos=(0.0, 5.0)),)))  # a cone on the ground is no collision
+    plant.reset(VehicleState(vx=2.0))
+    hold_speed(plant, 0.0, 2.0, 4.0)  # pushing against the box for seconds: one touch
+    assert (plant.collisions, plant.last_collision) == (1, "box0")
+    front = plant.planar_state()[0] + CAR.cg_to_front
+    hold_speed(plant, 0.0, -1.0, 2.0)  # off it for well over COLLISION_GAP
+    assert plant.planar_state()[0] + CAR.cg_to_front < front - 0.5
+    hold_speed(plant, 0.0, 2.0, 3.0)
+    assert (plant.collisions, plant.last_collision) == (2, "box0")
+
+
 def test_a_scenario_places_the_world_and_scores_collisions(tmp_path):
     f = tmp_path / "cone.yaml"
     f.write_text("plant: mujoco\nworld:\n  cones: [{pos: [12, 0], name: c}]\n"

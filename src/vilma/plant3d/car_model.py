@@ -55,10 +55,12 @@ def spring_preload(p: VehicleParams, corner: str) -> float:
 
 
 def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
-            imu: tuple[float, float, float] = (0.0, 0.0, 0.0), scene: tuple[str, str] = ("", "")) -> str:
+            imu: tuple[float, float, float] = (0.0, 0.0, 0.0), scene: tuple[str, str] = ("", ""),
+            touch: tuple[str, ...] = ()) -> str:
     """The MJCF text of the car at the origin on ``world``; ``cameras``: extra MJCF inside the chassis body;
     ``imu``: where the accelerometer and gyro sit in the body frame from the centre of mass [m]; ``scene``: more
-    ``(assets, worldbody elements)`` (a road and its traffic, :mod:`vilma.plant3d.road`)."""
+    ``(assets, worldbody elements)`` (a road and its traffic, :mod:`vilma.plant3d.road`); ``touch``: the obstacles
+    (geoms ``obstacle:<name>``) whose contact with the car a sensor ``touch:<name>`` reports (> 0 while touching)."""
     s = p.suspension
     r, hw = p.wheel_radius, s.wheel_width / 2
     ms, ixx, iyy, izz = sprung_inertia(p)
@@ -84,6 +86,8 @@ def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
     centre_x = (p.cg_to_front - p.cg_to_rear) / 2
     assets, things = world_xml(world)
     motors = "".join(f'<motor name="drive_{c}" joint="spin_{c}"/>' for c in CORNERS)
+    touches = "".join(f'<contact name="touch:{n}" subtree1="chassis" geom2="obstacle:{n}" num="1" data="found"/>'
+                      for n in touch)
     steering = "".join(f'<position name="steer_{c}" joint="steer_{c}" kp="20000" kv="200"/>' for c in ("fl", "fr"))
     return f"""<mujoco model="vilma_{p.name}">
   <compiler angle="radian" autolimits="true"/>
@@ -114,5 +118,5 @@ def car_xml(p: VehicleParams, world: World = World(), cameras: str = "",
     {things}{scene[1]}
   </worldbody>
   <actuator>{motors}{steering}</actuator>
-  <sensor><accelerometer name="imu_accel" site="imu"/><gyro name="imu_gyro" site="imu"/></sensor>
+  <sensor><accelerometer name="imu_accel" site="imu"/><gyro name="imu_gyro" site="imu"/>{touches}</sensor>
 </mujoco>"""

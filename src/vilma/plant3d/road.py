@@ -13,9 +13,10 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numba import njit
 
 from vilma.plant3d.world import fmt
-from vilma.world.states import YAW, X, Y
+from vilma.world.states import YAW, X, Y, states_at
 
 if TYPE_CHECKING:  # the roads extra
     from vilma.world.road_view import LaneletLines
@@ -110,16 +111,37 @@ def traffic_xml(traffic: Traffic) -> str:
 
 
 class TrafficMover:
-    """Puts the traffic's bodies of a MuJoCo model where the traffic is at a sim time."""
+    """Puts the traffic's bodies of a MuJoCo model where the traffic is at a sim time (:func:`move_traffic`, which
+    the compiled stepping calls with :attr:`args`)."""
 
-    def __init__(self, model, traffic: Traffic, t0: float) -> None:
+    def __init__(self, model, data, traffic: Traffic, t0: float) -> None:
         """``t0``: the traffic's time at sim time 0 [s] from its time step 0."""
-        self._traffic, self._t0 = traffic, t0
-        self._mocap = np.array([model.body_mocapid[model.body(f"traffic{i}").id] for i in traffic.ids.tolist()])
+        mocap = np.array([model.body_mocapid[model.body(f"traffic{i}").id] for i in traffic.ids.tolist()])
+        m = len(mocap)
+        self.args = (traffic.states, traffic.present, traffic.static, np.array([t0, traffic.dt, traffic.ring]),
+                     mocap, data.mocap_pos, data.mocap_quat, np.empty((m, 4)), np.empty(m, bool))
+        """:func:`move_traffic`'s arguments after the time."""
 
-    def move(self, data, t: float) -> None:
-        """Move the bodies in ``data`` to the traffic at sim time ``t`` [s]."""
-        states, present = self._traffic.at(self._t0 + t)
-        half = states[:, YAW] / 2
-        data.mocap_pos[self._mocap] = np.column_stack([states[:, X], states[:, Y], np.where(present, 0.0, AWAY)])
-        data.mocap_quat[self._mocap] = np.column_stack([np.cos(half), 0 * half, 0 * half, np.sin(half)])
+    def move(self, t: float) -> None:
+        """Move the bodies to the traffic at sim time ``t`` [s]."""
+        move_traffic(t, *self.args)
+
+
+NO_TRAFFIC = (np.zeros((0, 1, 4)), np.zeros((0, 1), bool), np.zeros(0, bool), np.zeros(3), np.zeros(0, np.int64),
+              np.zeros((0, 3)), np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(0, bool))
+""":attr:`TrafficMover.args` of a world without traffic."""
+
+
+@njit(cache=True)
+def move_traffic(t, states, present, static, times, mocap, mocap_pos, mocap_quat, out, seen):
+    """Put the mocap bodies ``mocap`` where the traffic (its ``states``, ``present``, ``static``; ``times``: its time
+    at sim time 0 [s], its step [s], whether it is a ring) is at sim time ``t`` [s], one not present :data:`AWAY`."""
+    if len(mocap) == 0:
+        return
+    states_at(states, present, static, times[1], times[0] + t, out, seen, times[2] != 0.0)
+    for k in range(len(mocap)):
+        half = out[k, YAW] / 2
+        mocap_pos[mocap[k], 0], mocap_pos[mocap[k], 1] = out[k, X], out[k, Y]
+        mocap_pos[mocap[k], 2] = 0.0 if seen[k] else AWAY
+        mocap_quat[mocap[k], 0], mocap_quat[mocap[k], 1] = math.cos(half), 0.0 * half
+        mocap_quat[mocap[k], 2], mocap_quat[mocap[k], 3] = 0.0 * half, math.sin(half)
