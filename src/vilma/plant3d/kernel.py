@@ -5,10 +5,10 @@ structs' addresses (``MjModel._address``, ``MjData._address``). MuJoCo's functio
 external symbols, resolved in the library the ``mujoco`` package ships (the one its bindings loaded): the compiled
 code names them, not their addresses, so numba's cache holds across processes.
 
-A car is a tuple of arrays (:func:`car`): ``qpos``, ``qvel``, ``qacc``, ``ctrl``, ``sensordata``, the chassis's
-applied force, the dofs' friction loss, the wheel spin dofs, :data:`CTL`'s constants, the obstacles' contact
-sensors' addresses, when each was last touched [s], and ``io``: the brake held [N] (NaN: none yet), the
-collisions counted and the index of the last obstacle hit (-1: none).
+A car is a tuple of arrays (:class:`~vilma.plant3d.plant.MujocoPlant` holds one): ``qpos``, ``qvel``,
+``qacc``, ``ctrl``, ``sensordata``, the chassis's applied force, the dofs' friction loss, the wheel spin dofs,
+:data:`CTL`'s constants, the obstacles' contact sensors' addresses, when each was last touched [s], and ``io``: the
+brake held [N] (NaN: none yet), the collisions counted and the index of the last obstacle hit (-1: none).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from vilma.vehicle.actuators import actuate
 from vilma.vehicle.models.common import V_SIGN
 from vilma.vehicle.state import NX
 
-_LIB = ctypes.CDLL(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*"))[0])
+_LIB = ctypes.CDLL(min(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco*.[sd]*"))))
 for _name in ("mj_step", "mj_kinematics", "mju_normalize4", "mju_quat2Mat"):
     binding.add_symbol(_name, ctypes.cast(getattr(_LIB, _name), ctypes.c_void_p).value)
 _mj_step = types.ExternalFunction("mj_step", types.void(types.uintp, types.uintp))
@@ -48,8 +48,6 @@ QPOS, QVEL, QACC, CTRL, SENSORS, FORCE, FRICTION, SPIN, CONSTS, TOUCH, TOUCHED, 
 """Indices into a car tuple."""
 BRAKE, COLLISIONS, LAST = range(3)
 """Indices into a car's ``io``."""
-
-
 _DBL_MIN = 2.2250738585072014e-308
 """The smallest normal double."""
 
