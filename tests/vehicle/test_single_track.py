@@ -1,5 +1,6 @@
 """Physics of the planar models, checked against closed-form results from the parameters."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,7 +10,8 @@ from scipy.optimize import brentq
 from tests.conftest import STEP, drive, fit_circle, physics_only
 from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.sim import Simulator
-from vilma.vehicle.params import GRAVITY, bmw_320i, preset, vilma
+from vilma.vehicle.models.single_track import lateral_tyre_force
+from vilma.vehicle.params import GRAVITY, bmw_320i, plant_consts, preset, vilma
 from vilma.vehicle.state import BRAKE, VX, YAW, YAW_RATE, VehicleState, X, Y
 
 
@@ -135,3 +137,18 @@ def test_bmw_is_rear_wheel_drive_and_power_limited():
     v_end = z[-1, VX]
     # limited by the power once v > P / F = v_switch
     assert v_end < 7.319 + (10.0 - 7.319 / 11.5) * p.max_power / (p.mass * 7.319)
+
+
+@pytest.mark.parametrize("curvature", [0.0, 0.6, -0.5])
+def test_lateral_tyre_force_is_the_magic_formula(curvature):
+    # Fy = -D sin(C atan(B a - E (B a - atan(B a)))), D = sqrt((mu Fz)^2 - Fx^2), B = C_alpha / (C mu Fz)
+    p = plant_consts(dataclasses.replace(vilma(), tyre_curvature=curvature))
+    fz, fx = p.fzf, 0.3 * p.mu * p.fzf
+    b, d = p.cf / (p.shape * p.mu * fz), math.sqrt((p.mu * fz) ** 2 - fx**2)
+    for alpha in (-0.4, -0.05, 0.0, 0.01, 0.2, 1.2):
+        ba = b * alpha
+        expected = -d * math.sin(p.shape * math.atan(ba - curvature * (ba - math.atan(ba))))
+        assert lateral_tyre_force(alpha, fx, fz, p.cf, p) == pytest.approx(expected, rel=1e-12, abs=1e-9)
+    # the initial slope is the cornering stiffness, shrunk by the friction ellipse: -C_alpha D / (mu Fz)
+    slope = lateral_tyre_force(1e-7, fx, fz, p.cf, p) / 1e-7
+    assert slope == pytest.approx(-p.cf * d / (p.mu * fz), rel=1e-6)

@@ -77,7 +77,7 @@ def advance(model, integrator, z, mode, cmd, p, dt, n, tick, periods, out_z, out
     and ``out_dx``. Returns the number of rows written.
     """
     x = (z[0], z[1], z[2], z[3], z[4], z[5])
-    u = z[NX:].copy()
+    u = z[NX:]  # the actuators advance in place (a copy would be a heap allocation a call)
     j = 0
     for i in range(1, n + 1):
         steer, drive, brake = targets(mode, cmd, x, u, p)
@@ -101,8 +101,6 @@ def advance(model, integrator, z, mode, cmd, p, dt, n, tick, periods, out_z, out
             j += 1
     for k in range(NX):
         z[k] = x[k]
-    for k in range(NX, NZ):
-        z[k] = u[k - NX]
     return j
 
 

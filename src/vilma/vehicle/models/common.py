@@ -12,7 +12,7 @@ V_SIGN = 0.1
 """Speed [m/s] over which brakes and rolling resistance reverse smoothly (tanh), so standstill is smooth."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def longitudinal_forces(vx, drive, brake, p):
     """Axle forces along the wheels and resistance along the body.
 
@@ -35,7 +35,7 @@ def longitudinal_forces(vx, drive, brake, p):
     return fxf, fxr, resist
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def held(u):
     """The actuator outputs ``u = (steer, drive, brake)`` as the models take them, held over a step: followed by
     the steering's cosine, sine and tangent, computed once a step rather than at each derivative."""
@@ -43,7 +43,7 @@ def held(u):
     return steer, u[1], u[2], math.cos(steer), math.sin(steer), math.tan(steer)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def kinematic_lateral(vx, tan_steer, p):
     """Lateral velocity [m/s] and yaw rate [rad/s] of the kinematic bicycle (rear axle rolls without slip) at the
     steering's tangent ``tan_steer``."""
@@ -51,7 +51,7 @@ def kinematic_lateral(vx, tan_steer, p):
     return p.lr * r, r
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def blend_weight(vx, p):
     """Share of the dynamic model: 0 below ``v_lo``, 1 above ``v_hi``, smoothstep between."""
     s = (abs(vx) - p.v_lo) / (p.v_hi - p.v_lo)
@@ -59,7 +59,7 @@ def blend_weight(vx, p):
     return s * s * (3.0 - 2.0 * s)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def planar_motion(x, vy, r, ax, ay_dyn, dr_dyn, tan_steer, w, p):
     """Derivative of ``x`` (a 6-tuple, as the result) given effective lateral velocity and yaw rate.
 
@@ -73,7 +73,7 @@ def planar_motion(x, vy, r, ax, ay_dyn, dr_dyn, tan_steer, w, p):
             w * ay_dyn + (1.0 - w) * p.lr * dr_kin, w * dr_dyn + (1.0 - w) * dr_kin)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def constrain_lateral(x, tan_steer, w, p):
     """Blend the lateral states toward the kinematic ones by ``1 - w`` (applied after each step; the steering's
     tangent ``tan_steer``)."""

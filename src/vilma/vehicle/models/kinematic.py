@@ -14,7 +14,7 @@ from vilma.vehicle.models.common import constrain_lateral, kinematic_lateral, lo
 from vilma.vehicle.state import VX
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def kinematic(x, u, p):
     """dx/dt of the kinematic bicycle. ``u`` the held actuator outputs (:func:`~.common.held`)."""
     fxf, fxr, resist = longitudinal_forces(x[VX], u[1], u[2], p)
@@ -23,7 +23,7 @@ def kinematic(x, u, p):
     return planar_motion(x, vy, r, ax, 0.0, 0.0, u[5], 0.0, p)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def kinematic_constrain(x, u, p):
     """Put the lateral states on the kinematic manifold (after each step)."""
     return constrain_lateral(x, u[5], 0.0, p)

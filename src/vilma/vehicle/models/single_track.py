@@ -36,17 +36,19 @@ from vilma.vehicle.models.common import (
 from vilma.vehicle.state import VX, VY, YAW_RATE
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def lateral_tyre_force(alpha, fx, fz, c_alpha, p):
     """Axle lateral force [N] at slip angle ``alpha`` [rad] with longitudinal force ``fx`` [N] (friction ellipse)."""
     d_full = p.mu * fz
     b = c_alpha / (p.shape * d_full)
     d = math.sqrt(max(d_full * d_full - fx * fx, 0.0))
     ba = b * alpha
-    return -d * math.sin(p.shape * math.atan(ba - p.curv * (ba - math.atan(ba))))
+    if p.curv != 0.0:  # E = 0 (both presets) makes the term exactly 0: an atan of a derivative's 12 saved
+        ba -= p.curv * (ba - math.atan(ba))
+    return -d * math.sin(p.shape * math.atan(ba))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def single_track(x, u, p):
     """dx/dt of the blended single-track model. ``u`` the held actuator outputs (:func:`~.common.held`)."""
     vx = x[VX]
@@ -69,7 +71,7 @@ def single_track(x, u, p):
     return planar_motion(x, vy, r, w * ax_dyn + (1.0 - w) * ax_kin, ay_dyn, dr_dyn, u[5], w, p)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def single_track_constrain(x, u, p):
     """Blend the lateral states toward the kinematic ones at low speed (after each step)."""
     return constrain_lateral(x, u[5], blend_weight(x[VX], p), p)
