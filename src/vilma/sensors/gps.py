@@ -37,7 +37,7 @@ class GpsParams:
     origin: GeodeticOrigin = GeodeticOrigin()
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def measure_into(rows, z, noise, offset, sigma, bias, phi, step_sigma, ecef0, axes, out):
     """Fixes of the rows ``rows`` of ``z`` with ``noise`` (n, 6: white, then the bias's) into ``out`` (n, 6)."""
     for k in range(rows.shape[0]):

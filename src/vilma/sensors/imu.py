@@ -49,7 +49,7 @@ class ImuParams:
     """Mounting point in the body frame from the centre of mass [m]."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def planar(rows, z, dx, offset):
     """Ideal ``fx, fy, fz, wx, wy, wz, roll, pitch, yaw`` of the planar plant (module docstring)."""
     out = np.zeros((rows.shape[0], 9))
@@ -65,7 +65,7 @@ def planar(rows, z, dx, offset):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def measure_into(ideal, noise, sigma_a, sigma_w, sigma_yaw, bias_a, bias_w, phi, step_a, step_w, out):
     """Readings of the ``ideal`` values (n, 9) with ``noise`` (n, 13) into ``out`` (n, 10); advances the biases."""
     for k in range(ideal.shape[0]):

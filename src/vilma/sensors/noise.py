@@ -36,7 +36,7 @@ class GaussMarkovBias:
         self.b = rng.standard_normal(self.dims) * self.sigma
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def gauss_markov_step(b, phi, step_sigma, normals):
     """Advance bias state ``b`` (in place) by one sample driven by ``normals``; returns ``b``."""
     for d in range(b.shape[0]):

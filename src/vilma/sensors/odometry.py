@@ -38,7 +38,7 @@ class OdometryParams:
     drift ``v * mismatch / track``): 0.1 % is a calibrated car."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def integrate_into(rear, noise, sigma, scale, radius, track, period, state, out):
     """Dead-reckon over rows of true rear wheel speeds into ``out`` (n, 5); ``state`` = (x, y, yaw, speed, rate),
     updated in place."""

@@ -26,7 +26,7 @@ class PoseParams:
     """Standard deviation of yaw [rad]."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def measure_into(rows, z, noise, sigma_xy, sigma_yaw, out):
     """x, y and yaw of the rows ``rows`` of ``z`` with ``noise`` (n, 3) into ``out`` (n, 6), zero elsewhere."""
     for k in range(rows.shape[0]):

@@ -26,7 +26,7 @@ class VelocityParams:
     """Standard deviation of each body angular rate [rad/s] (the planar plant has only the yaw rate)."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def measure_into(rows, z, noise, sigma_v, sigma_w, out):
     """The planar velocities of the rows ``rows`` of ``z`` with ``noise`` (n, 3) into ``out`` (n, 9), zero elsewhere."""
     for k in range(rows.shape[0]):

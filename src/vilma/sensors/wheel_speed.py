@@ -32,7 +32,7 @@ class WheelSpeedParams:
     """Standard deviation of each wheel's angular speed [rad/s]."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def wheel_speeds(rows, z, lf, track, radius):
     """True angular speeds [rad/s] of (FL, FR, RL, RR) at rows ``rows`` of plant vectors ``z``, shape (n, 4).
 
@@ -52,7 +52,7 @@ def wheel_speeds(rows, z, lf, track, radius):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def measure_into(rows, z, noise, sigma, lf, track, radius, out):
     """The wheel speeds of :func:`wheel_speeds` with ``sigma`` times ``noise`` (n, 4) added, into ``out`` (n, 4)."""
     true = wheel_speeds(rows, z, lf, track, radius)
