@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from vilma.core.messages import Pose
 from vilma.sensors import Samples, SensorSuite, build_sensors
-from vilma.sensors.bank import BLOCK, FIRST_AHEAD, MAX_NORMALS, SensorBank
+from vilma.sensors.bank import BLOCK, FIRST_AHEAD, MAX_NORMALS, SensorBank, as_rows
 from vilma.sensors.base import Readings, rows_of, sensor_rng
 from vilma.sensors.gps import GpsParams
 from vilma.sensors.imu import ImuParams
@@ -146,3 +146,14 @@ def test_readings_of_rows_of_a_block_are_those_rows_and_pickle_only_them():
     assert (back.name, back.message, len(back)) == ("pose", Pose, 2)
     np.testing.assert_array_equal(back.values, values[3:5])
     assert len(pickle.dumps(r)) < values.nbytes // 10  # two rows of 512, not the block
+
+
+@settings(deadline=None)  # the first example compiles
+@given(st.integers(0, 5), st.integers(0, 4), st.integers(0, 13))
+def test_as_rows_is_the_reshape_of_those_rows(first, n, width):
+    flat = np.arange(200.0)
+    expected = flat[first * width:(first + n) * width].reshape(n, width)
+    rows = as_rows(flat, first, n, width)
+    assert rows.shape == expected.shape and np.array_equal(rows, expected)
+    rows[...] = -1.0  # a view: written through to ``flat``
+    assert (flat[first * width:(first + n) * width] == -1.0).all()

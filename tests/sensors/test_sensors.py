@@ -8,18 +8,18 @@ import numpy as np
 import pymap3d
 import pytest
 
-from vilma.core.geometry import yaw_from_quaternion
+from vilma.core.geometry import quaternion_from_euler, yaw_from_quaternion
 from vilma.core.messages import ActuatorCommand, Longitudinal
-from vilma.sensors import SensorSuite
+from vilma.sensors import Samples, SensorSuite
 from vilma.sensors.base import sensor_rng
 from vilma.sensors.gps import GpsParams
-from vilma.sensors.imu import ImuParams
+from vilma.sensors.imu import ImuParams, ImuSensor
 from vilma.sensors.odometry import OdometryParams
 from vilma.sensors.pose import PoseParams
 from vilma.sensors.wheel_speed import WheelSpeedParams
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.params import GRAVITY, vilma
-from vilma.vehicle.state import VehicleState
+from vilma.vehicle.state import N3, NX, NZ, PITCH, ROLL, YAW, VehicleState
 
 P = vilma()
 NONE = SensorSuite.none()
@@ -167,3 +167,14 @@ def test_a_sensors_noise_generator_is_seeded_by_the_run_seed_and_its_name_and_is
     assert np.array_equal(b.standard_normal(4), expected)  # a's draws did not advance b
     assert not np.array_equal(sensor_rng(4, "gps").standard_normal(4), expected)
     assert not np.array_equal(sensor_rng(3, "imu").standard_normal(4), expected)
+
+
+@pytest.mark.parametrize(("roll", "pitch"), [(0.0, 0.0), (0.3, 0.0), (0.0, -0.2), (-0.1, 0.25)])
+def test_imu_orientation_is_the_quaternion_of_the_bodys_euler_angles(roll, pitch):
+    # on the 3D plant's records (roll and pitch in ``extra``): q = q_z(yaw) q_y(pitch) q_x(roll), ZYX
+    imu = ImuSensor(ImuParams(orientation_noise=0.0))
+    imu.reset(np.zeros(NZ), sensor_rng(0, "imu"))
+    z, extra = np.zeros((1, NZ)), np.zeros((1, N3))
+    z[0, YAW], extra[0, ROLL], extra[0, PITCH] = 2.0, roll, pitch
+    q = imu.measure(Samples(np.array([0]), z, np.zeros((1, NX)), extra))[0, 6:]
+    assert np.allclose(q, quaternion_from_euler(roll, pitch, 2.0), rtol=0.0, atol=1e-15)

@@ -75,7 +75,9 @@ def measure_into(ideal, noise, sigma_a, sigma_w, sigma_yaw, bias_a, bias_w, phi,
             out[k, j] = ideal[k, j] + sigma_a * noise[k, j] + ba[j]
             out[k, 3 + j] = ideal[k, 3 + j] + sigma_w * noise[k, 3 + j] + bw[j]
         r, p, y = 0.5 * ideal[k, 6], 0.5 * ideal[k, 7], 0.5 * wrap(ideal[k, 8] + sigma_yaw * noise[k, 12])
-        cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+        cr, sr = (1.0, r) if r == 0.0 else (math.cos(r), math.sin(r))  # exact at 0: the planar plant's roll and pitch
+        cp, sp = (1.0, p) if p == 0.0 else (math.cos(p), math.sin(p))
+        cy, sy = math.cos(y), math.sin(y)
         out[k, 6] = sr * cp * cy - cr * sp * sy
         out[k, 7] = cr * sp * cy + sr * cp * sy
         out[k, 8] = cr * cp * sy - sr * sp * cy
