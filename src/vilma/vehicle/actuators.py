@@ -94,7 +94,7 @@ def validate_command(cmd: ActuatorCommand, p: VehicleParams,
     return cmd, tuple(notes)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # a call would copy the 30 plant constants
 def targets(mode, cmd, x, u, p):
     """Actuator targets ``(steer [rad], drive [N], brake [N])`` for a command.
 
