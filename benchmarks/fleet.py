@@ -5,7 +5,9 @@
   The anchor: the same cars driven one by one with :func:`vilma.scenario.runner.run`, N = 10, measured in the same
   rounds. Target (issue 21): at N = 1000 at most 1/10 of N = 1's.
 - ``plant_floor_ms``: the plant alone (RK4 at 10 ms, compiled, nothing recorded) per car-second: what any loop that
-  drives these cars bit-identically pays at least.
+  drives these cars bit-identically pays at least; ``floor_ratio_to_n1``: that, shared by the threads of
+  :data:`~vilma.scenario.fleet.THREADS` (one a core), over N = 1's cost: the least ratio such a loop could reach on
+  this machine, with no driver, sensors, log or scorecard at all.
 - ``memory``: peak resident memory of a process that drives 1000 cars x 60 s (``paper_fig11_speed_10`` at 60 s)
   with the default logs, with its files written by ``vilma run --cars 1000``. Target (issue 21): < 2 GB.
 """
@@ -23,7 +25,7 @@ import time
 import numpy as np
 
 from vilma.scenario import load_scenario
-from vilma.scenario.fleet import run_fleet
+from vilma.scenario.fleet import THREADS, run_fleet
 from vilma.scenario.runner import run
 from vilma.sim import Simulator
 from vilma.vehicle.integrate import advance, empty_records
@@ -78,6 +80,7 @@ def main() -> None:
         for n in SIZES:
             fleets[n].append(_per_car_second(run_fleet, _cars(n)))
     per = {n: round(statistics.median(v), 4) for n, v in fleets.items()}
+    floor = _plant_floor()
     print(json.dumps({
         "benchmark": "fleet",
         "scenario": "course_30kmh_stanley",
@@ -85,7 +88,9 @@ def main() -> None:
         "anchor_run_one_by_one_ms": round(statistics.median(alone), 4),
         "ratio_n1000_to_n1": round(per[1000] / per[1], 3),
         "target_ratio": 0.1,
-        "plant_floor_ms": round(_plant_floor(), 4),
+        "plant_floor_ms": round(floor, 4),
+        "threads": THREADS,
+        "floor_ratio_to_n1": round(floor / THREADS / per[1], 3),
         "memory": _memory(),
     }, indent=2))
 

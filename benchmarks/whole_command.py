@@ -4,6 +4,9 @@
   numpy and scipy (course, car, Stanley, PI, CSV), run as its own process.
 - ``run``: ``vilma run course_30kmh_stanley`` with its default files (timeseries, scorecard, plots, run.mcap),
   caches warm, in its own process; ``run_bare``: the same with ``--no-plots --no-record``; ``help``: ``vilma --help``.
+- ``numba_floor``: ``benchmarks/anchors/numba_floor.py``, a process that only loads one cached numba function as a
+  ``vilma`` command starts numba: what any command of a numba-compiled program pays at least (``floor_to_anchor``:
+  over the anchor's time; above 1.0, no such command can meet the 1.0x target in its own process).
 - ``run_served``, ``run_bare_served``: the same two commands while ``vilma serve`` listens (started here, warmed up
   on the same scenario): the command is a client, the run a child forked from the warm server.
 
@@ -51,6 +54,7 @@ def _rounds(rounds: int, tmp: str, alone: dict[str, str], served: dict[str, str]
         "run_bare": [*VILMA, "run", "course_30kmh_stanley", "--out", os.path.join(tmp, "bare"), "--overwrite",
                      "--no-plots", "--no-record", "-q"],
         "help": [*VILMA, "--help"],
+        "numba_floor": [sys.executable, str(ANCHOR.with_name("numba_floor.py"))],
     }
     cases |= {f"{k}_served": v for k, v in cases.items() if k.startswith("run")}
     envs = {k: served if k.endswith("_served") else alone for k in cases}
@@ -78,6 +82,7 @@ def main(rounds: int) -> None:
     out = {"benchmark": "whole_command", "rounds": rounds, "cpus": os.cpu_count(),
            "wall_s": {k: round(v, 3) for k, v in wall.items()}, "cpu_s": {k: round(v, 3) for k, v in cpu.items()},
            "ratio_to_anchor": {k: round(wall[k] / wall["anchor"], 2) for k in TARGETS},
+           "floor_to_anchor": round(wall["numba_floor"] / wall["anchor"], 2),
            "target_ratio": TARGETS, "help_target_s": HELP_TARGET_S,
            "meets": {**{k: wall[k] / wall["anchor"] <= TARGETS[k] for k in TARGETS},
                      "help": wall["help"] < HELP_TARGET_S}}

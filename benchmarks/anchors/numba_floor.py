@@ -1,0 +1,20 @@
+"""The least a process that runs numba-compiled code pays before its first result: the interpreter, numpy, numba,
+and numba's first load of a cached function (its target and array support), as a ``vilma`` command starts them
+(:func:`vilma.core.numba_start.load_array_support`). Nothing of vilma's own runs.
+
+    python benchmarks/anchors/numba_floor.py
+"""
+
+from numba import njit
+
+from vilma.core.numba_start import load_array_support
+
+
+@njit(cache=True)
+def _one(x: float) -> float:
+    return x + 1.0
+
+
+if __name__ == "__main__":
+    load_array_support()
+    print(_one(1.0))
