@@ -18,10 +18,13 @@ from vilma.core.messages import ActuatorCommand, Longitudinal
 from vilma.plant3d import kernel
 from vilma.plant3d.car_model import CORNERS, sprung_inertia
 from vilma.plant3d.plant import MujocoPlant, ackermann
-from vilma.sim import Simulator
+from vilma.plant3d.world import Ramp, World
+from vilma.sensors import SensorSuite
+from vilma.sensors.velocity import VelocityParams
+from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.models.common import V_SIGN
 from vilma.vehicle.params import GRAVITY, vilma
-from vilma.vehicle.state import VehicleState
+from vilma.vehicle.state import PITCH, ROLL, VehicleState
 
 CAR = vilma()
 
@@ -165,6 +168,28 @@ def test_the_compiled_stepping_is_a_plain_python_loop_of_mj_step_bit_for_bit():
 @given(st.floats(allow_nan=False, allow_infinity=False), st.floats(allow_nan=False, allow_infinity=False))
 def test_the_compiled_hypot_is_pythons_bit_for_bit(a, b):
     assert kernel.hypot(a, b) == math.hypot(a, b)
+
+
+def _readings_over_a_ramp(chunk: float) -> dict[str, np.ndarray]:
+    """Every sensor's readings (the velocity sensor's noisy) of 4 s driving over a ramp, advanced ``chunk`` [s] at a
+    time, by sensor name."""
+    config = SimConfig(model="mujoco", world=World(ramps=(Ramp(start=(3.0, -4.0), width=8.0),)),
+                       sensors=SensorSuite(velocity=VelocityParams(linear_noise=0.1, angular_noise=0.01)))
+    sim, out = Simulator(config), {}
+    sim.command(ActuatorCommand(longitudinal=Longitudinal.ACCEL, drive=2.0))
+    for _ in range(round(4.0 / chunk)):
+        for name, r in sim.run_for(chunk).items():
+            out.setdefault(name, []).append(r.values)
+    return {name: np.concatenate(v) for name, v in out.items()}
+
+
+def test_the_3d_plants_readings_are_the_same_in_20_ms_frames_and_in_1_s_chunks():
+    frames, chunks = _readings_over_a_ramp(0.02), _readings_over_a_ramp(1.0)
+    assert frames.keys() == chunks.keys() and len(frames) == 7
+    for name, values in frames.items():
+        assert np.array_equal(values, chunks[name]), name
+    pose = frames["pose"]
+    assert pose[:, 2].max() > 0.1 and np.abs(pose[:, 2 + PITCH - ROLL]).max() > 0.01  # up the ramp: 3D readings
 
 
 CACHED = """

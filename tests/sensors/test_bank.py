@@ -9,13 +9,13 @@ from hypothesis import strategies as st
 from vilma.core.messages import Pose
 from vilma.sensors import Samples, SensorSuite, build_sensors
 from vilma.sensors.bank import BLOCK, FIRST_AHEAD, MAX_NORMALS, SensorBank, as_rows
-from vilma.sensors.base import Readings, rows_of, sensor_rng
+from vilma.sensors.base import NO_3D, Readings, rows_of, sensor_rng
 from vilma.sensors.gps import GpsParams
 from vilma.sensors.imu import ImuParams
 from vilma.sensors.pose import PoseParams
 from vilma.sensors.velocity import VelocityParams
 from vilma.vehicle.params import vilma
-from vilma.vehicle.state import NX, NZ
+from vilma.vehicle.state import N3, NX, NZ
 
 STEP_NS = 10_000_000
 NOISY = SensorSuite(pose=PoseParams(position_noise=0.1, yaw_noise=0.01),
@@ -27,9 +27,11 @@ PERIODS = np.array([5, 4, 100, 1, 2, 2, 2], dtype=np.int64)  # ticks of 10 ms: 2
 
 
 def _plant(steps, seed=0):
-    """A made-up plant record for ticks 1 .. steps: any numbers will do, the bank must read them as the sensors do."""
+    """A made-up plant record for ticks 1 .. steps, with the 3D plant's: any numbers will do, the bank must read them
+    as the sensors do."""
     rng = np.random.default_rng(seed)
-    return rng.normal(size=(steps, NZ)) * 3.0, rng.normal(size=(steps, NX)), np.arange(1, steps + 1, dtype=np.int64)
+    return (rng.normal(size=(steps, NZ)) * 3.0, rng.normal(size=(steps, NX)), np.arange(1, steps + 1, dtype=np.int64),
+            rng.normal(size=(steps, N3)))
 
 
 def _sensors(seed=4):
@@ -40,34 +42,36 @@ def _sensors(seed=4):
     return sensors
 
 
-def _own(steps):
+def _own(steps, plant3d=False):
     """Each sensor's readings of ticks 1 .. steps by its own ``measure``, in one batch: (stamps, values) by name."""
-    z, dx, ticks = _plant(steps)
-    out = {}
+    z, dx, ticks, extra = _plant(steps)
+    extra, out = extra if plant3d else NO_3D, {}
     for sensor, period in zip(_sensors(), PERIODS.tolist(), strict=True):
         count = steps // period
         stamps = np.arange(period, (count + 1) * period, period, dtype=np.int64) * STEP_NS
-        out[sensor.name] = stamps, sensor.measure(Samples(rows_of(ticks, period, count), z, dx))
+        out[sensor.name] = stamps, sensor.measure(Samples(rows_of(ticks, period, count), z, dx, extra))
     return out
 
 
-def _banked(chunks):
+def _banked(chunks, plant3d=False):
     """The bank's readings of ticks 1 .. sum(chunks), measured chunk by chunk: lists of Readings by name."""
-    z, dx, ticks = _plant(sum(chunks))
-    bank, t0, got = SensorBank(_sensors(), PERIODS), 0, {}
+    z, dx, ticks, extra = _plant(sum(chunks))
+    extra, bank, t0, got = extra if plant3d else NO_3D, SensorBank(_sensors(), PERIODS, plant3d), 0, {}
     bank.reset()
     for n in chunks:
-        rows = slice(t0, t0 + n)  # the records of this chunk alone, as the simulator hands them over
-        for name, r in bank.measure(t0, n, ticks[rows], z[rows], dx[rows], STEP_NS).items():
+        rows = slice(t0, t0 + n)  # the records of this chunk alone, as the simulator hands them over (none: NO_3D's)
+        for name, r in bank.measure(t0, n, ticks[rows], z[rows], dx[rows], STEP_NS, extra[rows]).items():
             got.setdefault(name, []).append(r)
         t0 += n
     return got
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.lists(st.one_of(st.integers(1, 7), st.integers(BLOCK - 3, 3 * BLOCK)), min_size=1, max_size=12))
-def test_the_bank_reads_bit_for_bit_what_each_sensor_measures_however_the_run_is_chunked(chunks):
-    own, got = _own(sum(chunks)), _banked(chunks)
+@given(st.lists(st.one_of(st.integers(1, 7), st.integers(BLOCK - 3, 3 * BLOCK)), min_size=1, max_size=12),
+       st.booleans())
+def test_the_bank_reads_bit_for_bit_what_each_sensor_measures_however_the_run_is_chunked_on_either_plant(chunks,
+                                                                                                         plant3d):
+    own, got = _own(sum(chunks), plant3d), _banked(chunks, plant3d)
     assert set(got) == {name for name, (stamps, _) in own.items() if len(stamps)}
     for name, parts in got.items():
         stamps, values = own[name]
@@ -77,7 +81,7 @@ def test_the_bank_reads_bit_for_bit_what_each_sensor_measures_however_the_run_is
 
 def test_readings_handed_out_stay_as_they_were_while_the_bank_goes_on():
     steps = 4 * BLOCK  # the IMU fills a block every BLOCK steps: new blocks and fresh noise come meanwhile
-    z, dx, ticks = _plant(steps)
+    z, dx, ticks, _ = _plant(steps)
     bank = SensorBank(_sensors(), PERIODS)
     bank.reset()
     kept = [(r, r.stamp_ns.copy(), r.values.copy()) for r in bank.measure(0, 2, ticks[:2], z[:2], dx[:2],
@@ -93,7 +97,7 @@ def test_noise_drawn_ahead_stays_within_two_blocks_with_sensors_a_hundred_times_
     """A 1 Hz GPS uses its noise a hundred times slower than a 100 Hz IMU: the streams are refilled one by one, so
     what is held ahead does not pile up."""
     steps = 60 * BLOCK
-    z, dx, ticks = _plant(2)
+    z, dx, ticks, _ = _plant(2)
     bank = SensorBank(_sensors(), PERIODS)
     bank.reset()
     largest = 0
@@ -108,7 +112,7 @@ def test_a_bank_that_measures_once_draws_little_noise():
     """A compiled run whose readings nobody takes measures its first period only: its sensors draw the noise of
     FIRST_AHEAD samples, not of a block (the draws then double up to a block; the readings are the same numbers
     however they are drawn, as the test above checks)."""
-    z, dx, ticks = _plant(2)
+    z, dx, ticks, _ = _plant(2)
     sensors = _sensors()
     bank = SensorBank(sensors, PERIODS)
     bank.reset()
@@ -120,7 +124,7 @@ def test_a_bank_that_measures_once_draws_little_noise():
 
 def test_the_normals_ahead_are_those_a_sensor_takes_next_and_stay_its_own():
     steps = 40  # the IMU has taken 40 rows of its 13 normals a sample; ask past what is drawn ahead
-    z, dx, ticks = _plant(steps + 2 * BLOCK)
+    z, dx, ticks, _ = _plant(steps + 2 * BLOCK)
     sensors = _sensors()
     bank = SensorBank(sensors, PERIODS)
     bank.reset()

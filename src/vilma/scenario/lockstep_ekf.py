@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from vilma.localization.ekf import Ekf, fuse, pose_of
-from vilma.sensors.base import rows_of
+from vilma.sensors.base import NO_3D, rows_of
 from vilma.sensors.gps import GpsSensor
 from vilma.sensors.gps import measure_into as gps_measure
 from vilma.sensors.imu import ImuSensor
@@ -117,7 +117,7 @@ def ekf_period(e, z, dx, ticks, t0, t1, ds):
     lf, track, radius, sigma = e.wheel_geometry
     wheel = wheel_speeds(rows, z, lf, track, radius) + e.wheel_normals[k:k + len(rows)] * sigma
     rows, gps_t, k = _samples(e, 2, ticks, t0, t1)
-    gps = gps_measure(rows, z, e.gps_normals[k:k + len(rows)], e.gps_offset, e.gps_sigma, e.gps_bias,
+    gps = gps_measure(rows, z, NO_3D, e.gps_normals[k:k + len(rows)], e.gps_offset, e.gps_sigma, e.gps_bias,
                       e.gps_bias_step[0], e.gps_bias_step[1], e.ecef0, e.axes, np.empty((len(rows), 6)))
     fuse(e.s, e.P, e.mem, e.imu_last, imu_t, imu, wheel_t, wheel, gps_t, gps, e.c)
     started, x, y, yaw, speed, yaw_rate = pose_of(e.s, e.mem, e.imu_last)

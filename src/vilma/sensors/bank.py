@@ -1,4 +1,4 @@
-"""The sensors of a suite on the planar plant, measured together in one compiled call a chunk.
+"""The sensors of a suite, measured together in one compiled call a chunk (on a planar plant or the 3D one).
 
 A chunk of 20 ms holds one or two samples of each sensor: measured one by one in Python, the calls cost far
 more than the numbers. Here one compiled call fills every sensor's readings into preallocated blocks, and the
@@ -21,10 +21,10 @@ import numpy as np
 from numba import njit
 
 from vilma.sensors.actuator_state import ActuatorStateSensor
-from vilma.sensors.base import Readings, Sensor
+from vilma.sensors.base import NO_3D, Readings, Sensor
 from vilma.sensors.gps import GpsSensor
 from vilma.sensors.gps import measure_into as gps_into
-from vilma.sensors.imu import ImuSensor, planar
+from vilma.sensors.imu import ImuSensor, ideal
 from vilma.sensors.imu import measure_into as imu_into
 from vilma.sensors.odometry import OdometrySensor, integrate_into
 from vilma.sensors.pose import PoseSensor
@@ -39,7 +39,9 @@ KINDS = (PoseSensor, VelocitySensor, GpsSensor, ImuSensor, WheelSpeedSensor, Odo
 """The sensors a bank measures, in the order of its slots."""
 POSE, VELOCITY, GPS, IMU, WHEEL_SPEED, ODOMETRY, ACTUATORS = range(len(KINDS))
 NORMALS = (3, 3, 6, 13, 4, 2, 0)
-"""Standard normals each kind draws a sample."""
+"""Standard normals each kind draws a sample on a planar plant."""
+NORMALS_3D = (3, 5, 6, 13, 4, 2, 0)
+"""Standard normals each kind draws a sample on the 3D plant (the velocity sensor's roll and pitch rates too)."""
 WIDTHS = (6, 9, 6, 10, 4, 5, 3)
 """Values of each kind's reading."""
 MAX_NORMALS, MAX_WIDTH = max(NORMALS), max(WIDTHS)
@@ -53,9 +55,9 @@ little (a compiled loop whose readings nobody takes measures only its first peri
 VEC, AXES = len(KINDS), len(KINDS) + 9
 """Rows of a bank's ``par`` after each slot's scalars: the vectors and states of :meth:`SensorBank.reset` (nine
 rows from :data:`VEC`), the GPS's ENU axes (row :data:`AXES`, flattened)."""
-PERIOD, COUNT, USED, HELD, FILLED = range(5)
+PERIOD, COUNT, USED, HELD, FILLED, DRAWS = range(6)
 """Rows of a bank's book: each slot's sample period [ticks] (0: no sensor), samples in the chunk, noise rows used
-and held, block rows filled."""
+and held, block rows filled, standard normals a sample (:data:`NORMALS` or :data:`NORMALS_3D`)."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -80,10 +82,11 @@ def as_rows(flat, first, n, width):
 
 
 @njit(cache=True, error_model="numpy")
-def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par):
-    """Fill each slot's next readings (as many as :func:`counts_fit` counted) from the plant recorded at ``ticks``.
+def measure_all(t0, ticks, z, dx, extra, step_ns, book, noise, outs, stamps, par):
+    """Fill each slot's next readings (as many as :func:`counts_fit` counted) from the plant recorded at ``ticks``
+    (``z``, ``dx``, and the 3D plant's ``extra``: :data:`~vilma.sensors.base.NO_3D` on a planar plant).
 
-    Slot ``s`` takes its normals (rows of ``NORMALS[s]``) from ``noise[s]`` and writes its readings (rows of
+    Slot ``s`` takes its normals (rows of ``book[DRAWS, s]``) from ``noise[s]`` and writes its readings (rows of
     ``WIDTHS[s]``) into ``outs[s]`` and ``stamps[s]`` from the rows its book says; ``par[s]`` holds its scalars,
     and ``par`` from row :data:`VEC` the vectors and states of :meth:`SensorBank.reset` (one array: numba unboxes
     each array a call takes for some 40 ns).
@@ -91,7 +94,7 @@ def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par):
     axes = as_rows(par[AXES], 0, 3, 3)
     rows = np.empty(ticks.shape[0], dtype=np.int64)  # this slot's rows of the records
     for s in range(book.shape[1]):
-        c, p, u, a, d, q = book[COUNT, s], book[PERIOD, s], book[USED, s], book[FILLED, s], NORMALS[s], par[s]
+        c, p, u, a, d, q = book[COUNT, s], book[PERIOD, s], book[USED, s], book[FILLED, s], book[DRAWS, s], par[s]
         if c == 0:
             continue
         first, j = (t0 // p + 1) * p, 0
@@ -104,14 +107,14 @@ def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par):
         w, width = as_rows(noise[s], u, c, d), WIDTHS[s]
         out = as_rows(outs[s], a, c, width)
         if s == POSE:
-            pose_into(r, z, w, q[0], q[1], out)
+            pose_into(r, z, extra, w, q[0], q[1], out)
         elif s == VELOCITY:
-            velocity_into(r, z, w, q[0], q[1], out)
+            velocity_into(r, z, extra, w, q[0], q[1], out)
         elif s == GPS:
-            gps_into(r, z, w, par[VEC, :3], par[VEC + 1, :3], par[VEC + 2, :3], q[0], q[1], par[VEC + 3, :3], axes,
-                     out)
+            gps_into(r, z, extra, w, par[VEC, :3], par[VEC + 1, :3], par[VEC + 2, :3], q[0], q[1], par[VEC + 3, :3],
+                     axes, out)
         elif s == IMU:
-            imu_into(planar(r, z, dx, par[VEC + 4, :3]), w, q[0], q[1], q[2], par[VEC + 5, :3], par[VEC + 6, :3],
+            imu_into(ideal(r, z, dx, extra, par[VEC + 4, :3]), w, q[0], q[1], q[2], par[VEC + 5, :3], par[VEC + 6, :3],
                      q[3], q[4], q[5], out)
         elif s == WHEEL_SPEED:
             wheel_into(r, z, w, q[0], q[1], q[2], q[3], out)
@@ -127,16 +130,18 @@ def measure_all(t0, ticks, z, dx, step_ns, book, noise, outs, stamps, par):
 
 class SensorBank:
     """The readings of ``sensors`` (at most one of each of :data:`KINDS`; sample ``periods`` in ticks, in the same
-    order) from a planar plant's records, in one compiled call.
+    order) from a plant's records (the 3D plant's if ``plant3d``), in one compiled call.
 
     Its arrays are what compiled code takes: ``book`` (:data:`PERIOD` ...), ``noise``, ``outs``, ``stamps`` and ``par``
     (see :func:`measure_all`).
     """
 
-    def __init__(self, sensors: list[Sensor], periods: np.ndarray) -> None:
+    def __init__(self, sensors: list[Sensor], periods: np.ndarray, plant3d: bool = False) -> None:
         self._sensors, self._slots = sensors, [KINDS.index(type(s)) for s in sensors]
         self._by_slot: list = [None] * len(KINDS)
-        self.book = np.zeros((5, len(KINDS)), dtype=np.int64)
+        self._normals = NORMALS_3D if plant3d else NORMALS
+        self.book = np.zeros((DRAWS + 1, len(KINDS)), dtype=np.int64)
+        self.book[DRAWS] = self._normals
         self._counts_filled = self.book[COUNT::FILLED - COUNT]  # a view of the two rows readings() takes
         for slot, sensor, period in zip(self._slots, sensors, periods.tolist(), strict=True):
             self._by_slot[slot], self.book[PERIOD, slot] = sensor, period
@@ -147,7 +152,7 @@ class SensorBank:
         """Take the sensors' generators and states anew (after their :meth:`~vilma.sensors.base.Sensor.reset`); the
         bank's ``vec`` rows become the sensors' drifting states, so both advance together."""
         self.noise, self.book[USED], self._ahead = np.zeros((len(KINDS), 0)), 0, FIRST_AHEAD
-        self.book[HELD] = [0 if d else ENDLESS for d in NORMALS]
+        self.book[HELD] = [0 if d else ENDLESS for d in self._normals]
         pose, velocity, gps, imu, wheel, odometry, _ = self._by_slot
         q, v = self.par, self.par[VEC:]
         if pose is not None:
@@ -173,13 +178,13 @@ class SensorBank:
             q[ODOMETRY, 4] = odometry.period
             v[7, :2], v[8, :5], odometry.scale, odometry.state = odometry.scale, odometry.state, v[7, :2], v[8, :5]
 
-    def measure(self, t0: int, n: int, ticks: np.ndarray, z: np.ndarray, dx: np.ndarray,
-                step_ns: int) -> dict[str, Readings]:
-        """The readings of the steps ``t0 + 1 .. t0 + n`` from the plant ``z``, ``dx`` recorded at ``ticks``
-        (:func:`~vilma.vehicle.integrate.advance`), by sensor name (see :meth:`readings`)."""
+    def measure(self, t0: int, n: int, ticks: np.ndarray, z: np.ndarray, dx: np.ndarray, step_ns: int,
+                extra: np.ndarray = NO_3D) -> dict[str, Readings]:
+        """The readings of the steps ``t0 + 1 .. t0 + n`` from the plant ``z``, ``dx`` (and the 3D plant's ``extra``)
+        recorded at ``ticks`` (:func:`~vilma.vehicle.integrate.advance`), by sensor name (see :meth:`readings`)."""
         if not counts_fit(t0, n, self.book, self.noise, self.outs):
             self.make_room()
-        measure_all(t0, ticks, z, dx, step_ns, self.book, self.noise, self.outs, self.stamps, self.par)
+        measure_all(t0, ticks, z, dx, extra, step_ns, self.book, self.noise, self.outs, self.stamps, self.par)
         return self.readings()
 
     def readings(self) -> dict[str, Readings]:
@@ -196,7 +201,7 @@ class SensorBank:
         """The standard normals ``sensor`` takes for its next ``count`` samples, (count, normals a sample), left for
         it to take: those drawn ahead, then the next ones of a copy of its generator."""
         slot = KINDS.index(type(sensor))
-        d, used, held = NORMALS[slot], int(self.book[USED, slot]), int(self.book[HELD, slot])
+        d, used, held = self._normals[slot], int(self.book[USED, slot]), int(self.book[HELD, slot])
         ahead = self.noise[slot, used * d:min(held, used + count) * d]
         more = copy.deepcopy(sensor.rng).standard_normal(count * d - len(ahead))
         return np.concatenate([ahead, more]).reshape(count, d)
@@ -209,11 +214,11 @@ class SensorBank:
         self._ahead = min(2 * self._ahead, BLOCK)
         kept, short = [], []  # per slot: normals not yet used, whether to draw ``need`` samples' more
         for slot, (u, held, c) in enumerate(zip(b[USED].tolist(), b[HELD].tolist(), b[COUNT].tolist(), strict=True)):
-            d = NORMALS[slot]
+            d = self._normals[slot]
             kept.append((u * d, held * d) if d else (0, 0))
             short.append(bool(d) and self._by_slot[slot] is not None and u + c > held)
-        sizes = [hi - lo + (need * d if s else 0) for (lo, hi), s, d in zip(kept, short, NORMALS, strict=True)]
-        rows = max(BLOCK, *(n // max(d, 1) for n, d in zip(sizes, NORMALS, strict=True)))
+        sizes = [hi - lo + (need * d if s else 0) for (lo, hi), s, d in zip(kept, short, self._normals, strict=True)]
+        rows = max(BLOCK, *(n // max(d, 1) for n, d in zip(sizes, self._normals, strict=True)))
         old = self.noise
         if old.shape[1] < rows * MAX_NORMALS:  # else the rows are reused: the unused normals move to the front
             self.noise = np.empty((len(KINDS), rows * MAX_NORMALS))
@@ -221,7 +226,7 @@ class SensorBank:
             self.noise[slot, :hi - lo] = old[slot, lo:hi]
             if s:  # drawn in place: the same numbers as drawn apart
                 self._by_slot[slot].rng.standard_normal(out=self.noise[slot, hi - lo:sizes[slot]])
-            b[HELD, slot] = sizes[slot] // NORMALS[slot] if NORMALS[slot] else ENDLESS
+            b[HELD, slot] = sizes[slot] // self._normals[slot] if self._normals[slot] else ENDLESS
         b[USED] = 0
         if (b[FILLED] + b[COUNT] > self.outs.shape[1] // MAX_WIDTH).any():
             self._new_blocks(need)

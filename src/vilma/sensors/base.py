@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Protocol
 
@@ -12,6 +12,11 @@ import numpy as np
 from numba import njit
 
 from vilma.core.messages import Message
+from vilma.vehicle.state import N3
+
+NO_3D = np.zeros((0, N3))
+"""The 3D records of a planar plant: none (flat ground: no height, roll or pitch). Compiled code takes it as a
+constant."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -23,13 +28,13 @@ class Samples:
         z: recorded plant vectors (layout of :mod:`vilma.vehicle.state`), shape (m, NZ), m >= n.
         dx: recorded vehicle state derivatives, shape (m, NX).
         extra: what only the 3D plant records (layout :data:`~vilma.vehicle.state.N3`), shape (m, N3), or
-            None for a planar plant (flat ground: no height, roll or pitch).
+            :data:`NO_3D` for a planar plant.
     """
 
     rows: np.ndarray
     z: np.ndarray
     dx: np.ndarray
-    extra: np.ndarray | None = None
+    extra: np.ndarray = field(default_factory=lambda: NO_3D)
 
     def __len__(self) -> int:
         return len(self.rows)

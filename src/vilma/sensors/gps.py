@@ -38,8 +38,9 @@ class GpsParams:
 
 
 @njit(cache=True, error_model="numpy")
-def measure_into(rows, z, noise, offset, sigma, bias, phi, step_sigma, ecef0, axes, out):
-    """Fixes of the rows ``rows`` of ``z`` with ``noise`` (n, 6: white, then the bias's) into ``out`` (n, 6)."""
+def measure_into(rows, z, extra, noise, offset, sigma, bias, phi, step_sigma, ecef0, axes, out):
+    """Fixes of the rows ``rows`` of ``z`` with ``noise`` (n, 6: white, then the bias's) into ``out`` (n, 6), the
+    3D plant's height from its ``extra`` added (:data:`~vilma.sensors.base.NO_3D`: none)."""
     for k in range(rows.shape[0]):
         i = rows[k]
         c, s = math.cos(z[i, YAW]), math.sin(z[i, YAW])
@@ -50,6 +51,11 @@ def measure_into(rows, z, noise, offset, sigma, bias, phi, step_sigma, ecef0, ax
     geo = enu_to_geodetic(out[:, 3:], ecef0, axes)
     for k in range(rows.shape[0]):  # element by element: a slice copy compiles its shape check's message
         out[k, 0], out[k, 1], out[k, 2] = geo[k, 0], geo[k, 1], geo[k, 2]
+    if extra.shape[0]:  # the 3D plant's climb (altitude to well under a millimetre within kilometres)
+        for k in range(rows.shape[0]):
+            h = extra[rows[k], HEIGHT]
+            out[k, 2] += h
+            out[k, 5] += h
     return out
 
 
@@ -72,10 +78,5 @@ class GpsSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         b = self.bias
-        out = measure_into(s.rows, s.z, standard_normals(self.rng, len(s), 6), self._offset, self._sigma, b.b, b.phi,
-                           b.step_sigma, self.frame.ecef0, self.frame.axes, np.empty((len(s), 6)))
-        if s.extra is not None:  # the 3D plant's climb (altitude to well under a millimetre within kilometres)
-            h = s.extra[s.rows, HEIGHT]
-            out[:, 2] += h
-            out[:, 5] += h
-        return out
+        return measure_into(s.rows, s.z, s.extra, standard_normals(self.rng, len(s), 6), self._offset, self._sigma,
+                            b.b, b.phi, b.step_sigma, self.frame.ecef0, self.frame.axes, np.empty((len(s), 6)))

@@ -24,7 +24,7 @@ from vilma.core.messages import Imu
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import GaussMarkovBias, gauss_markov_step, standard_normals
 from vilma.vehicle.params import GRAVITY
-from vilma.vehicle.state import FX, FZ, PITCH, ROLL, VX, VY, WX, WZ, YAW, YAW_RATE
+from vilma.vehicle.state import FX, PITCH, ROLL, VX, VY, WX, YAW, YAW_RATE
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -62,6 +62,22 @@ def planar(rows, z, dx, offset):
         out[k, 2] = GRAVITY
         out[k, 5] = w
         out[k, 8] = z[i, YAW]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def ideal(rows, z, dx, extra, offset):
+    """Ideal ``fx, fy, fz, wx, wy, wz, roll, pitch, yaw`` of the rows ``rows`` of ``z``: :func:`planar`'s, or with
+    the 3D plant's ``extra`` (not :data:`~vilma.sensors.base.NO_3D`) its accelerometer and gyro (at the offset
+    already), roll and pitch."""
+    if not extra.shape[0]:
+        return planar(rows, z, dx, offset)
+    out = np.empty((rows.shape[0], 9))
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        for j in range(3):
+            out[k, j], out[k, 3 + j] = extra[i, FX + j], extra[i, WX + j]
+        out[k, 6], out[k, 7], out[k, 8] = extra[i, ROLL], extra[i, PITCH], z[i, YAW]
     return out
 
 
@@ -105,13 +121,6 @@ class ImuSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p, a, g = self.params, self.accel_bias, self.gyro_bias
-        if s.extra is None:
-            ideal = planar(s.rows, s.z, s.dx, self._offset)
-        else:  # the 3D plant's accelerometer and gyro sit at the offset already
-            ideal = np.empty((len(s), 9))
-            e = s.extra[s.rows]
-            ideal[:, 0:3], ideal[:, 3:6], ideal[:, 6], ideal[:, 7] = e[:, FX:FZ + 1], e[:, WX:WZ + 1], e[:, ROLL], \
-                e[:, PITCH]
-            ideal[:, 8] = s.z[s.rows, YAW]
-        return measure_into(ideal, standard_normals(self.rng, len(s), 13), p.accel_noise, p.gyro_noise,
-                            p.orientation_noise, a.b, g.b, a.phi, a.step_sigma, g.step_sigma, np.empty((len(s), 10)))
+        return measure_into(ideal(s.rows, s.z, s.dx, s.extra, self._offset), standard_normals(self.rng, len(s), 13),
+                            p.accel_noise, p.gyro_noise, p.orientation_noise, a.b, g.b, a.phi, a.step_sigma,
+                            g.step_sigma, np.empty((len(s), 10)))

@@ -11,7 +11,7 @@ from vilma.core.geometry import wrap
 from vilma.core.messages import Pose
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
-from vilma.vehicle.state import HEIGHT, PITCH, YAW, X, Y
+from vilma.vehicle.state import HEIGHT, PITCH, ROLL, YAW, X, Y
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -27,12 +27,15 @@ class PoseParams:
 
 
 @njit(cache=True, error_model="numpy")
-def measure_into(rows, z, noise, sigma_xy, sigma_yaw, out):
-    """x, y and yaw of the rows ``rows`` of ``z`` with ``noise`` (n, 3) into ``out`` (n, 6), zero elsewhere."""
+def measure_into(rows, z, extra, noise, sigma_xy, sigma_yaw, out):
+    """x, y and yaw of the rows ``rows`` of ``z`` with ``noise`` (n, 3) into ``out`` (n, 6), with height, roll and
+    pitch from the 3D plant's ``extra`` (:data:`~vilma.sensors.base.NO_3D`: zero, as ``out`` holds them)."""
     for k in range(rows.shape[0]):
         i = rows[k]
         out[k, 0] = z[i, X] + sigma_xy * noise[k, 0]
         out[k, 1] = z[i, Y] + sigma_xy * noise[k, 1]
+        if extra.shape[0]:
+            out[k, 2], out[k, 3], out[k, 4] = extra[i, HEIGHT], extra[i, ROLL], extra[i, PITCH]
         out[k, 5] = wrap(z[i, YAW] + sigma_yaw * noise[k, 2])
     return out
 
@@ -52,8 +55,5 @@ class PoseSensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p = self.params
-        out = measure_into(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.position_noise, p.yaw_noise,
-                           np.zeros((len(s), 6)))
-        if s.extra is not None:
-            out[:, 2:5] = s.extra[s.rows, HEIGHT:PITCH + 1]  # height, roll, pitch: adjacent
-        return out
+        return measure_into(s.rows, s.z, s.extra, standard_normals(self.rng, len(s), 3), p.position_noise,
+                            p.yaw_noise, np.zeros((len(s), 6)))

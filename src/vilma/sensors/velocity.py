@@ -26,9 +26,15 @@ class VelocityParams:
     """Standard deviation of each body angular rate [rad/s] (the planar plant has only the yaw rate)."""
 
 
+NORMALS, NORMALS_3D = 3, 5
+"""Standard normals a sample: on a planar plant (body vx, vy, yaw rate), on the 3D plant (then roll, pitch rates)."""
+
+
 @njit(cache=True, error_model="numpy")
-def measure_into(rows, z, noise, sigma_v, sigma_w, out):
-    """The planar velocities of the rows ``rows`` of ``z`` with ``noise`` (n, 3) into ``out`` (n, 9), zero elsewhere."""
+def measure_into(rows, z, extra, noise, sigma_v, sigma_w, out):
+    """The velocities of the rows ``rows`` of ``z`` with ``noise`` (n, :data:`NORMALS`) into ``out`` (n, 9), zero
+    elsewhere; with the 3D plant's ``extra`` (:data:`~vilma.sensors.base.NO_3D`: none) its vertical velocity and roll
+    and pitch rates too (``noise`` (n, :data:`NORMALS_3D`))."""
     for k in range(rows.shape[0]):
         i = rows[k]
         vx = z[i, VX] + sigma_v * noise[k, 0]
@@ -37,6 +43,12 @@ def measure_into(rows, z, noise, sigma_v, sigma_w, out):
         out[k, 0], out[k, 1] = vx, vy
         out[k, 3], out[k, 4] = vx * c - vy * s, vx * s + vy * c
         out[k, 8] = z[i, YAW_RATE] + sigma_w * noise[k, 2]
+        if extra.shape[0]:  # body vz to first order in the angles
+            e = extra[i]
+            out[k, 2] = e[VZ] + vx * math.sin(e[PITCH]) - vy * math.sin(e[ROLL])
+            out[k, 5] = e[VZ]
+            out[k, 6] = e[WX] + sigma_w * noise[k, 3]
+            out[k, 7] = e[WY] + sigma_w * noise[k, 4]
     return out
 
 
@@ -54,11 +66,5 @@ class VelocitySensor:
 
     def measure(self, s: Samples) -> np.ndarray:
         p = self.params
-        out = measure_into(s.rows, s.z, standard_normals(self.rng, len(s), 3), p.linear_noise, p.angular_noise,
-                           np.zeros((len(s), 9)))
-        if s.extra is not None:  # vertical motion, roll and pitch rates; body vz to first order in the angles
-            e = s.extra[s.rows]
-            out[:, 5] = e[:, VZ]
-            out[:, 2] = e[:, VZ] + out[:, 0] * np.sin(e[:, PITCH]) - out[:, 1] * np.sin(e[:, ROLL])
-            out[:, 6:8] = e[:, WX:WY + 1] + p.angular_noise * standard_normals(self.rng, len(s), 2)
-        return out
+        normals = standard_normals(self.rng, len(s), NORMALS_3D if len(s.extra) else NORMALS)
+        return measure_into(s.rows, s.z, s.extra, normals, p.linear_noise, p.angular_noise, np.zeros((len(s), 9)))

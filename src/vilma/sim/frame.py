@@ -1,4 +1,4 @@
-"""One compiled call a chunk on the planar plant: the physics, then every sensor.
+"""One compiled call a chunk on a planar plant: the physics, then every sensor (the 3D plant's: :mod:`.frame3d`).
 
 A 20 ms frame is two physics steps and a reading or two of each sensor: the work takes a few microseconds, so
 what the call costs is its arguments. They cross as flat arrays, few of them (numba unboxes each array for some
@@ -12,6 +12,7 @@ from __future__ import annotations
 from numba import njit, typeof
 
 from vilma.sensors.bank import counts_fit, measure_all
+from vilma.sensors.base import NO_3D
 from vilma.vehicle.actuators import consts_of
 from vilma.vehicle.integrate import advance
 from vilma.vehicle.state import NZ
@@ -31,7 +32,7 @@ def run_frame(n, tick, model, integrator, plant, mode, dt, periods, out_z, out_d
         return -1
     z, cmd, consts = plant[:NZ], plant[NZ:NZ + CMD], plant[NZ + CMD:]
     m = advance(model, integrator, z, mode, cmd, consts_of(consts), dt, n, tick, periods, out_z, out_dx, out_tick)
-    measure_all(tick, out_tick[:m], out_z, out_dx, step_ns, book, noise, outs, stamps, par)
+    measure_all(tick, out_tick[:m], out_z, out_dx, NO_3D, step_ns, book, noise, outs, stamps, par)
     return m
 
 
