@@ -193,16 +193,14 @@ def test_the_3d_plants_readings_are_the_same_in_20_ms_frames_and_in_1_s_chunks()
 
 
 CACHED = """
-import numpy as np
 from vilma.plant3d import kernel
 from vilma.plant3d.plant import MujocoPlant
+from vilma.sim import SimConfig, Simulator
+from vilma.sim.frame3d import run_frame_3d
 from vilma.vehicle.params import vilma
-from vilma.vehicle.state import N3, NZ
-plant = MujocoPlant(vilma())
-plant.step(0.0, 100.0, 0.0, 0.01)
-z, cmd, rows = np.zeros(NZ), np.zeros(4), np.zeros(2, np.int64)
-plant.advance(z, 0, cmd, 0.01, 2, 0, np.array([1]), np.zeros((2, NZ)), np.zeros((2, 6)), rows, np.zeros((2, N3)))
-print(*(sum(len(getattr(f.stats, k)) for f in (kernel.hold, kernel.advance)) for k in ("cache_hits", "cache_misses")))
+MujocoPlant(vilma()).step(0.0, 100.0, 0.0, 0.01)
+Simulator(SimConfig(model="mujoco")).run_for(0.02)
+print(*(sum(len(getattr(f.stats, k)) for f in (kernel.hold, run_frame_3d)) for k in ("cache_hits", "cache_misses")))
 """
 
 

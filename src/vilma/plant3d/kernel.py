@@ -233,11 +233,12 @@ def _sampled(tick, periods):
 
 @njit(cache=True)
 def advance(ptrs, car, traffic, mode, cmd, consts, z, dt, nstep, n, tick, periods, out_z, out_dx, out_tick, out_3d,
-            t):
+            t, poses):
     """:func:`vilma.vehicle.integrate.advance` on the 3D plant: ``n`` steps of ``dt`` [s] (``nstep`` MuJoCo steps
     each) from sim time ``t`` [s] with the command ``(mode, cmd)`` through vilma's actuators; ``z`` (planar state and
     actuator outputs) is updated in place and the sensors' sample ticks are recorded, with what only the 3D plant has
-    in ``out_3d``; the body poses are those of the end. Returns the number of rows written."""
+    in ``out_3d``; with ``poses``, the body poses are made for the end (cameras and the laser see them; the stepping
+    does not read them). Returns the number of rows written."""
     quat, mat = np.empty(4), np.empty(9)
     qpos, qvel = car[QPOS], car[QVEL]
     u = z[NX:].copy()
@@ -258,5 +259,6 @@ def advance(ptrs, car, traffic, mode, cmd, consts, z, dt, nstep, n, tick, period
             j += 1
     z[:NX] = x
     z[NX:] = u
-    _mj_kinematics(ptrs[0], ptrs[1])
+    if poses:
+        _mj_kinematics(ptrs[0], ptrs[1])
     return j

@@ -13,7 +13,7 @@ from vilma.plant3d.car_model import CORNERS, TIMESTEP, car_xml
 from vilma.plant3d.kernel import ackermann
 from vilma.plant3d.road import NO_TRAFFIC, TrafficMover, road_xml, traffic_xml
 from vilma.plant3d.world import World
-from vilma.vehicle.params import VehicleParams, plant_consts
+from vilma.vehicle.params import VehicleParams
 from vilma.vehicle.state import VehicleState
 
 if TYPE_CHECKING:  # the roads extra
@@ -68,7 +68,6 @@ class MujocoPlant:
         """:mod:`vilma.plant3d.kernel`'s car."""
         self._ptrs = (m._address, d._address)
         self._traffic_args = self._traffic.args if self._traffic is not None else NO_TRAFFIC
-        self._consts = np.array(plant_consts(params))  # crosses into compiled code far cheaper than the tuple
         self.reset()
 
     def reset(self, state: VehicleState = VehicleState()) -> None:
@@ -105,16 +104,10 @@ class MujocoPlant:
         kernel.hold(self._ptrs, self._car, self._traffic_args, steer, drive, brake, max(1, round(dt / TIMESTEP)),
                     self.data.time)
 
-    def advance(self, z: np.ndarray, mode: int, cmd: np.ndarray, dt: float, n: int, tick: int,
-                periods: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray, out_tick: np.ndarray,
-                out_3d: np.ndarray) -> int:
-        """:func:`vilma.vehicle.integrate.advance` on this plant: ``n`` steps of ``dt`` [s] with the command
-        ``(mode, cmd)`` through vilma's actuators; ``z`` (planar state and actuator outputs) is updated in
-        place and the sensors' sample ticks are recorded, with what only the 3D plant has in ``out_3d``
-        (:data:`vilma.vehicle.state.N3`). Returns the number of rows written."""
-        return kernel.advance(self._ptrs, self._car, self._traffic_args, mode, cmd, self._consts, z, dt,
-                              max(1, round(dt / TIMESTEP)), n, tick, periods, out_z, out_dx, out_tick, out_3d,
-                              self.data.time)
+    def kernel_args(self, dt: float) -> tuple:
+        """What :func:`vilma.plant3d.kernel.advance` takes of this plant for steps of ``dt`` [s] (a whole number of
+        MuJoCo steps): its structs' addresses, its car, its traffic and the MuJoCo steps a step."""
+        return self._ptrs, self._car, self._traffic_args, max(1, round(dt / TIMESTEP))
 
     def planar_state(self) -> tuple[float, float, float, float, float, float]:
         """``(x, y, yaw, vx, vy, yaw_rate)`` as vilma's planar models hold them (yaw from the heading of

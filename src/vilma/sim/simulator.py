@@ -125,13 +125,14 @@ class Simulator(Closeable):
         self._periods = np.array(  # sample periods [ticks]: the sensors', then the scene sensors'
             [self.clock.period_ticks(s.rate_hz, f"sensor '{s.name}'") for s in [*self.sensors, *self._scene]],
             dtype=np.int64)
-        self._bank = SensorBank(self.sensors, self._periods[:len(self.sensors)]) if self._plant3d is None else None
+        self._bank = SensorBank(self.sensors, self._periods[:len(self.sensors)], self._plant3d is not None)
         self._dead_ticks = self.clock.ticks_for(c.vehicle.actuators.dead_time)
         self._watchdog_ticks = self.clock.ticks_for(c.watchdog_timeout)
         self._kernel_records: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._records, self._records_steps = empty_records(0), 0  # kept: the frames' records, for up to that many steps
+        self._records_3d = np.empty((0, N3))  # the 3D plant's beside them
         self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
-        self._frame = None  # run_frame for the types of its arguments, called directly (sim/frame.py)
+        self._frame = None  # run_frame (run_frame_3d) for the types of its arguments, called directly (sim/frame.py)
         self._plain = not self._world_sensors and not self._react_ticks  # frames need no stop but commands'
         self._run_for = 0.0, 0  # the seconds run_for took last and their ticks
         self.reset(initial)
@@ -151,8 +152,7 @@ class Simulator(Closeable):
             self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), models.held(self._z[NX:]), self._consts)
         for sensor in self.sensors:
             sensor.reset(self._z.copy(), sensor_rng(c.seed, sensor.name))
-        if self._bank is not None:
-            self._bank.reset()
+        self._bank.reset()
         for scene in self._scene:
             scene.reset(sensor_rng(c.seed, scene.name))
         self._mode = MODE_IDS[ActuatorCommand().longitudinal]
@@ -320,32 +320,37 @@ class Simulator(Closeable):
             periods = self._periods
             self._records = empty_records(min(n, int(np.sum(n // periods + 1))) if len(periods) else 0)
             self._records_steps, self._args = n, None
-        if self._plant3d is not None:
-            out_z, out_dx, out_tick = self._records
-            extra = np.empty((len(out_tick), N3))
-            m = self._plant3d.advance(self._z, STOP if self.watchdog_tripped else self._mode, self._cmd,
-                                      self.clock.step_s, n, t0, self._periods, out_z, out_dx, out_tick, extra)
-            self.clock.tick = t0 + n
-            return self._measure_each(t0, n, out_tick[:m], out_z, out_dx, extra, self.sensors)
+            if self._plant3d is not None:
+                self._records_3d = np.empty((len(self._records[2]), N3))
         args = self._args or self._frame_args()
-        m = self._frame(n, t0, *args)
-        while m < 0:  # again after the bank made room
+        m = self._frame(n, t0, *args) if self._plant3d is None else self._frame(n, t0, self._plant3d.data.time, *args)
+        if m < 0:  # again after the bank made room
             self._bank.make_room()
-            m = self._frame(n, t0, *self._frame_args())
+            self._args = None
+            return self._run_chunk(n)
         self.clock.tick = t0 + n
         if self._scene:
-            self._measure_each(t0, n, self._records[2][:m], self._records[0], self._records[1], None, ())
+            self._scan(t0, n, self._records[2][:m], self._records[0], self._records[1])
         return self._bank.readings()
 
     def _frame_args(self) -> tuple:
         """run_frame's arguments after ``(n, tick)``, kept for the frames that follow until one changes."""
-        bank, (out_z, out_dx, out_tick) = self._bank, self._records
-        args = (
-            self._model, self._integrator, self._plant, STOP if self.watchdog_tripped else self._mode,
-            self.clock.step_s, self._periods, out_z, out_dx, out_tick, self.clock.step_ns,
-            bank.book, bank.noise, bank.outs, bank.stamps, bank.par)
+        bank, (out_z, out_dx, out_tick), mode = self._bank, self._records, STOP if self.watchdog_tripped else self._mode
+        sensing = (self.clock.step_ns, bank.book, bank.noise, bank.outs, bank.stamps, bank.par)
+        if self._plant3d is None:
+            args = (self._model, self._integrator, self._plant, mode, self.clock.step_s, self._periods, out_z, out_dx,
+                    out_tick, *sensing)
+        else:  # the body poses made only for the world sensors
+            ptrs, car, traffic, nstep = self._plant3d.kernel_args(self.clock.step_s)
+            args = (ptrs, car, traffic, self._plant, mode, self.clock.step_s, nstep, self._periods,
+                    bool(self._world_sensors), out_z, out_dx, out_tick, self._records_3d, *sensing)
         if self._frame is None:  # type the arguments once (ints, floats, C arrays of fixed dtypes), not at each call
-            self._frame = direct(run_frame, 0, 0, *args)
+            if self._plant3d is None:
+                self._frame = direct(run_frame, 0, 0, *args)
+            else:
+                from vilma.sim.frame3d import run_frame_3d  # imports MuJoCo
+
+                self._frame = direct(run_frame_3d, 0, 0, 0.0, *args)
         self._args = args
         return args
 
@@ -411,7 +416,7 @@ class Simulator(Closeable):
         ticks = out_tick[:done.records]
         readings = self._bank.measure(t0, done.ticks, ticks, out_z, out_dx, self.clock.step_ns)
         if self._scene:
-            self._measure_each(t0, done.ticks, ticks, out_z, out_dx, None, ())
+            self._scan(t0, done.ticks, ticks, out_z, out_dx)
         return readings
 
     def normals_ahead(self, sensor: Sensor, count: int) -> np.ndarray:
@@ -419,22 +424,15 @@ class Simulator(Closeable):
         it (compiled code measuring as the simulator will: :mod:`vilma.scenario.lockstep_ekf`); planar plant only."""
         return self._bank.normals_ahead(sensor, count)
 
-    def _measure_each(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray,
-                      extra: np.ndarray | None, sensors: list[Sensor] | tuple[()]) -> dict[str, Readings]:
-        """The readings of ``sensors`` (all or none of :attr:`sensors`) of the steps ``t0 + 1 .. t0 + n``, one
-        sensor at a time, from the plant recorded at ``ticks`` (with the 3D plant's ``extra``), by sensor name;
-        the scene sensors' go to the captures."""
-        step_ns, scans, readings = self.clock.step_ns, [], {}
-        periods = self._periods[len(self.sensors) - len(sensors):].tolist()
-        for sensor, period in zip([*sensors, *self._scene], periods, strict=True):
+    def _scan(self, t0: int, n: int, ticks: np.ndarray, out_z: np.ndarray, out_dx: np.ndarray) -> None:
+        """The scene sensors' scans of the steps ``t0 + 1 .. t0 + n``, one sensor at a time, from the plant recorded
+        at ``ticks``, to the captures."""
+        step_ns, scans = self.clock.step_ns, []
+        for sensor, period in zip(self._scene, self.scene_periods.tolist(), strict=True):
             first, count = (t0 // period + 1) * period, (t0 + n) // period - t0 // period
             if count:
-                s = Samples(rows_of(ticks, period, count), out_z, out_dx, extra)
+                s = Samples(rows_of(ticks, period, count), out_z, out_dx)
                 stamps = np.arange(first, first + count * period, period, dtype=np.int64) * step_ns
-                if sensor in self._scene:
-                    scans += [(sensor.topic, msg) for msg in sensor.scan(s, stamps)]
-                else:
-                    readings[sensor.name] = Readings(sensor.name, sensor.message, stamps, sensor.measure(s))
+                scans += [(sensor.topic, msg) for msg in sensor.scan(s, stamps)]
         if scans:  # after the 3D plant's captures of the steps before (it stops at theirs)
             self._captures += sorted(scans, key=lambda c: c[1].stamp_ns)
-        return readings
