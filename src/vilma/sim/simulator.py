@@ -239,8 +239,10 @@ class Simulator(Closeable):
         return notes
 
     def _apply(self, cmd: ActuatorCommand) -> None:
-        self._mode = MODE_IDS[cmd.longitudinal]
-        self._cmd[:], self._args = (cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit), None
+        mode = MODE_IDS[cmd.longitudinal]
+        if mode != self._mode:  # the frame's arguments hold the mode (the command is in the plant array they hold)
+            self._mode, self._args = mode, None
+        self._cmd[:] = cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit
 
     def _watchdog_deadline(self) -> int | None:
         if self._autonomous and self._watchdog_ticks and not self.watchdog_tripped:
