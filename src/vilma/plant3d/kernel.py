@@ -155,11 +155,13 @@ def controls(car, mat, steer, drive, brake):
 @njit(cache=True)
 def block(ptrs, car, traffic, mat, steer, drive, brake, nstep, t):
     """``nstep`` MuJoCo steps from sim time ``t`` [s] with these actuator outputs held (:func:`controls`), the
-    traffic where it is at the block's end (when the sensors look), then the collisions counted (a car part that
-    starts touching an obstacle, :data:`COLLISION_GAP`); returns the sim time at the end [s]."""
+    traffic (:attr:`~vilma.plant3d.road.TrafficMover.args`; None: none) where it is at the block's end (when the
+    sensors look), then the collisions counted (a car part that starts touching an obstacle,
+    :data:`COLLISION_GAP`); returns the sim time at the end [s]."""
     controls(car, mat, steer, drive, brake)
     dt = car[CONSTS][_TIMESTEP]
-    move_traffic(t + nstep * dt, *traffic)
+    if traffic is not None:  # compiled away without traffic
+        move_traffic(t + nstep * dt, *traffic)
     for _ in range(nstep):
         _mj_step(ptrs[0], ptrs[1])
         t += dt  # as mj_step counts d.time

@@ -11,7 +11,7 @@ import numpy as np
 from vilma.plant3d import kernel
 from vilma.plant3d.car_model import CORNERS, TIMESTEP, car_xml
 from vilma.plant3d.kernel import ackermann
-from vilma.plant3d.road import NO_TRAFFIC, TrafficMover, road_xml, traffic_xml
+from vilma.plant3d.road import TrafficMover, road_xml, traffic_xml
 from vilma.plant3d.world import World
 from vilma.vehicle.params import VehicleParams
 from vilma.vehicle.state import VehicleState
@@ -67,7 +67,7 @@ class MujocoPlant:
                      self._spin_dof, consts, touch, self._touched, self._io)
         """:mod:`vilma.plant3d.kernel`'s car."""
         self._ptrs = (m._address, d._address)
-        self._traffic_args = self._traffic.args if self._traffic is not None else NO_TRAFFIC
+        self._traffic_args = self._traffic.args if self._traffic is not None else None  # None: no arrays to pass
         self.reset()
 
     def reset(self, state: VehicleState = VehicleState()) -> None:

@@ -127,11 +127,6 @@ class TrafficMover:
         move_traffic(t, *self.args)
 
 
-NO_TRAFFIC = (np.zeros((0, 1, 4)), np.zeros((0, 1), bool), np.zeros(0, bool), np.zeros(3), np.zeros(0, np.int64),
-              np.zeros((0, 3)), np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(0, bool))
-""":attr:`TrafficMover.args` of a world without traffic."""
-
-
 @njit(cache=True)
 def move_traffic(t, states, present, static, times, mocap, mocap_pos, mocap_quat, out, seen):
     """Put the mocap bodies ``mocap`` where the traffic (its ``states``, ``present``, ``static``; ``times``: its time
