@@ -132,7 +132,7 @@ class Simulator(Closeable):
         self._records, self._records_steps = empty_records(0), 0  # kept: the frames' records, for up to that many steps
         self._records_3d = np.empty((0, N3))  # the 3D plant's beside them
         self._react_ticks = self.clock.ticks_for(c.reactive.period) if c.reactive is not None else 0
-        self._frame = None  # run_frame (run_frame_3d) for the types of its arguments, called directly (sim/frame.py)
+        self._frame = None  # run_frame (run_frame_3d) for the types of its arguments, called directly (sim/frame*.py)
         self._plain = not self._world_sensors and not self._react_ticks  # frames need no stop but commands'
         self._run_for = 0.0, 0  # the seconds run_for took last and their ticks
         self.reset(initial)
@@ -336,7 +336,8 @@ class Simulator(Closeable):
         return self._bank.readings()
 
     def _frame_args(self) -> tuple:
-        """run_frame's arguments after ``(n, tick)``, kept for the frames that follow until one changes."""
+        """run_frame's arguments after ``(n, tick)`` (run_frame_3d's after ``(n, tick, t)``), kept for the frames that
+        follow until one changes."""
         bank, (out_z, out_dx, out_tick), mode = self._bank, self._records, STOP if self.watchdog_tripped else self._mode
         sensing = (self.clock.step_ns, bank.book, bank.noise, bank.outs, bank.stamps, bank.par)
         if self._plant3d is None:
