@@ -65,6 +65,26 @@ def test_validated_commands_are_always_finite_and_in_range(steer, drive, mode):
     assert abs(cmd.steer) <= P.max_steer and math.isfinite(cmd.drive)
 
 
+NUMBER = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**6, 10**6))
+
+
+@given(NUMBER, NUMBER, NUMBER, NUMBER, st.sampled_from([*Longitudinal, *(m.value for m in Longitudinal)]))
+def test_a_command_is_refused_or_clamped_field_by_field_as_defined(steer, drive, brake, limit, mode):
+    values = {"steer": steer, "drive": drive, "brake": brake, "velocity_limit": limit}
+    bad = [k for k, v in values.items() if math.isnan(v) or (math.isinf(v) and not (k == "velocity_limit" and v > 0))]
+    try:
+        cmd, notes = validate_command(ActuatorCommand(longitudinal=mode, **values), P)
+    except CommandError as e:
+        assert bad and f"'{bad[0]}'" in str(e)  # the first bad field, in the order of the fields
+        return
+    assert not bad
+    limits = command_limits(P)[MODE_IDS[Longitudinal(mode)]]
+    clamped = {k: min(max(v, lo), hi) for (k, v), (lo, hi) in zip(values.items(), limits.tolist(), strict=True)}
+    assert {k: getattr(cmd, k) for k in values} == clamped
+    assert cmd.longitudinal is Longitudinal(mode)
+    assert len(notes) == sum(clamped[k] != v for k, v in values.items())
+
+
 def test_rejected_command_leaves_the_previous_one_in_force():
     sim = Simulator(physics_only())
     sim.command(ActuatorCommand(drive=2000.0))

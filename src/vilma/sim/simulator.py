@@ -242,7 +242,8 @@ class Simulator(Closeable):
         mode = MODE_IDS[cmd.longitudinal]
         if mode != self._mode:  # the frame's arguments hold the mode (the command is in the plant array they hold)
             self._mode, self._args = mode, None
-        self._cmd[:] = cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit
+        c = self._cmd  # item by item: half the time of a slice assigned from a tuple
+        c[0], c[1], c[2], c[3] = cmd.steer, cmd.drive, cmd.brake, cmd.velocity_limit
 
     def _watchdog_deadline(self) -> int | None:
         if self._autonomous and self._watchdog_ticks and not self.watchdog_tripped:

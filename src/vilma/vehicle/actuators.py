@@ -11,6 +11,7 @@ limit (:func:`actuator_step`, exact for a target held over the step).
 from __future__ import annotations
 
 import math
+import operator
 
 import msgspec
 import numpy as np
@@ -35,6 +36,7 @@ class CommandError(ValueError):
 
 COMMAND_FIELDS = ("steer", "drive", "brake", "velocity_limit")
 """The numeric fields of a command, in the order of :func:`command_limits`' columns."""
+_numbers = operator.attrgetter(*COMMAND_FIELDS)
 
 
 def command_limits(p: VehicleParams) -> np.ndarray:
@@ -68,19 +70,27 @@ def validate_command(cmd: ActuatorCommand, p: VehicleParams,
         CommandError: a field is NaN or infinite (``velocity_limit`` may be
             +inf, meaning no limit), or the longitudinal mode is unknown.
     """
-    try:
-        mode = Longitudinal(cmd.longitudinal)
-    except ValueError:
-        raise CommandError(
-            f"command field 'longitudinal' is {cmd.longitudinal!r}: use one of "
-            f"{', '.join(m.value for m in Longitudinal)}"
-        ) from None
-    cmd = msgspec.structs.replace(cmd, longitudinal=mode)
+    mode = cmd.longitudinal
+    if type(mode) is not Longitudinal:  # a plain string, from Python code: made the enum (or refused)
+        try:
+            mode = Longitudinal(mode)
+        except ValueError:
+            raise CommandError(
+                f"command field 'longitudinal' is {cmd.longitudinal!r}: use one of "
+                f"{', '.join(m.value for m in Longitudinal)}"
+            ) from None
+        cmd = msgspec.structs.replace(cmd, longitudinal=mode)
+    limits = command_limits(p) if limits is None else limits
+    lo_hi = limits[MODE_IDS[mode]].tolist()
+    values = _numbers(cmd)
+    (s0, s1), (d0, d1), (b0, b1), (v0, v1) = lo_hi
+    steer, drive, brake, velocity_limit = values
+    if (type(steer) is type(drive) is type(brake) is type(velocity_limit) is float and s0 <= steer <= s1
+            and d0 <= drive <= d1 and b0 <= brake <= b1 and v0 <= velocity_limit <= v1):
+        return cmd, ()  # the usual command, checked at once: floats within range (NaN fails, infinity too but +inf)
     notes: list[str] = []
     changes: dict[str, float] = {}
-    limits = command_limits(p) if limits is None else limits
-    for name, (lo, hi) in zip(COMMAND_FIELDS, limits[MODE_IDS[mode]].tolist(), strict=True):
-        v = getattr(cmd, name)
+    for name, v, (lo, hi) in zip(COMMAND_FIELDS, values, lo_hi, strict=True):
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise CommandError(f"command field '{name}' is {v!r}: must be a number")
         if math.isnan(v) or (math.isinf(v) and not (name == "velocity_limit" and v > 0)):
