@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 
@@ -204,9 +203,10 @@ print(*(sum(len(getattr(f.stats, k)) for f in (kernel.hold, run_frame_3d)) for k
 """
 
 
-def test_a_second_process_takes_the_compiled_stepping_from_numbas_cache(tmp_path):
-    # MuJoCo's functions are named symbols in the compiled code: an address there would keep numba from caching it
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
-    runs = [subprocess.run([sys.executable, "-c", CACHED], env=env, capture_output=True, text=True, timeout=900,
+def test_a_second_process_takes_the_compiled_stepping_from_numbas_cache():
+    # MuJoCo's functions are named symbols in the compiled code: an address there would keep numba from caching it.
+    # The first process compiles and saves them, or loads them if the suite's other processes saved them already.
+    runs = [subprocess.run([sys.executable, "-c", CACHED], capture_output=True, text=True, timeout=900,
                            check=True).stdout.split() for _ in range(2)]
-    assert runs == [["0", "2"], ["2", "0"]]  # compiled and saved, then loaded
+    assert runs[0] in (["0", "2"], ["2", "0"])
+    assert runs[1] == ["2", "0"]  # loaded, nothing compiled
