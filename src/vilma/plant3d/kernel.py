@@ -25,6 +25,7 @@ from numba import njit, types
 
 from vilma.plant3d.road import move_traffic
 from vilma.vehicle.actuators import actuate
+from vilma.vehicle.integrate import sampled
 from vilma.vehicle.models.common import V_SIGN
 from vilma.vehicle.state import NX
 
@@ -225,15 +226,6 @@ def _record(car, mat, x, out_dx, out_3d, j):
 
 
 @njit(cache=True)
-def _sampled(tick, periods):
-    """Whether a sensor samples at ``tick`` (a multiple of one of ``periods``)."""
-    for p in periods:  # noqa: SIM110 (compiled: a loop, not a generator)
-        if tick % p == 0:
-            return True
-    return False
-
-
-@njit(cache=True)
 def advance(ptrs, car, traffic, mode, cmd, consts, z, dt, nstep, n, tick, periods, out_z, out_dx, out_tick, out_3d,
             t, poses):
     """:func:`vilma.vehicle.integrate.advance` on the 3D plant: ``n`` steps of ``dt`` [s] (``nstep`` MuJoCo steps
@@ -243,7 +235,7 @@ def advance(ptrs, car, traffic, mode, cmd, consts, z, dt, nstep, n, tick, period
     does not read them). Returns the number of rows written."""
     quat, mat = np.empty(4), np.empty(9)
     qpos, qvel = car[QPOS], car[QVEL]
-    u = z[NX:].copy()
+    u = z[NX:]  # the actuators advance in place, as vilma.vehicle.integrate.advance's
     body_pose(qpos, quat, mat)
     x = planar_state(qpos, qvel, mat)
     j = 0
@@ -252,7 +244,7 @@ def advance(ptrs, car, traffic, mode, cmd, consts, z, dt, nstep, n, tick, period
         t = block(ptrs, car, traffic, mat, u[0], u[1], u[2], nstep, t)
         body_pose(qpos, quat, mat)
         x = planar_state(qpos, qvel, mat)
-        if _sampled(tick + i, periods):
+        if sampled(tick + i, periods):
             for k in range(NX):
                 out_z[j, k] = x[k]
             out_z[j, NX:] = u
@@ -260,7 +252,6 @@ def advance(ptrs, car, traffic, mode, cmd, consts, z, dt, nstep, n, tick, period
             out_tick[j] = tick + i
             j += 1
     z[:NX] = x
-    z[NX:] = u
     if poses:
         _mj_kinematics(ptrs[0], ptrs[1])
     return j

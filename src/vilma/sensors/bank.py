@@ -29,6 +29,8 @@ from vilma.sensors.imu import measure_into as imu_into
 from vilma.sensors.odometry import OdometrySensor, integrate_into
 from vilma.sensors.pose import PoseSensor
 from vilma.sensors.pose import measure_into as pose_into
+from vilma.sensors.velocity import NORMALS as VELOCITY_NORMALS
+from vilma.sensors.velocity import NORMALS_3D as VELOCITY_NORMALS_3D
 from vilma.sensors.velocity import VelocitySensor
 from vilma.sensors.velocity import measure_into as velocity_into
 from vilma.sensors.wheel_speed import WheelSpeedSensor, wheel_speeds
@@ -38,9 +40,9 @@ from vilma.vehicle.state import BRAKE, STEER
 KINDS = (PoseSensor, VelocitySensor, GpsSensor, ImuSensor, WheelSpeedSensor, OdometrySensor, ActuatorStateSensor)
 """The sensors a bank measures, in the order of its slots."""
 POSE, VELOCITY, GPS, IMU, WHEEL_SPEED, ODOMETRY, ACTUATORS = range(len(KINDS))
-NORMALS = (3, 3, 6, 13, 4, 2, 0)
+NORMALS = (3, VELOCITY_NORMALS, 6, 13, 4, 2, 0)
 """Standard normals each kind draws a sample on a planar plant."""
-NORMALS_3D = (3, 5, 6, 13, 4, 2, 0)
+NORMALS_3D = (3, VELOCITY_NORMALS_3D, 6, 13, 4, 2, 0)
 """Standard normals each kind draws a sample on the 3D plant (the velocity sensor's roll and pitch rates too)."""
 WIDTHS = (6, 9, 6, 10, 4, 5, 3)
 """Values of each kind's reading."""

@@ -48,6 +48,15 @@ def axpy(x, a, k):
 
 
 @njit(cache=True, inline="always")
+def sampled(tick, periods):
+    """Whether a sensor samples at ``tick``: a multiple of one of ``periods`` [ticks]."""
+    for p in periods:  # noqa: SIM110 (compiled: a loop, not a generator)
+        if tick % p == 0:
+            return True
+    return False
+
+
+@njit(cache=True, inline="always")
 def rk4(model, x, u, p, dt):
     """One classical Runge-Kutta step of length ``dt`` [s] with ``u`` held; ``x`` a 6-tuple."""
     k1 = derivative(model, x, u, p)
@@ -88,12 +97,7 @@ def advance(model, integrator, z, mode, cmd, p, dt, n, tick, periods, out_z, out
         v = held(u)
         x = rk4(model, x, v, p, dt) if integrator == RK4 else euler(model, x, v, p, dt)
         x = constrain(model, x, v, p)
-        sampled = False
-        for period in periods:
-            if (tick + i) % period == 0:
-                sampled = True
-                break
-        if sampled:
+        if sampled(tick + i, periods):
             dx = derivative(model, x, v, p)
             for k in range(NX):
                 out_z[j, k] = x[k]
