@@ -196,13 +196,21 @@ def test_the_help_imports_neither_numba_nor_scipy_nor_matplotlib():
     assert out.strip() == "[]"
 
 
-def test_a_run_does_not_import_scipy_linalg(tmp_path):
+def test_a_run_imports_neither_scipy_linalg_nor_matplotlib(tmp_path):
     """numba's BLAS probe is skipped (:mod:`vilma.core.numba_start`), and no kernel of a course run needs BLAS (the
-    second run: the first builds the course's spline with scipy.interpolate, which imports scipy.linalg)."""
+    second run: the first builds the course's spline with scipy.interpolate, which imports scipy.linalg); plots are
+    drawn on request only (``--plots``), so a run without it leaves matplotlib unimported and draws no PNG."""
     code = ("import sys; from vilma.app.cli import main\n"
-            f"code = main(['run', 'course_30kmh_stanley', '--out', {str(tmp_path)!r}, '--overwrite', '-q', "
-            "'--no-plots', '--no-record'])\n"
-            "print(code, 'scipy.linalg' in sys.modules)")
+            f"code = main(['run', 'course_30kmh_stanley', '--out', {str(tmp_path)!r}, '--overwrite', '-q'])\n"
+            "print(code, 'scipy.linalg' in sys.modules, 'matplotlib' in sys.modules)")
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
             for _ in range(2)]
-    assert runs[1].split() == ["0", "False"]
+    assert runs[1].split() == ["0", "False", "False"]
+    assert not list(tmp_path.glob("*.png")) and (tmp_path / "run.mcap").exists()
+
+
+def test_cars_refuse_plots_they_would_not_draw(tmp_path, capsys):
+    assert main(["run", "pi_ff_speed_5", "--cars", "2", "--plots", "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith("--cars writes each car's files without plots or "
+                                                              "run.mcap: drop --plots")
+    assert not (tmp_path / "o").exists()

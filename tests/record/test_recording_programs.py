@@ -69,7 +69,7 @@ def test_run_writes_run_mcap_equal_to_its_log_and_timeseries(tmp_path):
 
 
 def test_run_no_record_writes_the_other_files_only(tmp_path):
-    assert main(["run", "paper_fig11_speed_10", "--no-record", "--out", str(tmp_path)]) == 0
+    assert main(["run", "paper_fig11_speed_10", "--no-record", "--plots", "--out", str(tmp_path)]) == 0
     assert not (tmp_path / "run.mcap").exists()
     assert {"metrics.json", "timeseries.csv", "scenario.yaml", "speed.png"} <= {p.name for p in tmp_path.iterdir()}
 

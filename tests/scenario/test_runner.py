@@ -122,12 +122,12 @@ def test_cli_run_never_mixes_with_an_earlier_run(tmp_path, capsys):
     p = tmp_path / "step.yaml"
     p.write_text("task: {speed: 5}\nduration: 2\n")
     out = tmp_path / "o"
-    assert main(["run", str(p), "--out", str(out)]) == 0
+    assert main(["run", str(p), "--out", str(out), "--plots"]) == 0
     (out / "notes.txt").write_text("mine")
     capsys.readouterr()
     assert main(["run", str(p), "--out", str(out), "--no-record"]) == 2
     assert "o: holds an earlier run or other files" in capsys.readouterr().err
-    assert main(["run", str(p), "--out", str(out), "--no-record", "--overwrite"]) == 0
+    assert main(["run", str(p), "--out", str(out), "--no-record", "--overwrite", "--plots"]) == 0
     assert sorted(f.name for f in out.iterdir()) == ["cross_track.png", "effort.png", "metrics.json", "notes.txt",
                                                       "path.png", "scenario.yaml", "speed.png", "timeseries.csv"]
 

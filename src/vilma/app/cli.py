@@ -87,6 +87,8 @@ def _run(args: argparse.Namespace) -> int:
     if args.cars is not None:
         if args.realtime is not None or args.foxglove is not None:
             raise ValueError("--cars drives the cars as fast as it can: drop --realtime and --foxglove")
+        if args.plots:
+            raise ValueError("--cars writes each car's files without plots or run.mcap: drop --plots")
         jobs = batch.as_cars(jobs, args.cars)
         results = batch.run_cars(jobs, Path(args.out) if args.out else None, console, args.overwrite)
     else:
@@ -98,7 +100,7 @@ def _run(args: argparse.Namespace) -> int:
         with live or contextlib.nullcontext():
             results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
                                     live.watch if live else lambda _: (), record=not args.no_record,
-                                    plots=not args.no_plots, overwrite=args.overwrite, started=STARTED)
+                                    plots=args.plots, overwrite=args.overwrite, started=STARTED)
     if len(results) == 1:
         console.print(batch.scorecard_table(results[0]))
     console.print(batch.summary_table(jobs, results))
@@ -294,7 +296,9 @@ def _add_runs(sub) -> None:
     r.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
                    help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
     r.add_argument("--no-record", action="store_true", help="write no run.mcap (the other files as usual)")
-    r.add_argument("--no-plots", action="store_true", help="draw no plots (the other files as usual)")
+    r.add_argument("--plots", action=argparse.BooleanOptionalAction, default=False,
+                   help="draw path.png, speed.png, cross_track.png and effort.png too (default: not; matplotlib "
+                        "would double a short run's time; `vilma report RUN` draws them later from run.mcap)")
     r.add_argument("--cars", type=cars, default=None, metavar="N",
                    help="drive N cars of each run side by side in the compiled loop, with the seeds seed, seed+1 ... "
                         f"(at most {MAX_CARS}); each writes its folder without plots or run.mcap")
