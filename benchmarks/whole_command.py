@@ -8,8 +8,9 @@
 - ``numba_floor``: ``benchmarks/anchors/numba_floor.py``, a process that only loads one cached numba function as a
   ``vilma`` command starts numba: what any command of a numba-compiled program pays at least (``floor_to_anchor``:
   over the anchor's time; above 1.0, no such command can meet the 1.0x target in its own process).
-- ``run_served``, ``run_bare_served``, ``run_plots_served``: the same commands while ``vilma serve`` listens (started here, warmed up
-  on the same scenario): the command is a client, the run a child forked from the warm server.
+- ``run_served``, ``run_bare_served``, ``run_plots_served``: the same commands while ``vilma serve`` listens
+  (started here, warmed up on the same scenario): the command is a client, the run a child forked from the warm
+  server.
 
 Each is run as a fresh process, interleaved, ``ROUNDS`` times (this machine's speed varies 2x); the figures are
 medians of wall seconds and CPU seconds (user + system of the process and its children), and the ratios to the
