@@ -12,7 +12,9 @@
   (started here, warmed up on the same scenario): the command is a client, the run a child forked from the warm
   server.
 
-Each is run as a fresh process, interleaved, ``ROUNDS`` times (this machine's speed varies 2x); the figures are
+Each is run as a fresh process with the caches warm (numba's, the OS's and Python's bytecode: a variable
+``PYTHONDONTWRITEBYTECODE`` is dropped, as an installed package's modules are compiled when pip installs them),
+interleaved, ``ROUNDS`` times (this machine's speed varies 2x); the figures are
 medians of wall seconds and CPU seconds (user + system of the process and its children), and the ratios to the
 anchor's wall time. Targets (issue 21): ``run`` <= 1.5x, ``run_bare`` <= 1.0x, ``help`` < 0.15 s (the served
 cases against the same targets).
@@ -73,7 +75,8 @@ def _rounds(rounds: int, tmp: str, alone: dict[str, str], served: dict[str, str]
 
 def main(rounds: int) -> None:
     with tempfile.TemporaryDirectory() as tmp:
-        alone, served = {**os.environ, "VILMA_SERVE": "off"}, {**os.environ, "VILMA_SERVE": os.path.join(tmp, "s")}
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # Python's cache is warm too
+        alone, served = {**env, "VILMA_SERVE": "off"}, {**env, "VILMA_SERVE": os.path.join(tmp, "s")}
         server = subprocess.Popen([*VILMA, "serve"], env=served, stdout=subprocess.PIPE, text=True)
         try:
             next(line for line in server.stdout if "Ctrl-C ends" in line)

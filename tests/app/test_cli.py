@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import logging
+import os
 import re
 import subprocess
 import sys
@@ -214,3 +216,18 @@ def test_cars_refuse_plots_they_would_not_draw(tmp_path, capsys):
     assert capsys.readouterr().err.splitlines()[-1].endswith("--cars writes each car's files without plots or "
                                                               "run.mcap: drop --plots")
     assert not (tmp_path / "o").exists()
+
+
+def test_the_command_ends_with_its_status_after_the_exit_handlers(tmp_path):
+    """:func:`~vilma.app.cli.entry` skips the interpreter's teardown after a run: the run's status (1: an expectation
+    failed), its whole output through a pipe, its files, and the exit handlers run last."""
+    p = tmp_path / "strict.yaml"
+    p.write_text("task: {speed: 10}\nduration: 2\nexpect: {speed_rise_time_90_s: {max: 1.0}}\n")  # 10 m/s in 2 s: no
+    code = ("import atexit, sys; atexit.register(print, 'the exit handlers ran')\n"
+            f"sys.argv = ['vilma', 'run', {str(p)!r}, '--out', {str(tmp_path / 'o')!r}]\n"
+            "from vilma.app.cli import entry; entry()")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, "VILMA_SERVE": "off"})
+    assert done.returncode == 1, done.stderr
+    assert "files in" in done.stdout and done.stdout.splitlines()[-1] == "the exit handlers ran"
+    assert json.loads((tmp_path / "o" / "metrics.json").read_text())["sim_time_s"] == pytest.approx(2.0)

@@ -4,10 +4,12 @@
 from __future__ import annotations
 
 import argparse
+import atexit
 import contextlib
 import logging
 import os
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -101,12 +103,13 @@ def _run(args: argparse.Namespace) -> int:
             results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
                                     live.watch if live else lambda _: (), record=not args.no_record,
                                     plots=args.plots, overwrite=args.overwrite, started=STARTED)
-    if len(results) == 1:
-        console.print(batch.scorecard_table(results[0]))
-    console.print(batch.summary_table(jobs, results))
-    for job, r in zip(jobs, results, strict=True):
-        console.print(Text(f"{job.scenario.file or job.scenario.name}{' ' + job.label if job.label else ''}: "
-                           f"files in {r.out_dir}"))
+    if not console.quiet:  # (rich would draw the tables, then drop them)
+        if len(results) == 1:
+            console.print(batch.scorecard_table(results[0]))
+        console.print(batch.summary_table(jobs, results))
+        for job, r in zip(jobs, results, strict=True):
+            console.print(Text(f"{job.scenario.file or job.scenario.name}{' ' + job.label if job.label else ''}: "
+                               f"files in {r.out_dir}"))
     return _report_failures(results, console)
 
 
@@ -297,8 +300,9 @@ def _add_runs(sub) -> None:
                    help="with --realtime: serve the sensors live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
     r.add_argument("--no-record", action="store_true", help="write no run.mcap (the other files as usual)")
     r.add_argument("--plots", action=argparse.BooleanOptionalAction, default=False,
-                   help="draw path.png, speed.png, cross_track.png and effort.png too (default: not; matplotlib "
-                        "would double a short run's time; `vilma report RUN` draws them later from run.mcap)")
+                   help="draw path.png, speed.png, cross_track.png and effort.png too (default: not; they would "
+                        "double a short run's time; `vilma report RUN` draws them later from run.mcap); with "
+                        "--workers/--scheduler: the table's box plots")
     r.add_argument("--cars", type=cars, default=None, metavar="N",
                    help="drive N cars of each run side by side in the compiled loop, with the seeds seed, seed+1 ... "
                         f"(at most {MAX_CARS}); each writes its folder without plots or run.mcap")
@@ -309,7 +313,8 @@ def _add_runs(sub) -> None:
     w = sub.add_parser("sweep", help="run a sweep file on Dask (scenarios x grid x samples x seeds): a results table")
     w.add_argument("sweep", metavar="SWEEP.yaml", help="the sweep file (scenarios, grid, samples, seeds)")
     w.add_argument("--out", metavar="DIR", help="where the table and plots go (default sweeps/<SWEEP>/)")
-    w.add_argument("--no-plots", action="store_true", help="draw no box plots")
+    w.add_argument("--plots", action=argparse.BooleanOptionalAction, default=True,
+                   help="draw the box plots of the table (default: drawn)")
     _add_engine_options(w)
     w.set_defaults(func=_sweep)
     t = sub.add_parser("tune", help="search scenario values (gains) for a scorecard objective under constraints with "
@@ -492,5 +497,23 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
         return 130
 
 
+def entry() -> None:
+    """The ``vilma`` command (console script, ``python -m vilma``): :func:`main`, then the process ends.
+
+    A command that :mod:`~vilma.app.serve` may serve ends as its served child does: its files written and closed,
+    then the exit handlers run (:mod:`atexit`: logging, child processes, temporary folders) and the streams flushed,
+    without the interpreter's teardown (``os._exit``), whose unloading of numba's compiled code and freeing of every
+    object cost 0.1-0.2 s of a 0.6 s ``vilma run`` (``benchmarks/whole_command.py``). Only with no other thread left:
+    else (a Dask sweep's) the usual exit waits for them."""
+    code = main()
+    if serve.command_of(sys.argv[1:]) in serve.SERVED and threading.active_count() == 1:
+        atexit._run_exitfuncs()  # as the interpreter's exit would, first
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(OSError, ValueError):  # a closed pipe (vilma run ... | head), a closed stream
+                stream.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

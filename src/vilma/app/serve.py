@@ -94,7 +94,7 @@ def command(args: argparse.Namespace, main: Main) -> int:
 
 def served(argv: list[str]) -> int | None:
     """Run ``vilma ARGV`` on this install's server, if one listens; its exit status, or ``None`` to run it here."""
-    name, path = _command(argv), socket_path()
+    name, path = command_of(argv), socket_path()
     if name not in SERVED or path is None or "_ARGCOMPLETE" in os.environ or not path.exists():
         return None
     try:
@@ -316,12 +316,12 @@ def parse_request(data: bytes) -> tuple[list[str], str, dict[str, str]]:
         raise ValueError('expected {"argv": [strings], "cwd": string, "env": {string: string}}')
     if any("\0" in text for text in (*argv, cwd, *env, *env.values())) or any("=" in k or not k for k in env):
         raise ValueError("a NUL character in a string, or an environment variable named empty or with '='")
-    if _command(argv) not in SERVED:
+    if command_of(argv) not in SERVED:
         raise ValueError(f"the server runs only `vilma {' | '.join(SERVED)}`, not {argv!r}")
     return argv, cwd, env
 
 
-def _command(argv: list[str]) -> str | None:
+def command_of(argv: list[str]) -> str | None:
     """The command of ``vilma ARGV``: its first argument that is not an option."""
     return next((a for a in argv if not a.startswith("-")), None)
 

@@ -142,7 +142,7 @@ def sweep_command(args: argparse.Namespace, console: Console) -> int:
     console.print(f"vilma {args.command}: {len(runs)} runs on {args.scheduler or 'a local Dask cluster'}, "
                   f"table in {out}", highlight=False)
     table = sweep(runs, out, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
-                  keep_files=args.keep_files, plots=not args.no_plots, console=console)
+                  keep_files=args.keep_files, plots=args.plots, console=console)
     console.print(summary_table(table))
     for error in table["error"].dropna().unique()[:10]:
         console.print(Text(f"FAIL: {error}"), style="red")

@@ -38,8 +38,6 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from PIL import Image as PILImage
-
 from vilma.core.messages import Image, Message, PointCloud
 from vilma.plant3d.camera import CameraParams
 from vilma.plant3d.laser import LaserParams
@@ -109,6 +107,8 @@ def _image(m: Image) -> bytes:
 
 
 def _jpeg(quality: int) -> Callable[[Image], bytes]:
+    from PIL import Image as PILImage  # here: a recording without JPEG images never needs Pillow
+
     def encode(m: Image) -> bytes:
         buf = io.BytesIO()
         PILImage.frombuffer("RGB", (m.width, m.height), m.data, "raw", "RGB", m.step, 1).save(
@@ -195,6 +195,8 @@ def decode_world(schema_name: str, payload: bytes, *beside: bytes) -> Message:
             step = r.number("I")
             return Image(stamp_ns, frame_id, width, height, encoding, step, bytes(r.sequence()))
         if schema_name == COMPRESSED_IMAGE:
+            from PIL import Image as PILImage
+
             r.string()
             with PILImage.open(io.BytesIO(r.sequence())) as img:
                 rgb = img.convert("RGB")

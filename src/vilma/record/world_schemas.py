@@ -25,7 +25,6 @@ from dataclasses import dataclass
 
 import msgspec
 import numpy as np
-from PIL import Image as PILImage
 
 from vilma.bus.topics import TOPICS, topic
 from vilma.core.messages import Image, Message, PointCloud
@@ -244,6 +243,8 @@ def _encode_raw(encoding: str) -> Callable[[Message], bytes]:
 
 
 def _encode_jpeg(quality: int) -> Callable[[Message], bytes]:
+    from PIL import Image as PILImage  # here: a recording without JPEG images never needs Pillow
+
     def encode(msg: Message) -> bytes:
         m = checked_image(msg, RGB)
         buf = io.BytesIO()
@@ -293,6 +294,8 @@ def decode_world(schema_name: str, payload: bytes) -> Message:
             r = msgspec.json.decode(payload, type=_RawImage)
             return Image(r.stamp_ns, r.frame_id, r.width, r.height, r.encoding, r.step, r.data)
         if schema_name == COMPRESSED_IMAGE:
+            from PIL import Image as PILImage
+
             c = msgspec.json.decode(payload, type=_CompressedImage)
             with PILImage.open(io.BytesIO(c.data)) as img:
                 rgb = img.convert("RGB")
