@@ -1,9 +1,13 @@
 """The least a process that runs numba-compiled code pays before its first result: the interpreter, numpy, numba,
 and numba's first load of a cached function (its target and array support), as a ``vilma`` command starts them
-(:func:`vilma.core.numba_start.load_array_support`). Nothing of vilma's own runs.
+(:func:`vilma.core.numba_start.load_array_support`), ending as such a command ends (:func:`vilma.app.cli.entry`:
+the exit handlers, then no teardown). Nothing of vilma's own runs.
 
     python benchmarks/anchors/numba_floor.py
 """
+
+import atexit
+import os
 
 from numba import njit
 
@@ -17,4 +21,6 @@ def _one(x: float) -> float:
 
 if __name__ == "__main__":
     load_array_support()
-    print(_one(1.0))
+    print(_one(1.0), flush=True)
+    atexit._run_exitfuncs()
+    os._exit(0)
