@@ -16,10 +16,14 @@ from pathlib import Path
 from vilma.app import serve
 from vilma.app.options import (
     MAX_CARS,
+    PLANT_HELP,
     cars,
+    complete_scenario,
     count,
     duration,
+    folder,
     non_negative,
+    plant,
     port,
     port_or_any,
     positive,
@@ -243,24 +247,6 @@ def _record_command(name: str):
     return handler
 
 
-PLANT_HELP = "the car's model instead of the scenario's: kinematic, single_track or mujoco (the 3D plant)"
-
-
-def _plant(name: str) -> str:
-    from vilma.sim.config import MUJOCO
-    from vilma.vehicle.models import MODELS
-
-    if name not in (*MODELS, MUJOCO):
-        raise argparse.ArgumentTypeError(f"unknown plant {name!r}; use one of {', '.join(MODELS)}, {MUJOCO}")
-    return name
-
-
-def _folder(name: str):
-    if not Path(name).is_dir():
-        raise argparse.ArgumentTypeError(f"{name!r} is not a folder; create it or give another")
-    return Path(name)
-
-
 def _parser() -> argparse.ArgumentParser:
     from vilma import __version__
 
@@ -289,11 +275,11 @@ def _add_runs(sub) -> None:
     r = sub.add_parser("run", help="run scenario files headless and score them",
                        epilog=f"bundled scenarios (`vilma scenarios` describes them): {', '.join(bundled.names())}")
     r.add_argument("scenarios", nargs="+", metavar="SCENARIO",
-                   help="scenario YAML files or bundled scenario names").completer = _complete_scenario
+                   help="scenario YAML files or bundled scenario names").completer = complete_scenario
     r.add_argument("--out", metavar="DIR", help="where the files go (default runs/<name>-<timestamp>/)")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, YAML value); KEY=a,b,c sweeps over the values")
-    r.add_argument("--plant", type=_plant, metavar="MODEL", help=PLANT_HELP)
+    r.add_argument("--plant", type=plant, metavar="MODEL", help=PLANT_HELP)
     r.add_argument("--realtime", type=positive, default=None, metavar="K",
                    help="pace to K times real time (default: as fast as possible)")
     r.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
@@ -348,9 +334,9 @@ def _add_programs(sub) -> None:
                            ("up", "simulator and driver in one process, real time")):
         q = sub.add_parser(name, help=helptext)
         q.add_argument("scenario", nargs="?", metavar="SCENARIO", help="scenario file or bundled name (its car, "
-                       "sensors, controllers and task)").completer = _complete_scenario
+                       "sensors, controllers and task)").completer = complete_scenario
         if name != "drive":
-            q.add_argument("--plant", type=_plant, metavar="MODEL", help=PLANT_HELP)
+            q.add_argument("--plant", type=plant, metavar="MODEL", help=PLANT_HELP)
             q.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
             q.add_argument("--duration", type=duration, default=float("inf"), help="stop after this sim time [s]")
             q.add_argument("--record", metavar="FILE", help="record every topic to this MCAP file (sim time)")
@@ -364,7 +350,7 @@ def _add_programs(sub) -> None:
             q.add_argument("--zenoh-config", metavar="FILE",
                            help="YAML file with listen, connect (lists of endpoints) and multicast_scouting")
         if name == "drive":
-            q.add_argument("--data-dir", type=_folder, metavar="DIR", help="follow orders on driver/cmd may name "
+            q.add_argument("--data-dir", type=folder, metavar="DIR", help="follow orders on driver/cmd may name "
                            "trajectory files in DIR (default: none, orders carry their points)")
         q.set_defaults(func={"sim": _sim, "drive": _drive, "up": _up}[name])
         if name == "sim":
@@ -388,12 +374,12 @@ def _add_gui(sub) -> None:
     """``vilma gui``."""
     g = sub.add_parser("gui", help="the control and monitoring window (embedded simulator, or --connect)")
     g.add_argument("scenario", nargs="?", metavar="SCENARIO", help="embedded: scenario file or bundled name (car, "
-                   "sensors, controllers; its path fills the table)").completer = _complete_scenario
+                   "sensors, controllers; its path fills the table)").completer = complete_scenario
     g.add_argument("--connect", action="append", metavar="ENDPOINT",
                    help="join `vilma sim` / `vilma drive` over Zenoh at ENDPOINT, e.g. tcp/127.0.0.1:7447")
     g.add_argument("--listen", action="append", metavar="ENDPOINT", help="with --connect: Zenoh endpoint to listen on")
     g.add_argument("--zenoh-config", metavar="FILE", help="with --connect: YAML file with listen, connect")
-    g.add_argument("--plant", type=_plant, metavar="MODEL", help="embedded: " + PLANT_HELP)
+    g.add_argument("--plant", type=plant, metavar="MODEL", help="embedded: " + PLANT_HELP)
     g.add_argument("--speed", type=positive, default=1.0, metavar="K", help="embedded: K times real time (default 1)")
     g.add_argument("--refresh", type=count, default=250, metavar="MS", help="Car Status refresh [ms] (default 250)")
     g.add_argument("--record-dir", metavar="DIR", help="where Record Trajectory / Speed write (default .)")
@@ -423,7 +409,7 @@ def _add_recording_commands(sub) -> None:
     rb = sub.add_parser("ros1-bridge", help="the simulator's topics on a ROS 1 master (/pose, /velocity, /gps, /imu, "
                         "/wheelspeed) and commands from /cmd; needs Debian's ROS 1")
     rb.add_argument("scenario", nargs="?", metavar="SCENARIO",
-                    help="scenario file or bundled name (its car, sensors)").completer = _complete_scenario
+                    help="scenario file or bundled name (its car, sensors)").completer = complete_scenario
     rb.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
     rb.add_argument("--duration", type=duration, default=float("inf"), help="stop after this sim time [s]")
     rb.add_argument("--cmd-topic", default="/cmd", help="ROS topic of actuator commands (default /cmd)")
@@ -458,15 +444,6 @@ def _add_tools(sub) -> None:
                                       "`scenarios` in a tenth of their start-up (until Ctrl-C)")
     serve.add_options(sv)
     sv.set_defaults(func=lambda args: serve.command(args, main))
-
-
-def _complete_scenario(prefix: str, **_) -> list[str]:
-    """Shell completion of a scenario: the bundled names, and files and folders (argcomplete's completer)."""
-    from argcomplete.completers import FilesCompleter
-
-    from vilma.scenario import bundled
-
-    return [n for n in bundled.names() if n.startswith(prefix)] + list(FilesCompleter(("yaml",))(prefix))
 
 
 def main(argv: list[str] | None = None, started: float | None = None) -> int:

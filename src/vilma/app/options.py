@@ -102,3 +102,32 @@ def zenoh_bus(args: argparse.Namespace, listen_default: tuple[str, ...], connect
     if args.connect is not None:
         cfg = dataclasses.replace(cfg, connect=tuple(args.connect))
     return ZenohBus(cfg), cfg
+
+
+PLANT_HELP = "the car's model instead of the scenario's: kinematic, single_track or mujoco (the 3D plant)"
+
+
+def plant(name: str) -> str:
+    """``--plant``: a planar model's name or ``mujoco``."""
+    from vilma.sim.config import MUJOCO
+    from vilma.vehicle.models import MODELS
+
+    if name not in (*MODELS, MUJOCO):
+        raise argparse.ArgumentTypeError(f"unknown plant {name!r}; use one of {', '.join(MODELS)}, {MUJOCO}")
+    return name
+
+
+def folder(name: str) -> Path:
+    """A folder that exists."""
+    if not Path(name).is_dir():
+        raise argparse.ArgumentTypeError(f"{name!r} is not a folder; create it or give another")
+    return Path(name)
+
+
+def complete_scenario(prefix: str, **_) -> list[str]:
+    """Shell completion of a scenario: the bundled names, and files and folders (argcomplete's completer)."""
+    from argcomplete.completers import FilesCompleter
+
+    from vilma.scenario import bundled
+
+    return [n for n in bundled.names() if n.startswith(prefix)] + list(FilesCompleter(("yaml",))(prefix))

@@ -191,17 +191,13 @@ def beside(file: Path | None, name: str) -> Path:
 
 
 TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "cameras", "laser", "objects",
-            "integrator",
-            "step", "seed",
-            "watchdog_timeout", "sensors", "origin", "pose", "speed_controller", "path_controller", "driver",
-            "task", "initial", "duration", "metrics", "expect", "speed_log", "traffic", "planner", "perception")
+            "integrator", "step", "seed", "watchdog_timeout", "sensors", "origin", "pose", "speed_controller",
+            "path_controller", "driver", "task", "initial", "duration", "metrics", "expect", "speed_log", "traffic",
+            "planner", "perception")
 
 
 TRAFFIC = ("recorded", "reactive")
 """The ways a CommonRoad world's traffic drives (``traffic``)."""
-SAFE_DUMPER = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
-""":func:`to_yaml`'s dumper: libyaml's where PyYAML has it (a third of the time; the same text for every bundled
-scenario, tested), else PyYAML's own."""
 
 
 def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> Scenario:
@@ -500,4 +496,5 @@ def to_yaml(scenario: Scenario) -> str:
         "expect": {k: (v if isinstance(v, bool) else {b: x for b, x in plain(v).items() if x is not None})
                    for k, v in s.expect.items()},
     }
-    return yaml.dump(out, Dumper=SAFE_DUMPER, sort_keys=False)
+    dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's where there: a third of the time, same text
+    return yaml.dump(out, Dumper=dumper, sort_keys=False)
