@@ -50,7 +50,7 @@ def test_out_of_range_values_are_clamped_and_reported():
 
 def test_the_limits_a_caller_keeps_are_the_ones_checked():
     narrow = dataclasses.replace(P, max_steer=0.5 * P.max_steer)
-    cmd, notes = validate_command(ActuatorCommand(steer=P.max_steer), P, command_limits(narrow))
+    cmd, notes = validate_command(ActuatorCommand(steer=P.max_steer), P, command_limits(narrow).tolist())
     assert cmd.steer == narrow.max_steer and len(notes) == 1
 
 

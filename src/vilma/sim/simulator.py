@@ -19,6 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vilma.core.arrays import table
 from vilma.core.clock import Clock, seconds_to_ns
 from vilma.core.closing import Closeable
 from vilma.core.extras import require
@@ -29,7 +30,7 @@ from vilma.sensors import Readings, Samples, Sensor, build_sensors
 from vilma.sensors.bank import SensorBank
 from vilma.sensors.base import rows_of, sensor_rng
 from vilma.sim.config import MUJOCO, SimConfig
-from vilma.sim.frame import CMD, direct, run_frame
+from vilma.sim.frame import ARRAYS, CMD, direct, run_frame
 from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
 from vilma.vehicle.integrate import INTEGRATORS, constrain, empty_records
@@ -97,6 +98,7 @@ class Simulator(Closeable):
         self._plant = np.concatenate([np.zeros(NZ + CMD), self._consts])  # to take (sim/frame.py)
         self._z, self._cmd = self._plant[:NZ], self._plant[NZ:NZ + CMD]  # views, written in place
         self._limits = command_limits(c.vehicle)  # for compiled code, made once
+        self._limit_rows = self._limits.tolist()  # for validate_command
         self._plant3d = None
         self._world_sensors: list[WorldSensor] = []
         if c.model == MUJOCO:
@@ -163,7 +165,7 @@ class Simulator(Closeable):
         self.watchdog_tripped = False
         self._captures = []
         self._warnings = WarningThrottle(log, clock=lambda: self.clock.time_s)  # a line per sim second at most
-        self._args = None  # run_frame's arguments after (n, tick), kept until one of them changes
+        self._args, self._arrays = None, ()  # run_frame's arguments after (n, tick), kept until one of them changes
         self._calm = self._calm_until()
         if c.reactive is not None:
             c.reactive.reset()
@@ -223,7 +225,7 @@ class Simulator(Closeable):
         Raises:
             CommandError: NaN, infinity or an unknown mode; the car keeps its previous command.
         """
-        cmd, notes = validate_command(cmd, self.config.vehicle, self._limits)
+        cmd, notes = validate_command(cmd, self.config.vehicle, self._limit_rows)
         if notes:
             self._warnings.warning("clamped", "%s", "; ".join(notes))
         self._last_command_tick = self.clock.tick
@@ -338,24 +340,26 @@ class Simulator(Closeable):
 
     def _frame_args(self) -> tuple:
         """run_frame's arguments after ``(n, tick)`` (run_frame_3d's after ``(n, tick, t)``), kept for the frames that
-        follow until one changes."""
+        follow until one changes; their table of arrays (:mod:`vilma.core.arrays`) with the arrays it points into,
+        which are kept alive as long as it is."""
         bank, (out_z, out_dx, out_tick), mode = self._bank, self._records, STOP if self.watchdog_tripped else self._mode
-        sensing = (self.clock.step_ns, bank.book, bank.noise, bank.outs, bank.stamps, bank.par)
+        sensing = (bank.book, bank.noise, bank.outs, bank.stamps, bank.par)
         if self._plant3d is None:
-            args = (self._model, self._integrator, self._plant, mode, self.clock.step_s, self._periods, out_z, out_dx,
-                    out_tick, *sensing)
+            arrays = (self._plant, self._periods, out_z, out_dx, out_tick, *sensing)
+            args = (self._model, self._integrator, mode, self.clock.step_s, self.clock.step_ns, table(arrays, ARRAYS))
         else:  # the body poses made only for the world sensors
+            from vilma.sim.frame3d import ARRAYS_3D, run_frame_3d  # imports MuJoCo
+
             ptrs, car, traffic, nstep = self._plant3d.kernel_args(self.clock.step_s)
-            args = (ptrs, car, traffic, self._plant, mode, self.clock.step_s, nstep, self._periods,
-                    bool(self._world_sensors), out_z, out_dx, out_tick, self._records_3d, *sensing)
+            arrays = (*car, self._plant, self._periods, out_z, out_dx, out_tick, self._records_3d, *sensing)
+            args = (ptrs, traffic, mode, self.clock.step_s, nstep, bool(self._world_sensors), self.clock.step_ns,
+                    table(arrays, ARRAYS_3D))
         if self._frame is None:  # type the arguments once (ints, floats, C arrays of fixed dtypes), not at each call
             if self._plant3d is None:
                 self._frame = direct(run_frame, 0, 0, *args)
             else:
-                from vilma.sim.frame3d import run_frame_3d  # imports MuJoCo
-
                 self._frame = direct(run_frame_3d, 0, 0, 0.0, *args)
-        self._args = args
+        self._args, self._arrays = args, arrays
         return args
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------

@@ -60,8 +60,9 @@ def clamp_command(limits, mode, cmd):
 
 
 def validate_command(cmd: ActuatorCommand, p: VehicleParams,
-                     limits: np.ndarray | None = None) -> tuple[ActuatorCommand, tuple[str, ...]]:
-    """Check a command against the car (``limits``: its :func:`command_limits`, if the caller keeps them).
+                     limits: list | None = None) -> tuple[ActuatorCommand, tuple[str, ...]]:
+    """Check a command against the car (``limits``: its :func:`command_limits` as nested lists, ``.tolist()``, if the
+    caller keeps them: a row of the array made a list at each command cost a quarter of its check).
 
     Returns:
         The command with out-of-range values clamped, and one note per clamped field.
@@ -80,8 +81,7 @@ def validate_command(cmd: ActuatorCommand, p: VehicleParams,
                 f"{', '.join(m.value for m in Longitudinal)}"
             ) from None
         cmd = msgspec.structs.replace(cmd, longitudinal=mode)
-    limits = command_limits(p) if limits is None else limits
-    lo_hi = limits[MODE_IDS[mode]].tolist()
+    lo_hi = (command_limits(p).tolist() if limits is None else limits)[MODE_IDS[mode]]
     values = _numbers(cmd)
     (s0, s1), (d0, d1), (b0, b1), (v0, v1) = lo_hi
     steer, drive, brake, velocity_limit = values
