@@ -1,9 +1,9 @@
 """Many arrays handed to compiled code as one: a table of their addresses and shapes (:func:`table`), made views
 again inside (:func:`vector`, :func:`matrix`).
 
-numba unboxes each array argument of a call for some 40 ns: a simulator frame passes 10 arrays (planar plant) to 23
-(3D plant), a tenth of a 20 ms frame on either plant (``benchmarks/sensors_speed.py``, ``plant3d.py``); one table
-costs one. The views are only as sound as their table: the caller keeps the arrays alive as long as it passes their
+numba unboxes each array argument of a call for some 40 ns: a simulator frame passes 10 arrays (planar plant, a
+tenth of its 20 ms frame, ``benchmarks/sensors_speed.py``) to 23 (3D plant, 0.7 us, ``plant3d.py``); one table costs
+one. The views are only as sound as their table: the caller keeps the arrays alive as long as it passes their
 table (:class:`~vilma.sim.Simulator` holds both together), and a view's dtype and dimensions are those its row was
 made with (:func:`table` checks each array against the layout the compiled code reads it with).
 """
