@@ -264,6 +264,7 @@ def test_vilma_run_on_a_local_cluster(tmp_path, capsys):
     table = pd.read_csv(out / sweep.CSV)
     assert list(table["task.speed"]) == [5, 10] and table["error"].isna().all()
     assert "vilma sweep: 2 runs, 0 failed" in capsys.readouterr().out
+    assert not list(out.glob("*.png"))  # `vilma run` draws plots on request (--plots), its box plots too
 
 
 def test_a_sweep_file_names_scenarios_grid_samples_and_seeds(tmp_path):
