@@ -1,6 +1,7 @@
 """The least a process that runs numba-compiled code pays before its first result: the interpreter, numpy, numba,
 and numba's first load of a cached function (its target and array support), as a ``vilma`` command starts them
-(:func:`vilma.core.numba_start.load_array_support`), ending as such a command ends (:func:`vilma.app.cli.entry`:
+(the garbage collector held off, :mod:`vilma.app.collector`; :func:`vilma.core.numba_start.load_array_support`),
+ending as such a command ends (:func:`vilma.app.cli.entry`:
 the exit handlers, then no teardown). Nothing of vilma's own runs.
 
     python benchmarks/anchors/numba_floor.py
@@ -9,9 +10,13 @@ the exit handlers, then no teardown). Nothing of vilma's own runs.
 import atexit
 import os
 
-from numba import njit
+from vilma.app import collector
 
-from vilma.core.numba_start import load_array_support
+collector.starting()
+
+from numba import njit  # noqa: E402 (after the collector is held off, as in a command)
+
+from vilma.core.numba_start import load_array_support  # noqa: E402
 
 
 @njit(cache=True)

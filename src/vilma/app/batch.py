@@ -18,6 +18,7 @@ from rich.progress import Progress
 from rich.table import Table
 from rich.text import Text
 
+from vilma.app import collector
 from vilma.core.numba_start import load_array_support
 from vilma.record.run import record_run
 from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the demo and the tests find them
@@ -110,6 +111,7 @@ def run_cars(jobs: list[Job], out: Path | None, console: Console, overwrite: boo
     if jobs and numba_cache_cold():
         console.print(COMPILING, highlight=False)
     bar = Progress(console=console, transient=True, disable=not console.is_terminal)
+    collector.started()  # (the cars' objects come and go as usual)
     with bar:
         task = bar.add_task(f"{len(jobs)} cars", total=len(jobs))
         results = run_fleet([j.scenario for j in jobs], lambda i, _: (RunFolder(dirs[i], plots=False),),
@@ -147,6 +149,7 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             r = record_run(job.scenario, out_dir, record=record, plots=plots, realtime=realtime,
                            observers=observers(job.scenario), started=started)
             results.append(r)
+            collector.started()  # (the first run ends the command's start)
             compiling.finished()
             started = time.perf_counter()  # each run's share of the command starts where the last one's ended
             bar.advance(task)

@@ -13,7 +13,7 @@ import threading
 import time
 from pathlib import Path
 
-from vilma.app import serve
+from vilma.app import collector, serve
 from vilma.app.options import (
     MAX_CARS,
     PLANT_HELP,
@@ -119,6 +119,7 @@ def _run(args: argparse.Namespace) -> int:
 
 def _sweep(args: argparse.Namespace) -> int:
     """``vilma sweep SWEEP.yaml``, and ``vilma run ... --workers N | --scheduler ADDRESS``: the runs on Dask."""
+    collector.started()  # a long wait on the cluster: the collector as usual
     from vilma.core.extras import require
 
     require("sweep", f"vilma {args.command} on Dask")
@@ -477,13 +478,16 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
 def entry() -> None:
     """The ``vilma`` command (console script, ``python -m vilma``): :func:`main`, then the process ends.
 
-    A command that :mod:`~vilma.app.serve` may serve ends as its served child does: its files written and closed,
-    then the exit handlers run (:mod:`atexit`: logging, child processes, temporary folders) and the streams flushed,
-    without the interpreter's teardown (``os._exit``), whose unloading of numba's compiled code and freeing of every
-    object cost 0.1-0.2 s of a 0.6 s ``vilma run`` (``benchmarks/whole_command.py``). Only with no other thread left:
-    else (a Dask sweep's) the usual exit waits for them."""
+    A command that :mod:`~vilma.app.serve` may serve starts with the garbage collector held off
+    (:mod:`~vilma.app.collector`) and ends as its served child does: its files written and closed, the exit handlers
+    run (:mod:`atexit`: logging, child processes, temporary folders), the streams flushed, then no interpreter teardown
+    (``os._exit``: unloading numba's code and freeing every object cost 0.1-0.2 s of a 0.6 s ``vilma run``). Only with
+    no other thread left: else (a Dask sweep's) the usual exit waits for them."""
+    batch = serve.command_of(sys.argv[1:]) in serve.SERVED
+    if batch:
+        collector.starting()  # until the first run is done (app/batch.py)
     code = main()
-    if serve.command_of(sys.argv[1:]) in serve.SERVED and threading.active_count() == 1:
+    if batch and threading.active_count() == 1:
         atexit._run_exitfuncs()  # as the interpreter's exit would, first
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):  # a closed pipe (vilma run ... | head), a closed stream

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import hashlib
 import io
 import json
@@ -172,6 +173,7 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
         t0 = time.perf_counter()
         _warm_up(main, warm_up)
         say(f"vilma serve: warmed up on {warm_up} in {time.perf_counter() - t0:.1f} s")
+    gc.freeze()  # the warm heap, as Python's docs advise before a fork: the children's collections skip it
     listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     mask = os.umask(0o177)  # the socket is born private (rw for its user only)
     try:
