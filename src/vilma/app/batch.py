@@ -134,6 +134,8 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
     """
     dirs = out_dirs(jobs, out)
     claim(dirs, overwrite)
+    if realtime is not None:  # a paced run lasts: the collector as usual from the start
+        collector.started()
     cold = bool(jobs) and numba_cache_cold()
     if cold:
         console.print(COMPILING, highlight=False)
