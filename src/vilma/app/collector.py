@@ -5,8 +5,8 @@ and compiled code): CPython's collector, counting them as they come, scans them 
 and finds nothing to free: 60-70 ms of a 0.45 s ``vilma run`` (``benchmarks/whole_command.py``). So a batch command
 starts with the collector's first threshold out of reach (:func:`starting`); after its first run (before any run of a
 paced batch, a fleet or a Dask sweep), :func:`started` moves everything alive to the permanent generation
-(:func:`gc.freeze`: later collections skip it) and restores the thresholds, so a long batch collects as usual. A command that never calls :func:`started` still collects, every
-:data:`STARTING` new objects.
+(:func:`gc.freeze`: later collections skip it) and restores the thresholds, so a long batch collects as usual. A
+command that never calls :func:`started` still collects, every :data:`STARTING` new objects.
 """
 
 from __future__ import annotations
