@@ -161,22 +161,24 @@ def test_an_interrupted_sweep_keeps_its_rows_and_resume_runs_the_rest(scheduler,
 
 @pytest.mark.slow
 def test_ctrl_c_keeps_the_finished_runs_and_resume_runs_the_rest(scheduler, tmp_path, processes):
-    (tmp_path / "s.yaml").write_text(f"scenarios: {SHORT}\ngrid: {{duration: 10, task.speed: [5, 10]}}\nseeds: 10\n")
+    n = 80  # runs: enough that the workers cannot finish them all while Ctrl-C reaches the command
+    (tmp_path / "s.yaml").write_text(f"scenarios: {SHORT}\ngrid: {{duration: 10, task.speed: [5, 10]}}\n"
+                                     f"seeds: {n // 2}\n")
     argv = ("sweep", "s.yaml", "--scheduler", scheduler, "--out", "out")
     p = processes.vilma(*argv, cwd=tmp_path)
     for line in p.stdout:
-        if line.startswith("[3/20]"):
+        if line.startswith(f"[3/{n}]"):
             p.send_signal(signal.SIGINT)
             break
     rest = p.communicate(timeout=120)[0]
     assert p.returncode == 130, rest
     kept = pd.read_parquet(tmp_path / "out" / sweep.PARQUET)
-    assert 3 <= len(kept) < 20 and f"vilma sweep: interrupted: {len(kept)} of 20 runs kept in out; run it again with " \
-                                   "--resume for the rest" in rest
+    assert 3 <= len(kept) < n and f"vilma sweep: interrupted: {len(kept)} of {n} runs kept in out; run it again " \
+                                  "with --resume for the rest" in rest
     again = processes.vilma(*argv, "--resume", cwd=tmp_path)
     out = again.communicate(timeout=300)[0]
     assert again.returncode == 0, out
-    assert f"resuming: {len(kept)} of 20 runs kept" in out and f"[{20 - len(kept)}/{20 - len(kept)}]" in out
+    assert f"resuming: {len(kept)} of {n} runs kept" in out and f"[{n - len(kept)}/{n - len(kept)}]" in out
     table = pd.read_parquet(tmp_path / "out" / sweep.PARQUET)
     assert sorted(table["key"]) == sorted(r.key for r in sweep_plan.read_sweep(tmp_path / "s.yaml"))
     pd.testing.assert_frame_equal(table.set_index("key").loc[kept["key"]].reset_index(), kept)  # kept as they were
