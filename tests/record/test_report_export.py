@@ -19,6 +19,7 @@ from tests.conftest import free_port
 from tests.record.world_messages import FOXGLOVE_FILE, PERIOD_NS, depth_image, wall_scan, write_world_recording
 from vilma.app import programs
 from vilma.app.batch import BUNDLED
+from vilma.app.cli import main
 from vilma.app.options import scenario_or_default
 from vilma.bus import BoundedQueue, LocalBus, topic
 from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
@@ -179,6 +180,17 @@ def test_report_cli_writes_beside_the_recording(finished_run):
                        text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert (out / "run-report" / "metrics.json").exists()
+
+
+def test_quiet_report_prints_only_what_failed(tmp_path, capsys):
+    strict = tmp_path / "strict.yaml"
+    strict.write_text("task: {speed: 10}\nduration: 2\nexpect: {speed_rise_time_90_s: {max: 1.0}}\n")  # 10 m/s in 2 s
+    assert main(["run", str(strict), "--out", str(tmp_path / "run"), "-q"]) == 1
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "run"), "--out", str(tmp_path / "rep"), "-q"]) == 1
+    printed = capsys.readouterr()
+    assert printed.out == "" and printed.err == "FAIL speed_rise_time_90_s: None is outside max 1\n"
+    assert (tmp_path / "rep" / "metrics.json").exists() and (tmp_path / "rep" / "speed.png").exists()
 
 
 def test_report_of_a_non_recording_is_one_line(tmp_path):

@@ -36,6 +36,10 @@ def report_command(args: argparse.Namespace) -> int:
     path = Path(args.recording)
     rec = read_recording(path / RECORDING if path.is_dir() else path)
     result = report(rec, Path(args.out) if args.out else None)
+    if args.quiet:  # what failed only
+        for line in result.failures:
+            print(f"FAIL {line}", file=sys.stderr)
+        return 1 if result.failures else 0
     for k, v in result.metrics.items():
         print(f"{k:32s} {v}")
     if len(result.segments) > 1:
