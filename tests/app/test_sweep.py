@@ -362,6 +362,17 @@ def test_rows_cut_short_by_a_kill_are_dropped_and_done_runs_not_written_twice(tm
     assert [r["key"] for r in lines] == ["k1", "k2", "k2"] and sweep.Rows(tmp_path, True).done("k2")
 
 
+def test_after_an_interrupt_the_rows_are_what_the_file_holds(tmp_path):
+    rows = sweep.Rows(tmp_path, resume=False)
+    done = {"key": "k1", "error": None}
+    rows.add(done)
+    rows.rows["k2"] = {"key": "k2", "error": None}  # Ctrl-C after its entry, before its line
+    rows.file.write('{"key": "k3", "err')  # Ctrl-C mid-line
+    rows.settle()
+    assert rows.rows == {"k1": done} and rows.file is None
+    assert (tmp_path / sweep.ROWS).read_text() == json.dumps(done) + "\n"  # what --resume reads
+
+
 def test_run_keys_name_scenario_values_and_seed():
     key = sweep_plan.run_key
     a = key(SHORT, [("task.speed", "5")], 0)

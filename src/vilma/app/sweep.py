@@ -174,6 +174,7 @@ def sweep(runs: str | Path | Sequence[SweepRun], out: str | Path | None = None, 
         if todo:
             _execute(todo, rows, workers, scheduler, keep_files, console)
     except (KeyboardInterrupt, ConnectionError) as e:
+        rows.settle()
         why = f"{e}" if isinstance(e, ConnectionError) else "interrupted"
         kept = f": {rows.kept(runs)} of {len(runs)} runs kept in {out}; run it again with --resume for the rest"
         raise type(e)(why + (kept if out is not None else "")) from None
@@ -279,6 +280,14 @@ class Rows:
                 self.file = self.path.open("a", encoding="utf-8")
             self.file.write(json.dumps(row) + "\n")
             self.file.flush()
+
+    def settle(self) -> None:
+        """After an interrupt: the rows as ``rows.jsonl`` holds them (Ctrl-C may land between a row's line and its
+        entry here), so that the table, the count the message gives and a ``--resume`` agree."""
+        if self.file is not None:
+            self.file.close()
+            self.file = None
+            self.rows = _read_rows(self.path)
 
     def kept(self, runs: Sequence[SweepRun]) -> int:
         """How many of ``runs`` have a row."""
