@@ -483,11 +483,11 @@ def entry() -> None:
     run (:mod:`atexit`: logging, child processes, temporary folders), the streams flushed, then no interpreter teardown
     (``os._exit``: unloading numba's code and freeing every object cost 0.1-0.2 s of a 0.6 s ``vilma run``). Only with
     no other thread left: else (a Dask sweep's) the usual exit waits for them."""
-    batch = serve.command_of(sys.argv[1:]) in serve.SERVED
-    if batch:
+    served = serve.command_of(sys.argv[1:]) in serve.SERVED
+    if served:
         collector.starting()  # until the first run is done (app/batch.py)
     code = main()
-    if batch and threading.active_count() == 1:
+    if served and threading.active_count() == 1:
         atexit._run_exitfuncs()  # as the interpreter's exit would, first
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):  # a closed pipe (vilma run ... | head), a closed stream

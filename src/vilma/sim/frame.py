@@ -31,20 +31,28 @@ out_tick``, and the sensor bank's ``book, noise, outs, stamps, par``."""
 
 
 @njit(cache=True)
+def frame_arrays(arrays, first):
+    """The arrays of :data:`ARRAYS` from row ``first`` of the table ``arrays``: ``plant, periods, out_z, out_dx,
+    out_tick, book, noise, outs, stamps, par``."""
+    f8, i8 = np.float64, np.int64
+    return (vector(arrays, first, f8), vector(arrays, first + 1, i8), matrix(arrays, first + 2, f8),
+            matrix(arrays, first + 3, f8), vector(arrays, first + 4, i8), matrix(arrays, first + 5, i8),
+            matrix(arrays, first + 6, f8), matrix(arrays, first + 7, f8), matrix(arrays, first + 8, i8),
+            matrix(arrays, first + 9, f8))
+
+
+@njit(cache=True)
 def run_frame(n, tick, model, integrator, mode, dt, step_ns, arrays):
     """:func:`~vilma.vehicle.integrate.advance` of the plant, then the bank's
     :func:`~vilma.sensors.bank.measure_all`, on the arrays of the table ``arrays`` (:data:`ARRAYS`); returns the rows
     recorded, or -1 (nothing done) if the bank must first make room
     (:meth:`~vilma.sensors.bank.SensorBank.make_room`)."""
-    book, noise, outs = matrix(arrays, 5, np.int64), matrix(arrays, 6, np.float64), matrix(arrays, 7, np.float64)
+    plant, periods, out_z, out_dx, out_tick, book, noise, outs, stamps, par = frame_arrays(arrays, 0)
     if not counts_fit(tick, n, book, noise, outs):
         return -1
-    plant, periods = vector(arrays, 0, np.float64), vector(arrays, 1, np.int64)
-    out_z, out_dx, out_tick = matrix(arrays, 2, np.float64), matrix(arrays, 3, np.float64), vector(arrays, 4, np.int64)
     z, cmd, consts = plant[:NZ], plant[NZ:NZ + CMD], plant[NZ + CMD:]
     m = advance(model, integrator, z, mode, cmd, consts_of(consts), dt, n, tick, periods, out_z, out_dx, out_tick)
-    measure_all(tick, out_tick[:m], out_z, out_dx, NO_3D, step_ns, book, noise, outs, matrix(arrays, 8, np.int64),
-                matrix(arrays, 9, np.float64))
+    measure_all(tick, out_tick[:m], out_z, out_dx, NO_3D, step_ns, book, noise, outs, stamps, par)
     return m
 
 

@@ -11,15 +11,16 @@ from numba import njit
 from vilma.core.arrays import matrix, vector
 from vilma.plant3d.kernel import advance
 from vilma.sensors.bank import counts_fit, measure_all
-from vilma.sim.frame import ARRAYS, CMD
+from vilma.sim.frame import ARRAYS, CMD, frame_arrays
 from vilma.vehicle.state import NZ
 
 CAR = ((np.float64, 1),) * 7 + ((np.int32, 1), (np.float64, 1), (np.int64, 1), (np.float64, 1), (np.float64, 1))
 """The layout of a car's arrays (:mod:`vilma.plant3d.kernel`: ``qpos`` .. ``io``)."""
 _C = len(CAR)
-ARRAYS_3D = CAR + ARRAYS[:5] + ((np.float64, 2),) + ARRAYS[5:]
-"""The layout of :func:`run_frame_3d`'s table of arrays: the car's (:data:`CAR`), then :data:`~.frame.ARRAYS` with
-the 3D plant's records ``out_3d`` after ``out_tick``."""
+ARRAYS_3D = CAR + ARRAYS + ((np.float64, 2),)
+"""The layout of :func:`run_frame_3d`'s table of arrays: the car's (:data:`CAR`), :data:`~.frame.ARRAYS`, then the 3D
+plant's records ``out_3d``."""
+_OUT_3D = _C + len(ARRAYS)
 
 
 @njit(cache=True)
@@ -37,18 +38,12 @@ def run_frame_3d(n, tick, t, ptrs, traffic, mode, dt, nstep, poses, step_ns, arr
     ``nstep`` from :meth:`~vilma.plant3d.plant.MujocoPlant.kernel_args`), then the bank's
     :func:`~vilma.sensors.bank.measure_all`, on the arrays of the table ``arrays`` (:data:`ARRAYS_3D`); returns the
     rows recorded, or -1 (nothing done) if the bank must first make room."""
-    c = _C
-    book, noise, outs = matrix(arrays, c + 6, np.int64), matrix(arrays, c + 7, np.float64), \
-        matrix(arrays, c + 8, np.float64)
+    plant, periods, out_z, out_dx, out_tick, book, noise, outs, stamps, par = frame_arrays(arrays, _C)
     if not counts_fit(tick, n, book, noise, outs):
         return -1
-    plant, periods = vector(arrays, c, np.float64), vector(arrays, c + 1, np.int64)
-    out_z, out_dx, out_tick = matrix(arrays, c + 2, np.float64), matrix(arrays, c + 3, np.float64), \
-        vector(arrays, c + 4, np.int64)
-    out_3d = matrix(arrays, c + 5, np.float64)
+    out_3d = matrix(arrays, _OUT_3D, np.float64)
     z, cmd, consts = plant[:NZ], plant[NZ:NZ + CMD], plant[NZ + CMD:]
     m = advance(ptrs, _car(arrays), traffic, mode, cmd, consts, z, dt, nstep, n, tick, periods, out_z, out_dx,
                 out_tick, out_3d, t, poses)
-    measure_all(tick, out_tick[:m], out_z, out_dx, out_3d, step_ns, book, noise, outs,
-                matrix(arrays, c + 9, np.int64), matrix(arrays, c + 10, np.float64))
+    measure_all(tick, out_tick[:m], out_z, out_dx, out_3d, step_ns, book, noise, outs, stamps, par)
     return m

@@ -351,7 +351,7 @@ class Simulator(Closeable):
             from vilma.sim.frame3d import ARRAYS_3D, run_frame_3d  # imports MuJoCo
 
             ptrs, car, traffic, nstep = self._plant3d.kernel_args(self.clock.step_s)
-            arrays = (*car, self._plant, self._periods, out_z, out_dx, out_tick, self._records_3d, *sensing)
+            arrays = (*car, self._plant, self._periods, out_z, out_dx, out_tick, *sensing, self._records_3d)
             args = (ptrs, traffic, mode, self.clock.step_s, nstep, bool(self._world_sensors), self.clock.step_ns,
                     table(arrays, ARRAYS_3D))
         if self._frame is None:  # type the arguments once (ints, floats, C arrays of fixed dtypes), not at each call
