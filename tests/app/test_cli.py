@@ -198,16 +198,17 @@ def test_the_help_imports_neither_numba_nor_scipy_nor_matplotlib():
     assert out.strip() == "[]"
 
 
-def test_a_run_imports_neither_scipy_linalg_nor_matplotlib(tmp_path):
+def test_a_run_imports_neither_scipy_linalg_nor_matplotlib_nor_rich_when_quiet(tmp_path):
     """numba's BLAS probe is skipped (:mod:`vilma.core.numba_start`), and no kernel of a course run needs BLAS (the
     second run: the first builds the course's spline with scipy.interpolate, which imports scipy.linalg); plots are
-    drawn on request only (``--plots``), so a run without it leaves matplotlib unimported and draws no PNG."""
+    drawn on request only (``--plots``), so a run without it leaves matplotlib unimported and draws no PNG; a quiet
+    run that passes draws neither table nor bar, so it leaves rich unimported."""
     code = ("import sys; from vilma.app.cli import main\n"
             f"code = main(['run', 'course_30kmh_stanley', '--out', {str(tmp_path)!r}, '--overwrite', '-q'])\n"
-            "print(code, 'scipy.linalg' in sys.modules, 'matplotlib' in sys.modules)")
+            "print(code, *(m in sys.modules for m in ('scipy.linalg', 'matplotlib', 'rich')))")
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
             for _ in range(2)]
-    assert runs[1].split() == ["0", "False", "False"]
+    assert runs[1].split() == ["0", "False", "False", "False"]
     assert not list(tmp_path.glob("*.png")) and (tmp_path / "run.mcap").exists()
 
 

@@ -11,12 +11,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from numba.core.event import Listener, install_listener
-from rich.console import Console
-from rich.progress import Progress
-from rich.table import Table
-from rich.text import Text
 
 from vilma.app import collector
 from vilma.core.numba_start import load_array_support
@@ -28,6 +25,12 @@ from vilma.scenario.folder import RunFolder, claim, write_metrics
 from vilma.scenario.lockstep import _loop
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario, load_scenario
+
+if TYPE_CHECKING:  # rich is imported where a table or a bar is drawn: a quiet run draws none (12-19 ms of its start)
+    from rich.console import Console
+    from rich.progress import Progress, TaskID
+    from rich.table import Table
+    from rich.text import Text
 
 SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("lateral_error_max_m", "lat max [m]"),
            ("speed_rise_time_90_s", "t90 [s]"), ("speed_overshoot_pct", "overshoot [%]"),
@@ -110,12 +113,11 @@ def run_cars(jobs: list[Job], out: Path | None, console: Console, overwrite: boo
     claim(dirs, overwrite)
     if jobs and numba_cache_cold():
         console.print(COMPILING, highlight=False)
-    bar = Progress(console=console, transient=True, disable=not console.is_terminal)
     collector.started()  # (the cars' objects come and go as usual)
-    with bar:
-        task = bar.add_task(f"{len(jobs)} cars", total=len(jobs))
+    with _Bar(console, console.is_terminal) as bar:
+        task = bar.add(f"{len(jobs)} cars", len(jobs))
         results = run_fleet([j.scenario for j in jobs], lambda i, _: (RunFolder(dirs[i], plots=False),),
-                            lambda done: bar.update(task, completed=done))
+                            lambda done: bar.show(task, done=done))
     for r, d in zip(results, dirs, strict=True):
         write_metrics(r, d)
     return results
@@ -140,13 +142,13 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
     if cold:
         console.print(COMPILING, highlight=False)
     results = []
-    bar = Progress(console=console, transient=True, disable=(len(jobs) < 2 and not cold) or not console.is_terminal)
-    compiling = _Compiling(bar if cold else None)
+    bar = _Bar(console, (len(jobs) > 1 or cold) and console.is_terminal)
+    compiling = _Compiling(bar.progress if cold else None)
     with bar, install_listener("numba:compile", compiling):
-        task = bar.add_task("running", total=len(jobs), visible=len(jobs) > 1)
+        task = bar.add("running", len(jobs), visible=len(jobs) > 1)
         for i, (job, out_dir) in enumerate(zip(jobs, dirs, strict=True), 1):
             name = job.scenario.name + (f" {job.label}" if job.label else "")
-            bar.update(task, description=Text(name))
+            bar.show(task, name)
             t0 = time.perf_counter()
             r = record_run(job.scenario, out_dir, record=record, plots=plots, realtime=realtime,
                            observers=observers(job.scenario), started=started)
@@ -154,11 +156,53 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             collector.started()  # (the first run ends the command's start)
             compiling.finished()
             started = time.perf_counter()  # each run's share of the command starts where the last one's ended
-            bar.advance(task)
+            bar.show(task, done=i)
             if not console.is_terminal:  # a log or a pipe: a line a run instead of the bar
                 verdict = "pass" if r.passed else "FAIL"
-                console.print(Text(f"[{i}/{len(jobs)}] {name}: {verdict} in {started - t0:.1f} s"))
+                console.print(f"[{i}/{len(jobs)}] {name}: {verdict} in {started - t0:.1f} s", markup=False,
+                              highlight=False)
     return results
+
+
+class Quiet:
+    """What a command with ``--quiet`` prints to: nothing (rich's ``Console(quiet=True)``, without rich's import)."""
+
+    quiet, is_terminal = True, False
+
+    def print(self, *objects, **options) -> None:
+        """Nothing."""
+
+
+class _Bar:
+    """rich's transient progress bar on ``console`` within a ``with`` block, or nothing when not ``shown`` (rich's
+    progress is then not imported)."""
+
+    def __init__(self, console: Console, shown: bool) -> None:
+        self.progress: Progress | None = None
+        if shown:
+            from rich.progress import Progress
+
+            self.progress = Progress(console=console, transient=True)
+
+    def __enter__(self) -> _Bar:
+        if self.progress is not None:
+            self.progress.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+
+    def add(self, description: str, total: int, visible: bool = True) -> TaskID | None:
+        """A new line of the bar (None when not shown)."""
+        return self.progress.add_task(description, total=total, visible=visible) if self.progress else None
+
+    def show(self, task: TaskID | None, text: str | None = None, done: int | None = None) -> None:
+        """Say ``text`` (as it is: no markup) on the line ``task``, and that ``done`` of its total are done."""
+        if self.progress is not None:
+            from rich.text import Text
+
+            self.progress.update(task, description=Text(text) if text is not None else None, completed=done)
 
 
 def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:
@@ -197,6 +241,8 @@ class _Compiling(Listener):
             return
         if self.task is None:
             self.task = self.bar.add_task("", total=None)
+        from rich.text import Text
+
         self.bar.update(self.task, description=Text(f"compiling, once: {self.done} of vilma's functions done, "
                                                     f"now {name}"))
 
@@ -225,6 +271,8 @@ def numba_cache_cold() -> bool:
 
 def scorecard_table(result: RunResult) -> Table:
     """Every scorecard key of one run, with its value."""
+    from rich.table import Table
+
     table = Table(title=f"{result.scenario.name}: scorecard", show_header=True)
     table.add_column("metric")
     table.add_column("value", justify="right")
@@ -236,6 +284,9 @@ def scorecard_table(result: RunResult) -> Table:
 def summary_table(jobs: list[Job], results: list[RunResult]) -> Table:
     """One row per run: the :data:`SUMMARY` keys and pass or fail (and which planner and perception drove a
     planned run)."""
+    from rich.table import Table
+    from rich.text import Text
+
     table = Table(title="vilma run: summary")
     table.add_column("run")
     for _, heading in SUMMARY:
@@ -257,6 +308,8 @@ def summary_table(jobs: list[Job], results: list[RunResult]) -> Table:
 
 
 def _fmt(v) -> Text | str:
+    from rich.text import Text
+
     if v is None:
         return "-"
     if isinstance(v, bool):

@@ -41,7 +41,7 @@ STARTED = time.perf_counter()
 def _demo(args: argparse.Namespace) -> int:
     from vilma.app import batch, demo
 
-    console = _console(args)
+    console = batch.Quiet() if args.quiet else _console(args)
     jobs = batch.plan(demo.scenario_names(), [])
     root = demo.out_root(Path(args.out) if args.out else None)
     console.print(f"vilma demo: {len(jobs)} bundled scenarios, headless, files in {root}", highlight=False)
@@ -58,13 +58,14 @@ def _console(args: argparse.Namespace):
 
 
 def _report_failures(results, console) -> int:
-    from rich.console import Console
-
-    out = Console(stderr=True) if console.quiet else console  # --quiet keeps what failed
     failed = [r for r in results if not r.passed]
+    if failed and console.quiet:  # --quiet keeps what failed
+        from rich.console import Console
+
+        console = Console(stderr=True)
     for r in failed:
         for line in r.failures:
-            out.print(f"FAIL {r.scenario.name}: {line}", highlight=False)
+            console.print(f"FAIL {r.scenario.name}: {line}", highlight=False)
     return 1 if failed else 0
 
 
@@ -77,8 +78,6 @@ def _scenarios(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from rich.text import Text
-
     from vilma.app import batch
 
     if args.workers is not None or args.scheduler is not None:
@@ -89,7 +88,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.resume or args.keep_files or args.yes:
         raise ValueError("--resume, --keep-files and --yes are for runs on Dask: add --workers N or --scheduler")
     jobs = batch.plan(args.scenarios, [*args.set, *([f"plant={args.plant}"] if args.plant else [])])
-    console = _console(args)
+    console = batch.Quiet() if args.quiet else _console(args)
     if args.cars is not None:
         if args.realtime is not None or args.foxglove is not None:
             raise ValueError("--cars drives the cars as fast as it can: drop --realtime and --foxglove")
@@ -112,8 +111,8 @@ def _run(args: argparse.Namespace) -> int:
             console.print(batch.scorecard_table(results[0]))
         console.print(batch.summary_table(jobs, results))
         for job, r in zip(jobs, results, strict=True):
-            console.print(Text(f"{job.scenario.file or job.scenario.name}{' ' + job.label if job.label else ''}: "
-                               f"files in {r.out_dir}"))
+            console.print(f"{job.scenario.file or job.scenario.name}{' ' + job.label if job.label else ''}: "
+                          f"files in {r.out_dir}", markup=False, highlight=False)
     return _report_failures(results, console)
 
 

@@ -17,11 +17,9 @@ import io
 import math
 import os
 import stat
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
-import pymap3d
 
 from vilma.core.files import write_atomic
 from vilma.core.geodesy import GeodeticOrigin
@@ -132,6 +130,10 @@ def _load_csv(path: Path, text: str) -> Trajectory:
 
 
 def _load_gpx(path: Path, text: str, origin: GeodeticOrigin | None) -> Trajectory:
+    import xml.etree.ElementTree as ET  # here: GPX files only (a run that loads none need not import them)
+
+    import pymap3d
+
     try:
         root = ET.fromstring(text)
     except ET.ParseError as e:
