@@ -4,6 +4,8 @@ with no edit to any of them."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -35,6 +37,10 @@ class ConstantSteerParams:
 
 
 class ConstantSteerConsts(NamedTuple):
+    steer: float
+
+
+class OtherConsts(NamedTuple):
     steer: float
 
 
@@ -72,6 +78,21 @@ def test_the_registry_lists_it_and_refuses_a_second_of_that_name():
         DriverParams(speed_controller="test_constant_steer")
     with pytest.raises(ValueError, match="driver gains of stanley: expected StanleyParams, got PiFfParams"):
         DriverParams(gains={"stanley": PiFfParams()})
+
+
+def test_vilma_controllers_load_on_first_use_and_keep_their_names():
+    """Each module of :data:`~vilma.control.registry.BUNDLED` is the controller of its name: listed before it is
+    imported, imported when asked for, and its name taken from the start."""
+    code = ("import sys\nfrom vilma.control import registry\n"
+            "listed = registry.names()\nbefore = 'vilma.control.path.lqr' in sys.modules\n"
+            "lqr = registry.controller_type('lqr', 'path')\n"
+            "print(listed, before, lqr.name, 'vilma.control.path.pure_pursuit' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["('lqr',", "'pi_ff',", "'pure_pursuit',", "'stanley',", "'vilma_heading',", "'vilma_pid')", "False",
+                   "lqr", "False"]
+    with pytest.raises(ValueError, match="'pure_pursuit' is registered already"):
+        register(ControllerType("pure_pursuit", PATH, ConstantSteerParams, OtherConsts,
+                                lambda p, vehicle: OtherConsts(0.0), (0.0,), constant_steer_step))
 
 
 def test_the_driver_steers_with_it():

@@ -22,6 +22,7 @@ import importlib
 import pkgutil
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -32,8 +33,9 @@ from vilma.vehicle.params import VehicleParams
 
 SPEED, PATH = "speed", "path"
 """The kinds of controller."""
-BUNDLED = ("vilma.control.speed", "vilma.control.path")
-"""Packages whose modules register the controllers vilma ships: every module in them is one controller."""
+BUNDLED = {SPEED: "vilma.control.speed", PATH: "vilma.control.path"}
+"""Packages whose modules register the controllers vilma ships: each module is the controller of its name, of the
+package's kind; imported when that controller is first asked for."""
 
 
 def speed_step(c, state, target, measured, steer):
@@ -91,8 +93,6 @@ class Controller:
 
 
 _TYPES: dict[str, ControllerType] = {}
-_LOADED: list[bool] = []  # the bundled controllers were imported
-
 
 def register(kind: ControllerType) -> ControllerType:
     """Add ``kind`` to the registry and to the compiled dispatch of its kind; returns it.
@@ -102,6 +102,7 @@ def register(kind: ControllerType) -> ControllerType:
     """
     if kind.kind not in (SPEED, PATH):
         raise ValueError(f"controller {kind.name!r}: kind must be {SPEED!r} or {PATH!r}, got {kind.kind!r}")
+    _import_bundled(kind.name)  # (one of vilma's own names is taken even before its first use)
     if kind.name in _TYPES:
         raise ValueError(f"controller {kind.name!r} is registered already; choose another name")
     if not hasattr(kind.consts, "_fields") or any(t.consts is kind.consts for t in _TYPES.values()):
@@ -131,29 +132,36 @@ def _overload(kind: ControllerType) -> None:
                                                                              yaw_rate)
 
 
-def _bundled() -> dict[str, ControllerType]:
-    """The registry, with vilma's own controllers in it: every module of the :data:`BUNDLED` packages, imported
-    on first use (they import this module), so a new controller is a new file and nothing else."""
-    if not _LOADED:
-        for package in BUNDLED:
-            for module in pkgutil.iter_modules(importlib.import_module(package).__path__):
-                importlib.import_module(f"{package}.{module.name}")
-        _LOADED.append(True)
-    return _TYPES
+@cache
+def _bundled(kind: str) -> tuple[str, ...]:
+    """The names of vilma's own controllers of ``kind``: the modules of its :data:`BUNDLED` package (so a new
+    controller is a new file and nothing else), listed without importing them."""
+    return tuple(m.name for m in pkgutil.iter_modules(importlib.import_module(BUNDLED[kind]).__path__))
+
+
+def _import_bundled(name: str) -> None:
+    """Import vilma's own controller ``name`` (registering it) if there is one and it is not registered yet (a
+    module that registers it as it is imported is taken as imported)."""
+    for kind in (SPEED, PATH):
+        if name not in _TYPES and name in _bundled(kind):
+            importlib.import_module(f"{BUNDLED[kind]}.{name}")
 
 
 def names(kind: str | None = None) -> tuple[str, ...]:
-    """The registered controllers' names (of one kind, or all), sorted."""
-    return tuple(sorted(n for n, t in _bundled().items() if kind is None or t.kind == kind))
+    """The registered controllers' names (of one kind, or all), vilma's own among them, sorted."""
+    kinds = (SPEED, PATH) if kind is None else (kind,)
+    return tuple(sorted({n for n, t in _TYPES.items() if t.kind in kinds}.union(*(_bundled(k) for k in kinds))))
 
 
 def controller_type(name: str, kind: str | None = None) -> ControllerType:
-    """The controller registered as ``name`` (of ``kind`` if given).
+    """The controller registered as ``name`` (of ``kind`` if given); one of vilma's own is imported, and so
+    registered, on its first use (a run imports the two it drives with, not every one).
 
     Raises:
         ValueError: no such controller, naming the ones there are.
     """
-    t = _bundled().get(name)
+    _import_bundled(name)
+    t = _TYPES.get(name)
     if t is None or (kind is not None and t.kind != kind):
         what = f"{kind} controller" if kind else "controller"
         raise ValueError(f"{what} {name!r} is unknown; use one of {', '.join(names(kind))}")
