@@ -14,7 +14,7 @@ from vilma.control.driver import Driver
 from vilma.record.run import record_run
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import COLUMNS
-from vilma.scenario.lockstep import advance_by_kernel, compiled_ok
+from vilma.scenario.lockstep import compiled_ok
 from vilma.scenario.result import OnReadings
 from vilma.scenario.runner import run
 from vilma.scenario.spec import TIMING_KEYS
@@ -87,21 +87,6 @@ def test_a_compiled_run_drives_alike_whether_or_not_an_observer_takes_the_readin
     alone, observed = run(s), run(s, observers=[OnReadings(taken.append)])
     _same(alone, observed)
     assert len(taken) > 1 and {"gps", "imu"} <= taken[-1].keys()
-
-
-@pytest.mark.parametrize("name", ["course_30kmh_ekf", "planned_slower_lead"])  # noisy sensors; the planar laser
-def test_a_period_by_the_compiled_loops_kernel_is_the_simulators_own(name):
-    """Its plant, readings and scans are the simulator's, and so are the periods after (noise drawn as it draws)."""
-    s = load_scenario(BUNDLED / f"{name}.yaml")
-    ticks = round(0.12 / s.sim.step)  # 120 ms: a sample of each sensor (the GPS at 10 Hz) and a laser scan (10 Hz)
-    with Simulator(s.sim) as kernel, Simulator(s.sim) as own:
-        for k in range(4):
-            got, want = advance_by_kernel(kernel, ticks) if k == 0 else kernel.advance(ticks), own.advance(ticks)
-            assert kernel.plant == own.plant and kernel.time_ns == own.time_ns == (k + 1) * ticks * own.clock.step_ns
-            assert got.keys() == want.keys() and {"gps", "imu", "wheel_speed"} <= got.keys()
-            for n, r in got.items():
-                assert np.array_equal(r.stamp_ns, want[n].stamp_ns) and np.array_equal(r.values, want[n].values)
-            assert repr(kernel.take_captures()) == repr(own.take_captures())
 
 
 def test_a_compiled_run_never_runs_the_simulators_frame(monkeypatch):

@@ -64,22 +64,6 @@ def compiled_ok(sim: Simulator, driver: Driver, planned: bool = False) -> bool:
         (wd == 0 or wd > p) and (r is None or sim.clock.ticks_for(r.period) == p)
 
 
-def advance_by_kernel(sim: Simulator, ticks: int) -> dict[str, Readings]:
-    """``sim.advance(ticks)`` by the kernel :func:`_loop` runs (:func:`~vilma.vehicle.integrate.advance`, then the
-    sensor bank): the same plant and readings, and a run that goes on compiled never compiles the simulator's frame
-    (:func:`~vilma.sim.frame.run_frame`: a second of a fresh install's first run). Falls back to ``sim.advance``
-    where compiled code may not advance it (:attr:`Simulator.compiled_ok`) or reactive traffic steps."""
-    if not sim.compiled_ok or sim.config.reactive is not None:
-        return sim.advance(ticks)
-
-    def kernel(p: PlantKernel) -> KernelResult:
-        m = advance(p.model, p.integrator, p.z, p.mode[0], p.cmd, p.consts, p.step, ticks, p.tick, p.periods,
-                    *p.records)
-        return KernelResult(ticks, m, None)
-
-    return sim.advance_compiled(ticks, kernel)
-
-
 def _source_ok(sim: Simulator, driver: Driver) -> bool:
     """Whether the loop reads the pose as the driver's estimator does (:func:`compiled_ok`)."""
     if driver.params.pose_source == "ekf":

@@ -20,7 +20,7 @@ from numba.core.event import TimingListener, install_listener
 from vilma.control.driver import Driver
 from vilma.scenario.drive_log import DriveLog
 from vilma.scenario.fields import SpecError
-from vilma.scenario.lockstep import CompiledDrive, advance_by_kernel, compiled_ok, run_compiled
+from vilma.scenario.lockstep import CompiledDrive, compiled_ok, run_compiled
 from vilma.scenario.metrics import WATCHDOG_STOP, expectation_failures, plain, scorecard, timing
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario
@@ -144,11 +144,16 @@ class Car:
         for o in self.observers:
             o.started(sim, self.log)
 
-    def begin(self) -> None:
+    def begin(self, compiled: bool = True) -> None:
         """Take the first readings (the estimator starts) and give the driver its task; :attr:`periods` are then
-        left to drive."""
+        left to drive. With ``compiled``, the first period runs in the compiled loop where the loop may run
+        (:func:`compiled_ok`), as the periods after it will: the simulator's frame then never runs (a second of a
+        fresh install's first run), nor does a compiled step load for that one period."""
         s, sim, period = self.scenario, self.sim, self.driver.period_ticks
-        self.step(advance_by_kernel(sim, period))
+        if compiled and compiled_ok(sim, self.driver):  # (a plan's driver has no task yet: it may)
+            CompiledDrive(sim, self.driver, self.log, 1, False, self.on_block).block()  # readings made, as in step
+        else:
+            self.step(sim.advance(period))
         task = start_task(self.driver, s, self.path)
         self.t_start = sim.time_ns * 1e-9
         if task is not None:
@@ -216,7 +221,7 @@ class Car:
         """The run of :func:`run` on ``sim``: start, step until the task is done or time is up, score."""
         self.start(sim)
         wall0, load0 = time.perf_counter(), loading.seconds
-        self.begin()
+        self.begin(realtime is None and compiled)
         self.loop(realtime, compiled)
         return self.score(time.perf_counter() - wall0 - (loading.seconds - load0))
 
