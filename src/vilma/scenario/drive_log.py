@@ -96,8 +96,8 @@ class TimeseriesWriter:
                   + [f"{n}.{f}" for n in self._names for f in fields[n]])
         self._width = len(header)
         self._part = path.with_name(path.name + ".part")
-        self._file = self._part.open("w", encoding="utf-8")
-        self._file.write(",".join(header) + "\n")
+        self._file = self._part.open("wb")
+        self._file.write((",".join(header) + "\n").encode())
         self._readings: dict[str, list[Readings]] = {n: [] for n in self._names}
 
     def add(self, readings: dict[str, Readings]) -> None:
@@ -126,7 +126,7 @@ class TimeseriesWriter:
         for parts in self._readings.values():
             parts.clear()
         try:
-            self._file.write(csv_text(table))
+            self._file.write(csv_lines(table))
         except OSError as e:
             raise write_error(self.path, e) from None
 
@@ -147,12 +147,11 @@ class TimeseriesWriter:
         self._part.unlink(missing_ok=True)
 
 
-def csv_text(table: np.ndarray) -> str:
+def csv_lines(table: np.ndarray) -> bytes:
     """Rows of numbers as CSV lines: shortest exact floats, an empty cell for NaN (infinity as ``inf``)."""
     if not len(table):
-        return ""
+        return b""
     if np.isinf(table).any():  # JSON has no infinity: the slow way
-        return "".join(",".join("" if v != v else repr(v) for v in line) + "\n" for line in table.tolist())
-    text = _json.encode(table.tolist()).decode()  # [[a,b],[c,null]]: the same digits as repr, in one C call
-    return text[2:-2].replace("],[", "\n").replace("null", "") + "\n"
-
+        return "".join(",".join("" if v != v else repr(v) for v in line) + "\n" for line in table.tolist()).encode()
+    # a JSON line a row, [a,b] and [c,null]: the same digits as repr, in one C call; then no brackets nor nulls
+    return _json.encode_lines(table.tolist()).translate(None, b"[]").replace(b"null", b"")
