@@ -15,6 +15,8 @@
   MuJoCo step and copies ``qpos``, ``qvel`` and ``sensordata``. ``ratio_to_plain_mujoco_{20,100}ms``: the 3D
   plant (every default sensor) over the anchor, the median of the ratios of runs made in turns (anchor, plant,
   anchor, plant ...: this machine's speed varies 2x). Target (issue 21): at least 0.9 at 20 ms.
+  ``ratio_to_plain_mujoco_20ms_without_sensors``: the same with no sensor on the car (MuJoCo's stepping and vilma's
+  actuators only), to show what the sensors cost.
 
 Each figure is the median of ``REPEAT`` runs (``PAIRS`` pairs against the anchor). Usage:
 ``python benchmarks/plant3d.py``.
@@ -22,6 +24,7 @@ Each figure is the median of ``REPEAT`` runs (``PAIRS`` pairs against the anchor
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import statistics
 import sys
@@ -33,6 +36,7 @@ from vilma.plant3d.camera import stereo_pair
 from vilma.plant3d.car_model import car_xml
 from vilma.scenario import load_scenario
 from vilma.scenario.runner import run
+from vilma.sensors import SensorSuite
 from vilma.sim import SimConfig, Simulator
 from vilma.vehicle.state import VX
 
@@ -97,6 +101,8 @@ def main() -> None:
         ms = round(chunk * 1000)
         out[f"plain_mujoco_x_real_time_{ms}ms"], out[f"plant_x_real_time_chunks_{ms}ms"], \
             out[f"ratio_to_plain_mujoco_{ms}ms"] = _against_plain(plant, chunk)
+    bare = SimConfig(model="mujoco", sensors=SensorSuite(**{f.name: None for f in dataclasses.fields(SensorSuite)}))
+    out["ratio_to_plain_mujoco_20ms_without_sensors"] = _against_plain(bare, 0.02)[2]
     stereo = SimConfig(model="mujoco", cameras=stereo_pair(width=640, height=480, rate_hz=10.0))
     out["plant_stereo_640x480_10hz_x_real_time"] = _median(lambda: _plant(stereo, 10.0, 0.1))
     scenario = find_scenario("paper_fig12_path")

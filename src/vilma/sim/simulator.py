@@ -33,9 +33,9 @@ from vilma.sim.config import MUJOCO, SimConfig
 from vilma.sim.frame import ARRAYS, CMD, direct, run_frame
 from vilma.vehicle import models
 from vilma.vehicle.actuators import MODE_IDS, STOP, command_limits, validate_command
-from vilma.vehicle.integrate import INTEGRATORS, constrain, empty_records
+from vilma.vehicle.integrate import INTEGRATORS, constrain_start, empty_records
 from vilma.vehicle.params import plant_consts
-from vilma.vehicle.state import N3, NX, NZ, VX, YAW, VehicleState, X, Y
+from vilma.vehicle.state import N3, NZ, VX, YAW, VehicleState, X, Y
 from vilma.world.idm import IdmArrays
 
 log = logging.getLogger(__name__)
@@ -151,7 +151,7 @@ class Simulator(Closeable):
         if self._plant3d is not None:
             self._plant3d.reset(initial or c.initial)
         else:  # lateral states that the model fixes (kinematic: all of them; single track: at low speed)
-            self._z[:NX] = constrain(self._model, tuple(self._z[:NX]), models.held(self._z[NX:]), self._consts)
+            constrain_start(self._model, self._z, self._consts)
         for sensor in self.sensors:
             sensor.reset(self._z.copy(), sensor_rng(c.seed, sensor.name))
         self._bank.reset()

@@ -42,6 +42,15 @@ def constrain(model, x, u, p):
 
 
 @njit(cache=True)
+def constrain_start(model, z, p):
+    """The plant vector ``z`` with its lateral states as the model fixes them (:func:`constrain` of its actuator
+    outputs held), in place: a drive's start (one compiled call, not one for each of the two)."""
+    x = constrain(model, (z[0], z[1], z[2], z[3], z[4], z[5]), held(z[NX:]), p)
+    for k in range(NX):
+        z[k] = x[k]
+
+
+@njit(cache=True)
 def axpy(x, a, k):
     """``x + a k`` for 6-tuples (states stay tuples in compiled code: no allocation)."""
     return (x[0] + a * k[0], x[1] + a * k[1], x[2] + a * k[2], x[3] + a * k[3], x[4] + a * k[4], x[5] + a * k[5])
