@@ -46,7 +46,8 @@ def _demo(args: argparse.Namespace) -> int:
     root = demo.out_root(Path(args.out) if args.out else None)
     console.print(f"vilma demo: {len(jobs)} bundled scenarios, headless, files in {root}", highlight=False)
     results = batch.run_all(jobs, root, args.realtime, console, overwrite=args.overwrite, started=STARTED)
-    console.print(demo.comparison_table({r.scenario.name: r for r in results}))
+    if not console.quiet:  # (the table imports rich)
+        console.print(demo.comparison_table({r.scenario.name: r for r in results}))
     return _report_failures(results, console)
 
 
