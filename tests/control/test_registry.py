@@ -3,10 +3,12 @@ with no edit to any of them."""
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -83,13 +85,14 @@ def test_the_registry_lists_it_and_refuses_a_second_of_that_name():
 def test_vilma_controllers_load_on_first_use_and_keep_their_names():
     """Each module of :data:`~vilma.control.registry.BUNDLED` is the controller of its name: listed before it is
     imported, imported when asked for, and its name taken from the start."""
-    code = ("import sys\nfrom vilma.control import registry\n"
+    code = ("import json, sys\nfrom vilma.control import registry\n"
             "listed = registry.names()\nbefore = 'vilma.control.path.lqr' in sys.modules\n"
             "lqr = registry.controller_type('lqr', 'path')\n"
-            "print(listed, before, lqr.name, 'vilma.control.path.pure_pursuit' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-    assert out == ["('lqr',", "'pi_ff',", "'pure_pursuit',", "'stanley',", "'vilma_heading',", "'vilma_pid')", "False",
-                   "lqr", "False"]
+            "print(json.dumps([listed, before, lqr.name, 'vilma.control.path.pure_pursuit' in sys.modules]))")
+    out = json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
+    control = Path(registry.__file__).parent  # each module of its speed/ and path/ is the controller of its name
+    files = sorted(p.stem for kind in ("speed", "path") for p in (control / kind).glob("[!_]*.py"))
+    assert out == [files, False, "lqr", False]
     with pytest.raises(ValueError, match="'pure_pursuit' is registered already"):
         register(ControllerType("pure_pursuit", PATH, ConstantSteerParams, OtherConsts,
                                 lambda p, vehicle: OtherConsts(0.0), (0.0,), constant_steer_step))

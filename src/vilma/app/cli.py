@@ -60,13 +60,10 @@ def _console(args: argparse.Namespace):
 
 def _report_failures(results, console) -> int:
     failed = [r for r in results if not r.passed]
-    if failed and console.quiet:  # --quiet keeps what failed
-        from rich.console import Console
-
-        console = Console(stderr=True)
     for r in failed:
-        for line in r.failures:
-            console.print(f"FAIL {r.scenario.name}: {line}", highlight=False)
+        for line in r.failures:  # --quiet keeps what failed, on stderr
+            text = f"FAIL {r.scenario.name}: {line}"
+            print(text, file=sys.stderr) if console.quiet else console.print(text, markup=False, highlight=False)
     return 1 if failed else 0
 
 

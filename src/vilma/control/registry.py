@@ -94,6 +94,7 @@ class Controller:
 
 _TYPES: dict[str, ControllerType] = {}
 
+
 def register(kind: ControllerType) -> ControllerType:
     """Add ``kind`` to the registry and to the compiled dispatch of its kind; returns it.
 

@@ -150,7 +150,7 @@ class Car:
         (:func:`compiled_ok`), as the periods after it will: the simulator's frame then never runs (a second of a
         fresh install's first run), nor does a compiled step load for that one period."""
         s, sim, period = self.scenario, self.sim, self.driver.period_ticks
-        if compiled and compiled_ok(sim, self.driver):  # (a plan's driver has no task yet: it may)
+        if compiled and compiled_ok(sim, self.driver):  # (a plan's too: its driver has no plan task yet)
             CompiledDrive(sim, self.driver, self.log, 1, False, self.on_block).block()  # readings made, as in step
         else:
             self.step(sim.advance(period))

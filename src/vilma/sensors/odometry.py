@@ -74,8 +74,9 @@ class OdometrySensor:
     def reset(self, z0: np.ndarray, rng: np.random.Generator) -> None:
         self.rng = rng
         self.scale = 1.0 + rng.standard_normal(2) * self.params.scale_error
-        v, row = self.vehicle, np.zeros(1, dtype=np.int64)  # one row: wheel_speeds's Python source (its compiled
-        rear = wheel_speeds.py_func(row, z0[None, :], v.cg_to_front, v.track, v.wheel_radius)[0, 2:]  # code: 2 ms more)
+        v, row = self.vehicle, np.zeros(1, dtype=np.int64)
+        # one row, so wheel_speeds' Python source (the same arithmetic): loading its compiled code took 2 ms of a run
+        rear = wheel_speeds.py_func(row, z0[None, :], v.cg_to_front, v.track, v.wheel_radius)[0, 2:]
         speed, rate = v.wheel_radius * 0.5 * (rear[0] + rear[1]), v.wheel_radius * (rear[1] - rear[0]) / v.track
         self.state = np.array([z0[X], z0[Y], z0[YAW], speed, rate])
 
