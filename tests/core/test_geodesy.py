@@ -3,8 +3,16 @@
 import numpy as np
 import pymap3d
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from vilma.core.geodesy import EnuFrame, GeodeticOrigin, ecef_to_geodetic
+from vilma.core.geodesy import EnuFrame, GeodeticOrigin, ecef_to_geodetic, geodetic_to_ecef
+
+
+@given(st.floats(-90.0, 90.0), st.floats(-180.0, 180.0), st.floats(-500.0, 9000.0))
+def test_geodetic_to_ecef_is_pymap3ds_to_the_bit(lat, lon, h):
+    """The GPS origin's ECEF point was pymap3d's: a run's readings stay the same bits."""
+    assert geodetic_to_ecef(lat, lon, h) == pymap3d.geodetic2ecef(lat, lon, h)
 
 
 @pytest.mark.parametrize(("lat", "lon", "h"), [(-22.8195, -47.0663, 600.0), (89.9, 10.0, 0.0), (0.0, 179.9, -50.0),
