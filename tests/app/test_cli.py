@@ -12,7 +12,8 @@ import sys
 import numpy as np
 import pytest
 
-from vilma.app.cli import _parser, main
+from vilma.app.arguments import COMMANDS, parser
+from vilma.app.cli import main
 from vilma.scenario.bundled import BUNDLED, names, summary
 from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory
@@ -141,8 +142,18 @@ def test_run_help_names_the_bundled_scenarios(capsys):
     assert all(f" {n}," in text or text.endswith(f" {n}") for n in names())
 
 
+def test_the_help_and_a_mistyped_command_list_every_subcommand(capsys):
+    """A command line's parser holds its own subcommand only; these two need them all."""
+    for line, status in ((["--help"], 0), (["rn", "course_30kmh_stanley"], 2), (["-q", "run"], 2)):
+        with pytest.raises(SystemExit) as e:
+            main(line)
+        assert e.value.code == status
+        text = "".join(capsys.readouterr())
+        assert all(name in text for name in COMMANDS), line
+
+
 def test_every_command_takes_verbose_and_quiet():
-    commands = _parser()._subparsers._group_actions[0].choices
+    commands = parser()._subparsers._group_actions[0].choices
     assert {"demo", "run", "sim", "drive", "up", "gui", "report", "trajectory", "scenarios"} <= set(commands)
     for name, sub in commands.items():
         assert {"-v", "--verbose", "-q", "--quiet"} <= {s for a in sub._actions for s in a.option_strings}, name
@@ -187,7 +198,7 @@ def test_quiet_up_prints_nothing(capsys):
 
 
 def test_the_help_imports_neither_numba_nor_scipy_nor_matplotlib():
-    """``vilma --help`` builds every subcommand's parser without the heavy libraries (each costs 0.2-1 s)."""
+    """``vilma --help`` lists every subcommand without the heavy libraries (each costs 0.2-1 s)."""
     code = ("import sys; from vilma.app.cli import main; import contextlib, io\n"
             "with contextlib.redirect_stdout(io.StringIO()):\n"
             "    try: main(['--help'])\n"
