@@ -15,7 +15,6 @@ recording, ``--set`` values) goes through :func:`load_yaml`, which refuses a doc
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 import re
 import types
@@ -298,6 +297,8 @@ def _shown(value: Any) -> str:
 
 
 def _suggest(name: str, known: Mapping[str, Any]) -> str:
+    import difflib  # on a mistake only
+
     close = difflib.get_close_matches(name, list(known), n=1)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     return f"{hint} (known: {', '.join(known)})"
