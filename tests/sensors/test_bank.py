@@ -94,8 +94,8 @@ def test_readings_handed_out_stay_as_they_were_while_the_bank_goes_on():
 
 
 def test_noise_drawn_ahead_stays_within_two_blocks_with_sensors_a_hundred_times_apart():
-    """A 1 Hz GPS uses its noise a hundred times slower than a 100 Hz IMU: the streams are refilled one by one, so
-    what is held ahead does not pile up."""
+    """A 1 Hz GPS uses its noise a hundred times slower than a 100 Hz IMU: each stream is topped up to a block ahead
+    when room is made, never past it, so what is held ahead does not pile up."""
     steps = 60 * BLOCK
     z, dx, ticks, _ = _plant(2)
     bank = SensorBank(_sensors(), PERIODS)

@@ -180,13 +180,19 @@ class SensorBank:
             q[ODOMETRY, 4] = odometry.period
             v[7, :2], v[8, :5], odometry.scale, odometry.state = odometry.scale, odometry.state, v[7, :2], v[8, :5]
 
+    @property
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """``book, noise, outs, stamps, par``, as :func:`measure_all` takes them (:meth:`make_room` may replace
+        ``noise``, ``outs`` and ``stamps``)."""
+        return self.book, self.noise, self.outs, self.stamps, self.par
+
     def measure(self, t0: int, n: int, ticks: np.ndarray, z: np.ndarray, dx: np.ndarray, step_ns: int,
                 extra: np.ndarray = NO_3D) -> dict[str, Readings]:
         """The readings of the steps ``t0 + 1 .. t0 + n`` from the plant ``z``, ``dx`` (and the 3D plant's ``extra``)
         recorded at ``ticks`` (:func:`~vilma.vehicle.integrate.advance`), by sensor name (see :meth:`readings`)."""
         if not counts_fit(t0, n, self.book, self.noise, self.outs):
             self.make_room()
-        measure_all(t0, ticks, z, dx, extra, step_ns, self.book, self.noise, self.outs, self.stamps, self.par)
+        measure_all(t0, ticks, z, dx, extra, step_ns, *self.arrays)
         return self.readings()
 
     def readings(self) -> dict[str, Readings]:
@@ -209,24 +215,27 @@ class SensorBank:
         return np.concatenate([ahead, more]).reshape(count, d)
 
     def make_room(self) -> None:
-        """Draw more noise for the slots short of it and start new blocks, for the samples :func:`counts_fit`
-        counted."""
+        """Top up every sensor's noise to ``need`` samples ahead and start new blocks, ``need`` at least the samples
+        :func:`counts_fit` counted. Every stream is topped up, not only those short of noise, so the streams run
+        short together, when the fastest sensor fills its block: one call a block (a 20 ms frame of the 3D plant
+        made room every 160 frames, not 256, and each call costs a frame's sensors again)."""
         b = self.book
         need = max(self._ahead, *b[COUNT].tolist())
         self._ahead = min(2 * self._ahead, BLOCK)
-        kept, short = [], []  # per slot: normals not yet used, whether to draw ``need`` samples' more
-        for slot, (u, held, c) in enumerate(zip(b[USED].tolist(), b[HELD].tolist(), b[COUNT].tolist(), strict=True)):
+        kept, low = [], []  # per slot: normals not yet used, whether to draw up to ``need`` samples
+        for slot, (u, held) in enumerate(zip(b[USED].tolist(), b[HELD].tolist(), strict=True)):
             d = self._normals[slot]
             kept.append((u * d, held * d) if d else (0, 0))
-            short.append(bool(d) and self._by_slot[slot] is not None and u + c > held)
-        sizes = [hi - lo + (need * d if s else 0) for (lo, hi), s, d in zip(kept, short, self._normals, strict=True)]
+            low.append(bool(d) and self._by_slot[slot] is not None and held - u < need)
+        sizes = [max(hi - lo, need * d) if t else hi - lo for (lo, hi), t, d in zip(kept, low, self._normals,
+                                                                                     strict=True)]
         rows = max(BLOCK, *(n // max(d, 1) for n, d in zip(sizes, self._normals, strict=True)))
         old = self.noise
         if old.shape[1] < rows * MAX_NORMALS:  # else the rows are reused: the unused normals move to the front
             self.noise = np.empty((len(KINDS), rows * MAX_NORMALS))
-        for slot, ((lo, hi), s) in enumerate(zip(kept, short, strict=True)):
+        for slot, ((lo, hi), t) in enumerate(zip(kept, low, strict=True)):
             self.noise[slot, :hi - lo] = old[slot, lo:hi]
-            if s:  # drawn in place: the same numbers as drawn apart
+            if t:  # drawn in place: the same numbers as drawn apart
                 self._by_slot[slot].rng.standard_normal(out=self.noise[slot, hi - lo:sizes[slot]])
             b[HELD, slot] = sizes[slot] // self._normals[slot] if self._normals[slot] else ENDLESS
         b[USED] = 0

@@ -331,7 +331,7 @@ class Simulator(Closeable):
         m = self._frame(n, t0, *args) if self._plant3d is None else self._frame(n, t0, self._plant3d.data.time, *args)
         if m < 0:  # again after the bank made room
             self._bank.make_room()
-            self._args = None
+            self._rebank()
             return self._run_chunk(n)
         self.clock.tick = t0 + n
         if self._scene:
@@ -343,7 +343,7 @@ class Simulator(Closeable):
         follow until one changes; their table of arrays (:mod:`vilma.core.arrays`) with the arrays it points into,
         which are kept alive as long as it is."""
         bank, (out_z, out_dx, out_tick), mode = self._bank, self._records, STOP if self.watchdog_tripped else self._mode
-        sensing = (bank.book, bank.noise, bank.outs, bank.stamps, bank.par)
+        sensing = bank.arrays
         if self._plant3d is None:
             arrays = (self._plant, self._periods, out_z, out_dx, out_tick, *sensing)
             args = (self._model, self._integrator, mode, self.clock.step_s, self.clock.step_ns, table(arrays, ARRAYS))
@@ -360,7 +360,15 @@ class Simulator(Closeable):
             else:
                 self._frame = direct(run_frame_3d, 0, 0, 0.0, *args)
         self._args, self._arrays = args, arrays
+        self._bank_at = next(i for i, a in enumerate(arrays) if a is bank.book)
         return args
+
+    def _rebank(self) -> None:
+        """The bank's arrays anew in the frame's table after it made room (new blocks, maybe a larger noise array):
+        their rows only (a whole new table cost a 3D frame's sensors a sixth more)."""
+        sensing, at = self._bank.arrays, self._bank_at
+        self._args[-1][at:at + len(sensing)] = table(sensing, ARRAYS[-len(sensing):])
+        self._arrays = (*self._arrays[:at], *sensing, *self._arrays[at + len(sensing):])
 
     # -- for compiled callers (a closed loop run in compiled code) -----------------------------------------
 
