@@ -15,6 +15,7 @@ recording, ``--set`` values) goes through :func:`load_yaml`, which refuses a doc
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import re
 import types
@@ -202,8 +203,7 @@ def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None) ->
         data = {}
     if not isinstance(data, Mapping):
         raise src.error(key, f"expected a mapping of {cls.__name__} fields, got {_shown(data)}")
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
-    hints = typing.get_type_hints(cls)
+    fields, hints = _schema(cls)
     values = {}
     for name, value in data.items():
         if not isinstance(name, str):
@@ -222,6 +222,12 @@ def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None) ->
         raise src.error(key, str(e)) from None
     except ValueError as e:
         raise src.error(key, str(e)) from None
+
+
+@functools.cache
+def _schema(cls: type) -> tuple[dict[str, dataclasses.Field], dict[str, Any]]:
+    """The fields ``cls`` takes, by name, and their types: resolved once a class (a sweep loads a scenario a run)."""
+    return {f.name: f for f in dataclasses.fields(cls) if f.init}, typing.get_type_hints(cls)
 
 
 def get(data: Mapping, src: Source, key: Key, hint: Any, default: Any = None) -> Any:
