@@ -217,8 +217,8 @@ class SensorBank:
     def make_room(self) -> None:
         """Top up every sensor's noise to ``need`` samples ahead and start new blocks, ``need`` at least the samples
         :func:`counts_fit` counted. Every stream is topped up, not only those short of noise, so the streams run
-        short together, when the fastest sensor fills its block: one call a block (a 20 ms frame of the 3D plant
-        made room every 160 frames, not 256, and each call costs a frame's sensors again)."""
+        short together, when the fastest sensor fills its block: one call a block (refilled one by one, they ran
+        short apart, and 20 ms frames made room every 160 frames instead of 256)."""
         b = self.book
         need = max(self._ahead, *b[COUNT].tolist())
         self._ahead = min(2 * self._ahead, BLOCK)
