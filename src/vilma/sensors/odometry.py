@@ -67,16 +67,18 @@ class OdometrySensor:
         self.params, self.vehicle, self.rate_hz = params, vehicle, params.rate_hz
         self.period = 1.0 / params.rate_hz
 
-    def _rear(self, rows: np.ndarray, z: np.ndarray) -> np.ndarray:
+    def _rear(self, rows: np.ndarray, z: np.ndarray, speeds=wheel_speeds) -> np.ndarray:
+        """The rear wheels' speeds [rad/s] at ``rows`` of ``z``, by ``speeds`` (:func:`wheel_speeds` or its Python
+        source, the same arithmetic)."""
         v = self.vehicle
-        return wheel_speeds(rows, z, v.cg_to_front, v.track, v.wheel_radius)[:, 2:]
+        return speeds(rows, z, v.cg_to_front, v.track, v.wheel_radius)[:, 2:]
 
     def reset(self, z0: np.ndarray, rng: np.random.Generator) -> None:
         self.rng = rng
         self.scale = 1.0 + rng.standard_normal(2) * self.params.scale_error
-        v, row = self.vehicle, np.zeros(1, dtype=np.int64)
-        # one row, so wheel_speeds' Python source (the same arithmetic): loading its compiled code took 2 ms of a run
-        rear = wheel_speeds.py_func(row, z0[None, :], v.cg_to_front, v.track, v.wheel_radius)[0, 2:]
+        v = self.vehicle
+        # one row, so wheel_speeds' Python source: loading its compiled code took 2 ms of a run
+        rear = self._rear(np.zeros(1, dtype=np.int64), z0[None, :], wheel_speeds.py_func)[0]
         speed, rate = v.wheel_radius * 0.5 * (rear[0] + rear[1]), v.wheel_radius * (rear[1] - rear[0]) / v.track
         self.state = np.array([z0[X], z0[Y], z0[YAW], speed, rate])
 
