@@ -16,7 +16,10 @@
   plant (every default sensor) over the anchor, the median of the ratios of runs made in turns (anchor, plant,
   anchor, plant ...: this machine's speed varies 2x). Target (issue 21): at least 0.9 at 20 ms.
   ``ratio_to_plain_mujoco_20ms_without_sensors``: the same with no sensor on the car (MuJoCo's stepping and vilma's
-  actuators only), to show what the sensors cost.
+  actuators only), to show what the sensors cost. ``ratio_to_plain_mujoco_20ms_profiler_off``: the 3D plant over the
+  anchor with MuJoCo's profiler off in the anchor too. The ``mujoco`` package's bindings turn MuJoCo's profiler on (a
+  timer callback, a ninth of a step here); vilma's stepping turns it off for its own steps
+  (:mod:`vilma.plant3d.kernel`), so this ratio shows vilma's own cost beside MuJoCo's, with the profiler out of both.
 
 Each figure is the median of ``REPEAT`` runs (``PAIRS`` pairs against the anchor). Usage:
 ``python benchmarks/plant3d.py``.
@@ -32,6 +35,7 @@ import time
 
 from vilma.app.batch import find_scenario
 from vilma.core.messages import ActuatorCommand, Longitudinal
+from vilma.plant3d import kernel
 from vilma.plant3d.camera import stereo_pair
 from vilma.plant3d.car_model import car_xml
 from vilma.scenario import load_scenario
@@ -59,9 +63,10 @@ def _plant(config: SimConfig, seconds: float, chunk: float) -> float:
     return seconds / wall
 
 
-def _plain_mujoco(config: SimConfig, seconds: float, chunk: float) -> float:
+def _plain_mujoco(config: SimConfig, seconds: float, chunk: float, profiler: bool = True) -> float:
     """Sim seconds per wall second of plain MuJoCo on the 3D plant's model of ``config`` (no cameras), a gentle
-    weave at about 8 m/s as :func:`_plant`'s, in frames of ``chunk`` [s]."""
+    weave at about 8 m/s as :func:`_plant`'s, in frames of ``chunk`` [s]; ``profiler``: MuJoCo's profiler as the
+    bindings leave it (on), else off."""
     import mujoco  # here: vilma.plant3d, imported first, picks MuJoCo's headless OpenGL for the cameras
 
     imu = config.sensors.imu.offset if config.sensors.imu is not None else (0.0, 0.0, 0.0)
@@ -69,6 +74,8 @@ def _plain_mujoco(config: SimConfig, seconds: float, chunk: float) -> float:
     d = mujoco.MjData(m)
     steps = round(chunk / m.opt.timestep)
     per_accel = config.vehicle.mass * config.vehicle.wheel_radius / 4  # wheel torque per m/s^2 [N m s^2/m]
+    timer = int(kernel.MJCB_TIME[0])
+    kernel.MJCB_TIME[0] = timer if profiler else 0
     t0 = time.perf_counter()
     for i in range(round(seconds / chunk)):
         steer = 0.05 if (i * chunk // 5) % 2 else -0.05
@@ -77,13 +84,15 @@ def _plain_mujoco(config: SimConfig, seconds: float, chunk: float) -> float:
         for _ in range(steps):
             mujoco.mj_step(m, d)
         d.qpos.copy(), d.qvel.copy(), d.sensordata.copy()
-    return seconds / (time.perf_counter() - t0)
+    wall = time.perf_counter() - t0
+    kernel.MJCB_TIME[0] = timer
+    return seconds / wall
 
 
-def _against_plain(config: SimConfig, chunk: float) -> tuple[float, float, float]:
-    """Medians of the plain MuJoCo anchor's and the 3D plant's real-time factors in ``chunk`` [s] frames, and
-    of their ratios, the two run in turns."""
-    pairs = [(_plain_mujoco(config, SECONDS, chunk), _plant(config, SECONDS, chunk)) for _ in range(PAIRS)]
+def _against_plain(config: SimConfig, chunk: float, profiler: bool = True) -> tuple[float, float, float]:
+    """Medians of the plain MuJoCo anchor's (``profiler``: see :func:`_plain_mujoco`) and the 3D plant's real-time
+    factors in ``chunk`` [s] frames, and of their ratios, the two run in turns."""
+    pairs = [(_plain_mujoco(config, SECONDS, chunk, profiler), _plant(config, SECONDS, chunk)) for _ in range(PAIRS)]
     plain, plant = zip(*pairs, strict=True)
     return (round(statistics.median(plain), 1), round(statistics.median(plant), 1),
             round(statistics.median(b / a for a, b in pairs), 2))
@@ -101,6 +110,7 @@ def main() -> None:
         ms = round(chunk * 1000)
         out[f"plain_mujoco_x_real_time_{ms}ms"], out[f"plant_x_real_time_chunks_{ms}ms"], \
             out[f"ratio_to_plain_mujoco_{ms}ms"] = _against_plain(plant, chunk)
+    out["ratio_to_plain_mujoco_20ms_profiler_off"] = _against_plain(plant, 0.02, profiler=False)[2]
     bare = SimConfig(model="mujoco", sensors=SensorSuite(**{f.name: None for f in dataclasses.fields(SensorSuite)}))
     out["ratio_to_plain_mujoco_20ms_without_sensors"] = _against_plain(bare, 0.02)[2]
     stereo = SimConfig(model="mujoco", cameras=stereo_pair(width=640, height=480, rate_hz=10.0))

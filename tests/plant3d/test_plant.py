@@ -163,6 +163,21 @@ def test_the_compiled_stepping_is_a_plain_python_loop_of_mj_step_bit_for_bit():
     assert plant.planar_state()[3] > 5.0 and plant.data.time == pytest.approx(2.5)  # it drove on, braked, drove
 
 
+def test_mujocos_profiler_is_off_for_vilmas_steps_only():
+    """MuJoCo counts every step in ``timer[mjTIMER_STEP].number`` and adds its time in ``duration`` only if its
+    ``mjcb_time`` callback is set (the Python bindings set it)."""
+    bindings_timer = int(kernel.MJCB_TIME[0])
+    assert bindings_timer != 0
+    sim = Simulator(SimConfig(model="mujoco"))
+    m, d = sim._plant3d.model, sim._plant3d.data
+    step = d.timer[mujoco.mjtTimer.mjTIMER_STEP]
+    sim.run_for(0.1)
+    assert step.number == round(0.1 / m.opt.timestep) and step.duration == 0.0
+    assert int(kernel.MJCB_TIME[0]) == bindings_timer  # put back after
+    mujoco.mj_step(m, d)
+    assert step.number == round(0.1 / m.opt.timestep) + 1 and step.duration > 0.0
+
+
 @settings(max_examples=300)
 @given(st.floats(allow_nan=False, allow_infinity=False), st.floats(allow_nan=False, allow_infinity=False))
 def test_the_compiled_hypot_is_pythons_bit_for_bit(a, b):

@@ -7,8 +7,14 @@ code names them, not their addresses, so numba's cache holds across processes.
 
 A car is a tuple of arrays (:class:`~vilma.plant3d.plant.MujocoPlant` holds one): ``qpos``, ``qvel``,
 ``qacc``, ``ctrl``, ``sensordata``, the chassis's applied force, the dofs' friction loss, the wheel spin dofs,
-:data:`CTL`'s constants, the obstacles' contact sensors' addresses, when each was last touched [s], and ``io``: the
-brake held [N] (NaN: none yet), the collisions counted and the index of the last obstacle hit (-1: none).
+:data:`CTL`'s constants, the obstacles' contact sensors' addresses, when each was last touched [s], ``io``: the
+brake held [N] (NaN: none yet), the collisions counted and the index of the last obstacle hit (-1: none), and
+:data:`MJCB_TIME`.
+
+MuJoCo's profiler does not run while vilma steps: the ``mujoco`` package's bindings install a timer callback
+(``mjcb_time``, which fills ``MjData.timer``) that MuJoCo calls some 30 times a step, a ninth of this car's step
+(``benchmarks/plant3d.py``). :func:`block` sets it to none for its steps and puts it back after, so MuJoCo used
+from Python elsewhere in the process keeps its timers; ``MjData.timer`` does not count vilma's steps.
 """
 
 from __future__ import annotations
@@ -36,6 +42,9 @@ _mj_step = types.ExternalFunction("mj_step", types.void(types.uintp, types.uintp
 _mj_kinematics = types.ExternalFunction("mj_kinematics", types.void(types.uintp, types.uintp))
 _normalize4 = types.ExternalFunction("mju_normalize4", types.float64(types.voidptr))
 _quat2mat = types.ExternalFunction("mju_quat2Mat", types.void(types.voidptr, types.voidptr))
+MJCB_TIME = np.ctypeslib.as_array((ctypes.c_uint64 * 1).in_dll(_LIB, "mjcb_time"))
+"""MuJoCo's global ``mjcb_time`` (the profiler's timer callback) as a uint64 array of one, sharing its memory: a
+car's last array."""
 
 COLLISION_GAP = 0.5
 """A touch of an obstacle is a new collision if the car was off it this long [s] (a bounce is the same one)."""
@@ -45,7 +54,7 @@ CTL = ("max_drive_force", "max_power", "wheel_radius", "drive_split_front", "bra
 resistance [N]; ``cg_height``: the centre of mass's rest height [m]; ``timestep``: MuJoCo's [s])."""
 (_F_MAX, _P_MAX, _R, _DRIVE_FRONT, _BRAKE_FRONT, _B_MAX, _WHEELBASE, _TRACK, _K_DRAG, _F_ROLL, _CG_HEIGHT,
  _TIMESTEP) = range(len(CTL))
-QPOS, QVEL, QACC, CTRL, SENSORS, FORCE, FRICTION, SPIN, CONSTS, TOUCH, TOUCHED, IO = range(12)
+QPOS, QVEL, QACC, CTRL, SENSORS, FORCE, FRICTION, SPIN, CONSTS, TOUCH, TOUCHED, IO, TIMER = range(13)
 """Indices into a car tuple."""
 BRAKE, COLLISIONS, LAST = range(3)
 """Indices into a car's ``io``."""
@@ -163,9 +172,13 @@ def block(ptrs, car, traffic, mat, steer, drive, brake, nstep, t):
     dt = car[CONSTS][_TIMESTEP]
     if traffic is not None:  # compiled away without traffic
         move_traffic(t + nstep * dt, *traffic)
+    timer = car[TIMER]
+    profiler = timer[0]
+    timer[0] = 0  # MuJoCo's profiler off for these steps (see the module's docstring)
     for _ in range(nstep):
         _mj_step(ptrs[0], ptrs[1])
         t += dt  # as mj_step counts d.time
+    timer[0] = profiler
     sensors, touched, io = car[SENSORS], car[TOUCHED], car[IO]
     for k, adr in enumerate(car[TOUCH]):
         if sensors[adr] > 0:

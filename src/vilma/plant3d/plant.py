@@ -64,7 +64,7 @@ class MujocoPlant:
         self._touched, self._io = np.empty(len(touch)), np.empty(3)
         consts = np.array([ctl[k] if k in ctl else getattr(params, k) for k in kernel.CTL])
         self._car = (d.qpos, d.qvel, d.qacc, d.ctrl, d.sensordata, d.xfrc_applied[chassis], m.dof_frictionloss,
-                     self._spin_dof, consts, touch, self._touched, self._io)
+                     self._spin_dof, consts, touch, self._touched, self._io, kernel.MJCB_TIME)
         """:mod:`vilma.plant3d.kernel`'s car."""
         self._ptrs = (m._address, d._address)
         self._traffic_args = self._traffic.args if self._traffic is not None else None  # None: no arrays to pass

@@ -14,8 +14,9 @@ from vilma.sensors.bank import counts_fit, measure_all
 from vilma.sim.frame import ARRAYS, CMD, frame_arrays
 from vilma.vehicle.state import NZ
 
-CAR = ((np.float64, 1),) * 7 + ((np.int32, 1), (np.float64, 1), (np.int64, 1), (np.float64, 1), (np.float64, 1))
-"""The layout of a car's arrays (:mod:`vilma.plant3d.kernel`: ``qpos`` .. ``io``)."""
+CAR = ((np.float64, 1),) * 7 + ((np.int32, 1), (np.float64, 1), (np.int64, 1), (np.float64, 1), (np.float64, 1),
+       (np.uint64, 1))
+"""The layout of a car's arrays (:mod:`vilma.plant3d.kernel`: ``qpos`` .. ``io``, the profiler's timer)."""
 _C = len(CAR)
 ARRAYS_3D = CAR + ARRAYS + ((np.float64, 2),)
 """The layout of :func:`run_frame_3d`'s table of arrays: the car's (:data:`CAR`), :data:`~.frame.ARRAYS`, then the 3D
@@ -29,7 +30,7 @@ def _car(a):
     f8 = np.float64
     return (vector(a, 0, f8), vector(a, 1, f8), vector(a, 2, f8), vector(a, 3, f8), vector(a, 4, f8),
             vector(a, 5, f8), vector(a, 6, f8), vector(a, 7, np.int32), vector(a, 8, f8), vector(a, 9, np.int64),
-            vector(a, 10, f8), vector(a, 11, f8))
+            vector(a, 10, f8), vector(a, 11, f8), vector(a, 12, np.uint64))
 
 
 @njit(cache=True)
