@@ -18,7 +18,7 @@
   ``ratio_to_plain_mujoco_20ms_without_sensors``: the same with no sensor on the car (MuJoCo's stepping and vilma's
   actuators only), to show what the sensors cost. ``ratio_to_plain_mujoco_20ms_profiler_off``: the 3D plant over the
   anchor with MuJoCo's profiler off in the anchor too. The ``mujoco`` package's bindings turn MuJoCo's profiler on (a
-  timer callback, a ninth of a step here); vilma's stepping turns it off for its own steps
+  timer callback read 32 times a step, 7-8 % of a step here); vilma's stepping turns it off for its own steps
   (:mod:`vilma.plant3d.kernel`), so this ratio shows vilma's own cost beside MuJoCo's, with the profiler out of both.
 
 Each figure is the median of ``REPEAT`` runs (``PAIRS`` pairs against the anchor). Usage:

@@ -12,7 +12,7 @@ brake held [N] (NaN: none yet), the collisions counted and the index of the last
 :data:`MJCB_TIME`.
 
 MuJoCo's profiler does not run while vilma steps: the ``mujoco`` package's bindings install a timer callback
-(``mjcb_time``, which fills ``MjData.timer``) that MuJoCo calls some 30 times a step, a ninth of this car's step
+(``mjcb_time``, which fills ``MjData.timer``) that MuJoCo calls 32 times a step, 7-8 % of this car's step
 (``benchmarks/plant3d.py``). :func:`block` sets it to none for its steps and puts it back after (holding the GIL:
 two never overlap), so MuJoCo used from Python elsewhere in the process keeps its timers; ``MjData.timer`` does not
 count vilma's steps.
