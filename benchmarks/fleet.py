@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from vilma.scenario import load_scenario
+from vilma.scenario import fleet, load_scenario
 from vilma.scenario.fleet import THREADS, run_fleet
 from vilma.scenario.runner import run
 from vilma.sim import Simulator
@@ -74,11 +74,14 @@ def _memory() -> dict:
 def main() -> None:
     run_fleet(_cars(2))  # load the compiled code outside the timing
     fleets = {n: [] for n in SIZES}
-    alone = []
+    alone, one_thread = [], []
     for _ in range(ROUNDS):
         alone.append(_per_car_second(lambda cars: [run(s) for s in cars], _cars(10)))
         for n in SIZES:
             fleets[n].append(_per_car_second(run_fleet, _cars(n)))
+        fleet.THREADS = 1  # read by each wave
+        one_thread.append(_per_car_second(run_fleet, _cars(SIZES[-1])))
+        fleet.THREADS = THREADS
     per = {n: round(statistics.median(v), 4) for n, v in fleets.items()}
     floor = _plant_floor()
     print(json.dumps({
@@ -87,6 +90,7 @@ def main() -> None:
         "per_car_second_ms": per,
         "anchor_run_one_by_one_ms": round(statistics.median(alone), 4),
         "ratio_n1000_to_n1": round(per[1000] / per[1], 3),
+        "ratio_n1000_to_n1_one_thread": round(statistics.median(one_thread) / per[1], 3),
         "target_ratio": 0.1,
         "plant_floor_ms": round(floor, 4),
         "threads": THREADS,
