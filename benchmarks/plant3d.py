@@ -75,18 +75,20 @@ def _plain_mujoco(config: SimConfig, seconds: float, chunk: float, profiler: boo
     steps = round(chunk / m.opt.timestep)
     per_accel = config.vehicle.mass * config.vehicle.wheel_radius / 4  # wheel torque per m/s^2 [N m s^2/m]
     timer = int(kernel.MJCB_TIME[0])
-    kernel.MJCB_TIME[0] = timer if profiler else 0
-    t0 = time.perf_counter()
-    for i in range(round(seconds / chunk)):
-        steer = 0.05 if (i * chunk // 5) % 2 else -0.05
-        torque = per_accel * 0.5 * (8.0 - d.qvel[0])
-        d.ctrl[:] = (torque, torque, torque, torque, steer, steer)
-        for _ in range(steps):
-            mujoco.mj_step(m, d)
-        d.qpos.copy(), d.qvel.copy(), d.sensordata.copy()
-    wall = time.perf_counter() - t0
-    kernel.MJCB_TIME[0] = timer
-    return seconds / wall
+    if not profiler:
+        kernel.MJCB_TIME[0] = 0
+    try:
+        t0 = time.perf_counter()
+        for i in range(round(seconds / chunk)):
+            steer = 0.05 if (i * chunk // 5) % 2 else -0.05
+            torque = per_accel * 0.5 * (8.0 - d.qvel[0])
+            d.ctrl[:] = (torque, torque, torque, torque, steer, steer)
+            for _ in range(steps):
+                mujoco.mj_step(m, d)
+            d.qpos.copy(), d.qvel.copy(), d.sensordata.copy()
+        return seconds / (time.perf_counter() - t0)
+    finally:
+        kernel.MJCB_TIME[0] = timer
 
 
 def _against_plain(config: SimConfig, chunk: float, profiler: bool = True) -> tuple[float, float, float]:

@@ -65,9 +65,10 @@ def ecef_to_geodetic(x, y, z):
 def geodetic_to_ecef(latitude: float, longitude: float, altitude: float) -> tuple[float, float, float]:
     """Latitude, longitude [deg], height above the ellipsoid [m] -> ECEF x, y, z [m] on WGS84."""
     lat, lon = math.radians(latitude), math.radians(longitude)
-    n = WGS84_A**2 / math.hypot(WGS84_A * math.cos(lat), WGS84_B * math.sin(lat))  # prime vertical's radius [m]
-    return ((n + altitude) * math.cos(lat) * math.cos(lon), (n + altitude) * math.cos(lat) * math.sin(lon),
-            (n * (WGS84_B / WGS84_A) ** 2 + altitude) * math.sin(lat))
+    cos_lat, sin_lat = math.cos(lat), math.sin(lat)
+    n = WGS84_A**2 / math.hypot(WGS84_A * cos_lat, WGS84_B * sin_lat)  # prime vertical's radius [m]
+    r = (n + altitude) * cos_lat  # distance from the polar axis [m]
+    return r * math.cos(lon), r * math.sin(lon), (n * (WGS84_B / WGS84_A) ** 2 + altitude) * sin_lat
 
 
 class EnuFrame:
