@@ -63,12 +63,16 @@ def ecef_to_geodetic(x, y, z):
 
 
 def geodetic_to_ecef(latitude: float, longitude: float, altitude: float) -> tuple[float, float, float]:
-    """Latitude, longitude [deg], height above the ellipsoid [m] -> ECEF x, y, z [m] on WGS84."""
-    lat, lon = math.radians(latitude), math.radians(longitude)
-    cos_lat, sin_lat = math.cos(lat), math.sin(lat)
-    n = WGS84_A**2 / math.hypot(WGS84_A * cos_lat, WGS84_B * sin_lat)  # prime vertical's radius [m]
+    """Latitude, longitude [deg], height above the ellipsoid [m] -> ECEF x, y, z [m] on WGS84.
+
+    numpy's ``radians``, ``cos``, ``sin`` and ``hypot``, as pymap3d calls them, so the point is pymap3d's to the bit:
+    ``math.hypot`` rounds correctly where numpy's (the C library's) is a unit in the last place off, once in some 170
+    latitudes."""
+    lat, lon = np.radians(latitude), np.radians(longitude)
+    cos_lat, sin_lat = np.cos(lat), np.sin(lat)
+    n = WGS84_A**2 / np.hypot(WGS84_A * cos_lat, WGS84_B * sin_lat)  # prime vertical's radius [m]
     r = (n + altitude) * cos_lat  # distance from the polar axis [m]
-    return r * math.cos(lon), r * math.sin(lon), (n * (WGS84_B / WGS84_A) ** 2 + altitude) * sin_lat
+    return float(r * np.cos(lon)), float(r * np.sin(lon)), float((n * (WGS84_B / WGS84_A) ** 2 + altitude) * sin_lat)
 
 
 class EnuFrame:
