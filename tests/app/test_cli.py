@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from vilma.app.arguments import COMMANDS, parser
-from vilma.app.cli import main
+from vilma.app.cli import HANDLERS, main
 from vilma.scenario.bundled import BUNDLED, names, summary
 from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory
@@ -150,6 +150,11 @@ def test_the_help_and_a_mistyped_command_list_every_subcommand(capsys):
         assert e.value.code == status
         text = "".join(capsys.readouterr())
         assert all(name in text for name in COMMANDS), line
+
+
+def test_every_subcommand_has_its_arguments_and_its_handler():
+    """The parser's subcommands (``arguments.COMMANDS``) and what runs them (``cli.HANDLERS``) name the same ones."""
+    assert set(HANDLERS) == set(COMMANDS)
 
 
 def test_every_command_takes_verbose_and_quiet():

@@ -46,7 +46,10 @@ def _report_failures(results, console) -> int:
     for r in failed:
         for line in r.failures:  # --quiet keeps what failed, on stderr
             text = f"FAIL {r.scenario.name}: {line}"
-            print(text, file=sys.stderr) if console.quiet else console.print(text, markup=False, highlight=False)
+            if console.quiet:
+                print(text, file=sys.stderr)
+            else:
+                console.print(text, markup=False, highlight=False)
     return 1 if failed else 0
 
 

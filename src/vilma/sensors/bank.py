@@ -227,8 +227,7 @@ class SensorBank:
             d = self._normals[slot]
             kept.append((u * d, held * d) if d else (0, 0))
             low.append(bool(d) and self._by_slot[slot] is not None and held - u < need)
-        sizes = [max(hi - lo, need * d) if t else hi - lo for (lo, hi), t, d in zip(kept, low, self._normals,
-                                                                                     strict=True)]
+        sizes = [need * d if t else hi - lo for (lo, hi), t, d in zip(kept, low, self._normals, strict=True)]
         rows = max(BLOCK, *(n // max(d, 1) for n, d in zip(sizes, self._normals, strict=True)))
         old = self.noise
         if old.shape[1] < rows * MAX_NORMALS:  # else the rows are reused: the unused normals move to the front

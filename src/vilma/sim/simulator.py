@@ -360,13 +360,13 @@ class Simulator(Closeable):
             else:
                 self._frame = direct(run_frame_3d, 0, 0, 0.0, *args)
         self._args, self._arrays = args, arrays
-        self._bank_at = next(i for i, a in enumerate(arrays) if a is bank.book)
         return args
 
     def _rebank(self) -> None:
         """The bank's arrays anew in the frame's table after it made room (new blocks, maybe a larger noise array):
         their rows only (a whole new table cost a 3D frame's sensors a sixth more)."""
-        sensing, at = self._bank.arrays, self._bank_at
+        sensing = self._bank.arrays  # (the book stays: where the bank's arrays begin)
+        at = next(i for i, a in enumerate(self._arrays) if a is sensing[0])
         self._args[-1][at:at + len(sensing)] = table(sensing, ARRAYS[-len(sensing):])
         self._arrays = (*self._arrays[:at], *sensing, *self._arrays[at + len(sensing):])
 
