@@ -1,59 +1,77 @@
-"""Batches: the compile notice of a first run on a cold numba cache."""
+"""Batches: the notice of a run that compiles vilma's functions."""
 
 from __future__ import annotations
 
 import io
-import os
-import subprocess
 import sys
 
 from rich.console import Console
 
 from vilma.app import batch
-from vilma.scenario.runner import run
-from vilma.scenario.spec import load_scenario
-
-COLD = "from vilma.app.batch import numba_cache_cold; print(numba_cache_cold())"
 
 
-def test_an_empty_cache_is_cold(tmp_path):
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # numba's cache folder, empty
-    r = subprocess.run([sys.executable, "-c", COLD], env=env, capture_output=True, text=True, timeout=120, check=True)
-    assert r.stdout == "True\n"
+def vilma_kernel_for_the_test(x):
+    return x + 1
 
 
-def test_after_a_compiled_run_the_cache_is_warm():
-    run(load_scenario("pi_ff_speed_5", {"duration": "1"}))  # compiled (or loaded) in this process, cached on disk
-    assert not batch.numba_cache_cold()
-    r = subprocess.run([sys.executable, "-c", COLD], capture_output=True, text=True, timeout=120, check=True)
-    assert r.stdout == "False\n"  # another process finds it on disk
+vilma_kernel_for_the_test.__module__ = "vilma.test_kernels"  # a function of vilma's, as numba's events see it
 
 
-def test_the_first_run_on_a_cold_cache_says_it_compiles(monkeypatch, tmp_path):
+def test_a_run_on_a_warm_cache_says_nothing_of_compiling(tmp_path):
     console = Console(record=True, width=200)
     jobs = batch.plan(["pi_ff_speed_5"], ["duration=1"])
-    monkeypatch.setattr(batch, "numba_cache_cold", lambda: True)
-    batch.run_all(jobs, tmp_path / "cold", None, console, record=False)
-    monkeypatch.setattr(batch, "numba_cache_cold", lambda: False)
+    batch.run_all(jobs, tmp_path / "first", None, console, record=False)  # compiled or loaded: now in this process
+    console = Console(record=True, width=200)
     batch.run_all(jobs, tmp_path / "warm", None, console, record=False)
-    assert console.export_text().count(batch.COMPILING) == 1
+    assert batch.COMPILING not in console.export_text()
 
 
-def test_a_compiling_first_run_shows_what_numba_compiles_and_drops_the_line_after_it():
+def test_a_command_says_once_that_it_compiles_when_numba_compiles_vilmas_functions(tmp_path):
     from numba import njit
     from numba.core.event import install_listener
-    from rich.progress import Progress
 
-    def vilma_kernel_for_the_test(x):  # named as a module of vilma's below
-        return x + 1
+    console = Console(record=True, width=200)  # not a terminal: the notice without a progress line
+    compiling = batch._Compiling(console, batch._Bar(console, False))
+    with install_listener("numba:compile", compiling):
+        assert njit(lambda x: x + 1)(1) == 2  # numba's or a user's own: not vilma's, nothing said
+        assert batch.COMPILING not in console.export_text(clear=False)
+        for _ in range(2):  # compiled here each time: not cached
+            assert njit(vilma_kernel_for_the_test)(1) == 2
+    assert console.export_text().count(batch.COMPILING) == 1 and compiling.done == 2
 
-    vilma_kernel_for_the_test.__module__ = "vilma.test_kernels"  # numba's own functions are not counted
-    bar = Progress(console=Console(file=io.StringIO(), force_terminal=True, width=200), redirect_stdout=False,
-                   redirect_stderr=False)  # numba sets colorama up on its first compile, on what stdout is then
-    compiling = batch._Compiling(bar)
+
+def test_in_a_terminal_a_single_run_shows_the_bar_from_when_it_compiles(monkeypatch, tmp_path):
+    from numba import njit
+
+    from vilma.scenario.result import RunObserver
+
+    class Compiles(RunObserver):
+        def started(self, sim, log):
+            assert njit(vilma_kernel_for_the_test)(1) == 2  # as a cold cache compiles: within the run
+
+    monkeypatch.setattr(sys, "stdout", io.StringIO())  # (see below)
+    console = Console(file=io.StringIO(), force_terminal=True, width=200)
+    (r,) = batch.run_all(batch.plan(["pi_ff_speed_5"], ["duration=1"]), tmp_path / "run", None, console,
+                         lambda _: (Compiles(),), record=False)
+    assert r.passed is not None and (tmp_path / "run" / "metrics.json").is_file()
+    assert console.file.getvalue().count(batch.COMPILING) == 1
+
+
+def test_in_a_terminal_a_compiling_run_shows_what_numba_compiles_and_drops_the_line_after_it(monkeypatch):
+    from numba import njit
+    from numba.core.event import install_listener
+
+    # the bar wraps sys.stdout while it shows, and numba's compile hands what sys.stdout is then to colorama, which
+    # writes to it at exit: a stream of the test's own, not pytest's (closed by then)
+    monkeypatch.setattr(sys, "stdout", io.StringIO())
+    console = Console(file=io.StringIO(), force_terminal=True, width=200)
+    bar = batch._Bar(console, False)
+    compiling = batch._Compiling(console, bar)
     with bar, install_listener("numba:compile", compiling):
-        assert njit(vilma_kernel_for_the_test)(1) == 2  # compiled here: not cached
-        (line,) = bar.tasks
+        assert bar.progress is None  # (a single run: no bar until it compiles)
+        assert njit(vilma_kernel_for_the_test)(1) == 2
+        (line,) = bar.progress.tasks
         assert compiling.done == 1 and "vilma_kernel_for_the_test" in str(line.description)
         compiling.finished()
-        assert not bar.tasks
+        assert not bar.progress.tasks
+    assert batch.COMPILING in console.file.getvalue()

@@ -22,7 +22,6 @@ from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the 
 from vilma.scenario.bundled import find_scenario as find_scenario
 from vilma.scenario.fields import SpecError
 from vilma.scenario.folder import RunFolder, claim, write_metrics
-from vilma.scenario.lockstep import _loop
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario, load_scenario
 
@@ -39,7 +38,7 @@ SUMMARY = (("completed", "done"), ("lateral_error_rms_m", "lat RMS [m]"), ("late
 """Scorecard keys shown in the summary table, with their headings."""
 COMPILING = ("compiling vilma's numba code for this machine, once: 15 s for a scenario's kernels, up to a minute for "
              "many kinds (cached for the next runs)")
-"""What the first run says when numba's cache is cold (:func:`numba_cache_cold`)."""
+"""What a command says when numba first compiles one of vilma's functions in it (:class:`_Compiling`)."""
 MAX_RUNS = 100_000
 """Runs one ``--set`` sweep may ask for (each is loaded and checked before the first starts)."""
 
@@ -111,10 +110,8 @@ def run_cars(jobs: list[Job], out: Path | None, console: Console, overwrite: boo
 
     dirs = out_dirs(jobs, out)
     claim(dirs, overwrite)
-    if jobs and numba_cache_cold():
-        console.print(COMPILING, highlight=False)
     collector.started()  # (the cars' objects come and go as usual)
-    with _Bar(console, console.is_terminal) as bar:
+    with _Bar(console, True) as bar, install_listener("numba:compile", _Compiling(console, bar)):
         task = bar.add(f"{len(jobs)} cars", len(jobs))
         results = run_fleet([j.scenario for j in jobs], lambda i, _: (RunFolder(dirs[i], plots=False),),
                             lambda done: bar.show(task, done=done))
@@ -138,12 +135,9 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
     claim(dirs, overwrite)
     if realtime is not None:  # a paced run lasts: the collector as usual from the start
         collector.started()
-    cold = bool(jobs) and numba_cache_cold()
-    if cold:
-        console.print(COMPILING, highlight=False)
     results = []
-    bar = _Bar(console, (len(jobs) > 1 or cold) and console.is_terminal)
-    compiling = _Compiling(bar.progress if cold else None)
+    bar = _Bar(console, len(jobs) > 1)
+    compiling = _Compiling(console, bar)
     with bar, install_listener("numba:compile", compiling):
         task = bar.add("running", len(jobs), visible=len(jobs) > 1)
         for i, (job, out_dir) in enumerate(zip(jobs, dirs, strict=True), 1):
@@ -174,32 +168,39 @@ class Quiet:
 
 
 class _Bar:
-    """rich's transient progress bar on ``console`` within a ``with`` block, or nothing when not ``shown`` (rich's
-    progress is then not imported)."""
+    """rich's transient progress bar on ``console`` within a ``with`` block: from its start when ``shown``, else from
+    the first :meth:`start`; never outside a terminal (rich's progress is then not imported)."""
 
     def __init__(self, console: Console, shown: bool) -> None:
+        self.console, self.shown = console, shown
         self.progress: Progress | None = None
-        if shown:
-            from rich.progress import Progress
-
-            self.progress = Progress(console=console, transient=True)
 
     def __enter__(self) -> _Bar:
-        if self.progress is not None:
-            self.progress.start()
+        if self.shown:
+            self.start()
         return self
 
     def __exit__(self, *exc) -> None:
         if self.progress is not None:
             self.progress.stop()
 
+    def start(self) -> Progress | None:
+        """The bar, shown from now on in a terminal (None elsewhere)."""
+        if self.progress is None and self.console.is_terminal:
+            from rich.progress import Progress
+
+            self.progress = Progress(console=self.console, transient=True)
+            self.progress.start()
+        return self.progress
+
     def add(self, description: str, total: int, visible: bool = True) -> TaskID | None:
         """A new line of the bar (None when not shown)."""
         return self.progress.add_task(description, total=total, visible=visible) if self.progress else None
 
     def show(self, task: TaskID | None, text: str | None = None, done: int | None = None) -> None:
-        """Say ``text`` (as it is: no markup) on the line ``task``, and that ``done`` of its total are done."""
-        if self.progress is not None:
+        """Say ``text`` (as it is: no markup) on the line ``task``, and that ``done`` of its total are done (nothing
+        for a line :meth:`add` did not make: the bar was not shown then)."""
+        if task is not None:
             from rich.text import Text
 
             self.progress.update(task, description=Text(text) if text is not None else None, completed=done)
@@ -229,44 +230,44 @@ def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:
 
 
 class _Compiling(Listener):
-    """A progress line of numba's compilations of vilma's functions while the first run compiles (numba's event
-    API): how many are done, which now; nothing without a ``bar``."""
+    """What a command says while numba compiles vilma's functions (numba's event API: a first run on a fresh install,
+    or after an edit): at the first, :data:`COMPILING` once; in a terminal, a progress line under it of how many are
+    done, and which now, until the run ends (:meth:`finished`)."""
 
-    def __init__(self, bar: Progress | None) -> None:
-        self.bar, self.done, self.task = bar, 0, None
+    def __init__(self, console: Console, bar: _Bar) -> None:
+        self.console, self.bar, self.done, self.task, self.said = console, bar, 0, None, False
 
     def on_start(self, event) -> None:
         name = _vilmas(event)
-        if self.bar is None or name is None:
+        if name is None:
+            return
+        if not self.said:
+            self.console.print(COMPILING, highlight=False)
+            self.said = True
+        progress = self.bar.start()
+        if progress is None:
             return
         if self.task is None:
-            self.task = self.bar.add_task("", total=None)
+            self.task = progress.add_task("", total=None)
         from rich.text import Text
 
-        self.bar.update(self.task, description=Text(f"compiling, once: {self.done} of vilma's functions done, "
+        progress.update(self.task, description=Text(f"compiling, once: {self.done} of vilma's functions done, "
                                                     f"now {name}"))
 
     def on_end(self, event) -> None:
         self.done += _vilmas(event) is not None
 
     def finished(self) -> None:
-        """The first run is over: no more line."""
+        """A run is over: its line goes (the next run that compiles has one again)."""
         if self.task is not None:
-            self.bar.remove_task(self.task)
-        self.bar = self.task = None
+            self.bar.progress.remove_task(self.task)
+        self.task = None
 
 
 def _vilmas(event) -> str | None:
     """The name of the function a ``numba:compile`` event compiles, if it is vilma's (not numba's own)."""
     fn = getattr(event.data.get("dispatcher"), "py_func", None)
     return fn.__qualname__ if getattr(fn, "__module__", "").startswith("vilma.") else None
-
-
-def numba_cache_cold() -> bool:
-    """Whether the next run compiles the closed loop: not yet in this process, and numba's cache on disk holds no
-    version of it for this source (its index is missing or stale)."""
-    # numba has no public call for this: its cache's index, read as numba reads it (checked against the source)
-    return not _loop.signatures and not _loop._cache._cache_file._load_index()
 
 
 def scorecard_table(result: RunResult) -> Table:
