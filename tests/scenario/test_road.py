@@ -129,6 +129,36 @@ def test_a_route_task_without_a_commonroad_world_is_refused(tmp_path):
         _yaml("task: {route: true}\n", tmp_path)
 
 
+@pytest.mark.parametrize("task", ["{speed: 10}", "{go_to: [50, 0], speed: 5}", "{course: [[0, 0], [9, 0]], speed: 5}",
+                                  "{plan: true, course: [[0, 0], [9, 0]], speed: 5}"])
+def test_a_task_off_the_planning_problem_on_a_commonroad_world_is_refused_not_driven_without_the_road(tmp_path, task):
+    with pytest.raises(SpecError, match=r"s.yaml:2: task: a .* does not drive a CommonRoad world's planning problem"):
+        _yaml(f"world: {{commonroad: {TUTORIAL}}}\ntask: {task}\n", tmp_path)
+
+
+def test_a_speed_set_on_a_commonroad_file_caps_its_default_plan_and_a_kind_set_replaces_it():
+    s = load_scenario(TUTORIAL, {"task.speed": "10"})
+    assert (s.task.kind, s.task.speed) == ("plan", 10.0) and s.road is not None  # the road, its traffic and goal
+    path = s.reference_path()  # the lane's speed capped at 10 m/s, after the start's 22 m/s ramps down to it
+    cruise = path.speed[path.s >= (22.0 ** 2 - 10.0 ** 2) / (2 * s.driver.stop_deceleration)]
+    assert np.all(cruise <= 10.0) and np.any(cruise == 10.0)
+    assert load_scenario(TUTORIAL, {"task.route": "true", "task.speed": "10"}).task.kind == "route"
+
+
+def test_a_gain_set_without_a_type_tunes_the_scenarios_controller(tmp_path):
+    d = load_scenario(TUTORIAL, {"speed_controller.kp": "2.5", "path_controller.gain": "3"}).driver  # none named
+    assert (d.speed_controller, d.path_controller) == ("pi_ff", "stanley")  # the defaults, their gains set
+    assert d.gains_of("pi_ff").kp == 2.5 and d.gains_of("stanley").gain == 3.0
+    d = _yaml("task: {speed: 5}\nspeed_controller: vilma_pid\npath_controller: {gain: 2}\n", tmp_path).driver
+    assert (d.speed_controller, d.path_controller, d.gains_of("stanley").gain) == ("vilma_pid", "stanley", 2.0)
+
+
+def test_a_misspelt_planning_problem_key_is_named_with_the_commonroad_keys(tmp_path):
+    with pytest.raises(SpecError, match=r"world.planing_problem: unknown key; did you mean 'planning_problem'\? "
+                                        r"\(known: .*commonroad, planning_problem\)"):
+        _yaml(f"world: {{commonroad: {TUTORIAL}, planing_problem: 100}}\n", tmp_path)
+
+
 def test_an_unknown_planning_problem_names_the_file_and_the_ids(tmp_path):
     with pytest.raises(SpecError, match=r"ZAM_Tutorial-1_1_T-1.xml: no planningProblem 7 \(ids: 100\)"):
         _yaml(f"world: {{commonroad: {TUTORIAL}, planning_problem: 7}}\n", tmp_path)

@@ -20,7 +20,7 @@ import math
 import re
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -192,12 +192,13 @@ def read_yaml(path: Path) -> tuple[Any, Source]:
     return load_yaml(text, str(path))
 
 
-def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None) -> Any:
+def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None, others: tuple[str, ...] = ()) -> Any:
     """An instance of the frozen dataclass ``cls`` from the mapping ``data`` at ``key``.
 
     Fields not given keep their value in ``base`` (an instance of ``cls``), or ``cls``'s defaults.
     A nested dataclass field takes a mapping (merged onto its current value); a field typed
-    ``X | None`` with a dataclass ``X`` also takes ``true`` (``X``'s defaults) and ``false`` (None).
+    ``X | None`` with a dataclass ``X`` also takes ``true`` (``X``'s defaults) and ``false`` (None). The keys
+    ``others`` are read elsewhere: skipped here, and named among the known keys when a key is unknown.
     """
     if data is None:
         data = {}
@@ -209,8 +210,10 @@ def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None) ->
         if not isinstance(name, str):
             raise src.error(key, f"key {name!r} is not a name (YAML reads on/off/yes/no as true/false: quote it)")
         k = (*key, name)
+        if name in others:
+            continue
         if name not in fields:
-            raise src.error(k, f"unknown key{_suggest(str(name), fields)}")
+            raise src.error(k, f"unknown key{_suggest(str(name), [*fields, *others])}")
         current = getattr(base, name) if base is not None else _default(fields[name])
         values[name] = convert(hints[name], value, src, k, current)
     try:
@@ -302,7 +305,7 @@ def _shown(value: Any) -> str:
     return f"{value!r}" if value is not None else "nothing (null)"
 
 
-def _suggest(name: str, known: Mapping[str, Any]) -> str:
+def _suggest(name: str, known: Iterable[str]) -> str:
     import difflib  # on a mistake only
 
     close = difflib.get_close_matches(name, list(known), n=1)

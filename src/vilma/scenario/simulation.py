@@ -35,9 +35,7 @@ def read_sim(data: dict, src: Source, base: Path) -> SimConfig:
     model = get(data, src, ("plant",), str, "single_track")
     if model not in (*models.MODELS, MUJOCO):
         raise src.error(("plant",), f"unknown plant {model!r}; use one of {', '.join(models.MODELS)}, {MUJOCO}")
-    world = data.get("world")
-    world = build(World, {k: v for k, v in world.items() if k not in ROAD_KEYS} if isinstance(world, dict) else world,
-                  src, ("world",), World())
+    world = build(World, data.get("world"), src, ("world",), World(), others=ROAD_KEYS)
     cameras = _cameras(data.get("cameras"), src)
     laser, objects = _optional(LaserParams, data, src, "laser"), _optional(ObjectsParams, data, src, "objects")
     integrator, step = get(data, src, ("integrator",), str, "rk4"), get(data, src, ("step",), float, 0.01)

@@ -23,7 +23,7 @@ Top-level keys (all optional but ``task``):
 - ``sensors``: per sensor its parameter fields (``gps: {horizontal_noise: 0.5, rate_hz: 10}``), or
   ``false`` to remove it; ``origin``: the geodetic origin of the local frame.
 - ``pose``: ``truth`` or ``ekf``. ``speed_controller`` / ``path_controller``: a name, or a mapping with
-  ``type`` and that controller's parameter fields. ``driver``: other
+  ``type`` (default: the driver's controller) and that controller's parameter fields. ``driver``: other
   :class:`~vilma.control.driver.DriverParams` fields, and ``original: true`` for the shipped program.
 - ``speed_log``: a speed log of the original program to overlay and compare (``data/SpeedLog10.txt``).
 - ``traffic``: with ``world: {commonroad: file.xml}``, ``recorded`` (default: as in the file) or ``reactive``
@@ -196,6 +196,9 @@ TOP_KEYS = ("name", "description", "vehicle", "actuators", "plant", "world", "ca
             "planner", "perception")
 
 
+TASK_KINDS = ("task", "route", "plan", "go_to", "follow", "course")
+"""The ``task`` keys that say what the task is (``task`` itself, replaced whole): an override of a CommonRoad file
+that sets one replaces its default plan; other ``task`` keys (``speed``) tune it."""
 TRAFFIC = ("recorded", "reactive")
 """The ways a CommonRoad world's traffic drives (``traffic``)."""
 
@@ -207,7 +210,7 @@ def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> 
     followed)."""
     if Path(path).suffix == ".xml":  # a CommonRoad file: its planning problem planned, with vilma's defaults
         path = Path(path)
-        planned = {} if any(k.split(".")[0] == "task" for k in overrides or {}) else {"task": {"plan": True}}
+        planned = {} if any(k.split(".")[:2][-1] in TASK_KINDS for k in overrides or {}) else {"task": {"plan": True}}
         return parse_scenario({"world": {"commonroad": path.name}, **planned}, Source(str(path), {}), name=path.stem,
                               file=path, overrides=overrides)
     path = find_scenario(path)
@@ -299,11 +302,9 @@ def _driver(data: dict, src: Source) -> DriverParams:
             continue
         value = data[key]
         gains: dict = {}
-        if isinstance(value, dict):
+        if isinstance(value, dict):  # gains, of the type named, else of the driver's (--set speed_controller.kp=2)
             gains = dict(value)
-            value = gains.pop("type", None)
-            if value is None:
-                raise src.error((key,), f"missing type: one of {', '.join(known)}")
+            value = gains.pop("type", getattr(params, key))
         if value not in known:
             raise src.error((key,), f"unknown {key} {value!r}; use one of {', '.join(known)}")
         gains_key = (key,)  # gains sit beside 'type' in the file
@@ -358,6 +359,11 @@ def _road(data: dict, src: Source, task: TaskSpec, file: Path | None) -> EgoTask
     if "commonroad" not in road:
         raise src.error(("world", "planning_problem"), "a planning problem needs its file: world: {commonroad: "
                                                        "file.xml}")
+    if not routed:  # it would drive off the road's planning problem, its traffic unseen and unscored
+        what = "a plan along a course or a file" if task.plan is not None else f"a {task.kind} task"
+        raise src.error(("task",), f"{what} does not drive a CommonRoad world's planning problem: give task: "
+                                   "{route: true} or {plan: true} (a speed caps the lanelets' limits), or remove "
+                                   "world.commonroad")
     require("roads", "a CommonRoad scenario")
     from vilma.world.commonroad import CommonRoadError, load
 
