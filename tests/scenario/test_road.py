@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.resources
 import math
+import re
 import warnings
 from pathlib import Path
 
@@ -162,6 +163,24 @@ def test_a_misspelt_planning_problem_key_is_named_with_the_commonroad_keys(tmp_p
 def test_an_unknown_planning_problem_names_the_file_and_the_ids(tmp_path):
     with pytest.raises(SpecError, match=r"ZAM_Tutorial-1_1_T-1.xml: no planningProblem 7 \(ids: 100\)"):
         _yaml(f"world: {{commonroad: {TUTORIAL}, planning_problem: 7}}\n", tmp_path)
+
+
+@pytest.mark.parametrize(("old", "new", "error"), [
+    ("<x>2.25</x>", "<x>nan</x>", "obstacle 42 at time step 0: position is not a finite number"),
+    ("<length>4.5</length>", "<length>inf</length>", "obstacle 42: shape is not a finite number"),
+    ("<exact>22.0</exact>", "<exact>nan</exact>", "planningProblem 100's initialState: velocity is not a finite"),
+    ("<exact>22.0</exact>", "<exact>-5.0</exact>", "planningProblem 100's initialState: velocity -5.0 m/s"),
+    ("<x>15</x>", "<x>5000</x>", "planningProblem 100: the initialState's position [5000.0, 0.0] is on no lanelet"),
+    ("<goalState>", "<!--", "planningProblem 100 has no goalState"),
+])
+def test_a_file_with_numbers_or_states_no_drive_can_use_is_refused_by_name(tmp_path, old, new, error):
+    road, problem = TUTORIAL.read_text(encoding="utf-8").split("<planningProblem")  # the 42 first, then the 100
+    road, problem = (road.replace(old, new, 1), problem) if old in road else (road, problem.replace(old, new, 1))
+    bad = tmp_path / "bad.xml"
+    bad.write_text(f"{road}<planningProblem{problem.replace('</goalState>', '-->') if new == '<!--' else problem}",
+                   encoding="utf-8")
+    with pytest.raises(SpecError, match=re.escape(f"bad.xml: {error}")):
+        load_scenario(bad)
 
 
 def test_the_cli_exits_2_with_one_line_on_a_bad_file(tmp_path, capsys):

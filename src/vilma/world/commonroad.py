@@ -21,7 +21,7 @@ import numpy as np
 with warnings.catch_warnings():  # commonroad-io's generated protobuf modules use descriptors protobuf deprecates
     warnings.simplefilter("ignore", DeprecationWarning)
     from commonroad.common.file_reader import CommonRoadFileReader
-    from commonroad.geometry.shape import ShapeGroup
+    from commonroad.geometry.shape import Shape, ShapeGroup
     from commonroad.planning.goal import GoalRegion
     from commonroad.planning.planning_problem import PlanningProblem
     from commonroad.scenario.lanelet import LaneletNetwork
@@ -194,6 +194,9 @@ class RoadScenario:
         s0 = pp.initial_state
         with warnings.catch_warnings():  # the route planner warns through logging and warnings alike
             warnings.simplefilter("ignore")
+            if not self.network.lanelets.find_lanelet_by_position([s0.position])[0]:
+                raise CommonRoadError(f"{where}: the initialState's position {list(map(float, s0.position))} is on "
+                                      "no lanelet; move it onto the road")
             routes = RoutePlanner(self.network.lanelets, pp).plan_routes()
             if not routes:
                 raise CommonRoadError(f"{where}: no route on the lanelets from the initial state to the goal; "
@@ -222,10 +225,11 @@ class RoadScenario:
         ids = ", ".join(map(str, self.planning_problems)) or "none"
         if pid is None and len(self.planning_problems) == 1:
             return next(iter(self.planning_problems.values()))
+        if not self.planning_problems:
+            raise CommonRoadError(f"{self.file}: no planningProblem; vilma drives a file's planning problem: add one")
         if pid is None:
-            what = "no planningProblem" if not self.planning_problems else "several planning problems"
-            raise CommonRoadError(f"{self.file}: {what} (ids: {ids}); name one (world: {{planning_problem: ID}}) "
-                                  "or give the scenario a task of its own")
+            raise CommonRoadError(f"{self.file}: several planning problems (ids: {ids}); name one (world: "
+                                  "{planning_problem: ID})")
         if pid not in self.planning_problems:
             raise CommonRoadError(f"{self.file}: no planningProblem {pid} (ids: {ids}); name one of them")
         return self.planning_problems[pid]
@@ -324,9 +328,48 @@ def load(path: str | Path) -> RoadScenario:
     except Exception as e:  # the reader fails on a wrong element with whatever it meets there
         raise CommonRoadError(f"{path}: not a CommonRoad scenario commonroad-io can read ({type(e).__name__}: "
                               f"{' '.join(str(e).split())[:200]}); check the file against the format") from None
+    _check_numbers(path, scenario, problems.planning_problem_dict)
     network = RoadNetwork(scenario.lanelet_network, scenario.scenario_id.country_id)
     return RoadScenario(file=path, scenario=scenario, network=network,
                         planning_problems=dict(problems.planning_problem_dict))
+
+
+def _check_numbers(path: Path, scenario: Scenario, problems: dict[int, PlanningProblem]) -> None:
+    """Refuse what commonroad-io reads but no drive can use: a lanelet, obstacle or planning problem with a number
+    that is not finite (NaN, inf), a planning problem without a goal state or starting backwards.
+
+    Raises:
+        CommonRoadError: naming the element, its field and the fix.
+    """
+    def finite(what: str, name: str, value) -> None:
+        if isinstance(value, ShapeGroup):
+            for shape in value.shapes:
+                finite(what, name, shape)
+        elif isinstance(value, Shape):  # a shape, or an uncertain position: its numbers
+            for part in ("length", "width", "radius", "center", "orientation", "vertices"):
+                finite(what, name, getattr(value, part, 0.0))
+        elif isinstance(value, (int, float, np.ndarray)) and not np.isfinite(value).all():
+            raise CommonRoadError(f"{path}: {what}: {name} is not a finite number; fix the file")
+
+    for lanelet in scenario.lanelet_network.lanelets:
+        for side in ("left_vertices", "right_vertices", "center_vertices"):
+            finite(f"lanelet {lanelet.lanelet_id}", side, getattr(lanelet, side))
+    for obstacle in scenario.obstacles:
+        what = f"obstacle {obstacle.obstacle_id}"
+        finite(what, "shape", obstacle.obstacle_shape)
+        trajectory = getattr(getattr(obstacle, "prediction", None), "trajectory", None)
+        for state in [obstacle.initial_state, *(trajectory.state_list if trajectory is not None else ())]:
+            for name in state.attributes:
+                finite(f"{what} at time step {state.time_step}", name, getattr(state, name))
+    for pid, problem in problems.items():
+        what, s0 = f"planningProblem {pid}", problem.initial_state
+        for name in s0.attributes:
+            finite(f"{what}'s initialState", name, getattr(s0, name))
+        if not problem.goal.state_list:
+            raise CommonRoadError(f"{path}: {what} has no goalState; give it one")
+        if s0.velocity < 0:
+            raise CommonRoadError(f"{path}: {what}'s initialState: velocity {s0.velocity} m/s; vilma's car starts at "
+                                  "rest or forward (>= 0)")
 
 
 def _check_file(path: Path) -> None:
