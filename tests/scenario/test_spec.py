@@ -124,7 +124,8 @@ def test_overrides_set_nested_values_and_controller_gains(tmp_path):
     ("task: {speed: 5}\nsensors: {imu: {rate_hz: 30}}\n",
      "s.yaml:2: sensors.imu.rate_hz: sensor imu: 30 Hz is a period of 33.3333 ms, not a whole multiple"),
     ("task: {speed: 5}\npose: gps\n", "s.yaml:2: pose: unknown pose source 'gps'"),
-    ("task: {speed: 5}\nspeed_controller: {kp: 1}\n", "s.yaml:2: speed_controller: missing type"),
+    ("task: {speed: 5}\nspeed_controller: {type: pid}\n", "s.yaml:2: speed_controller: unknown speed_controller 'pid'"),
+    ("task: {speed: 5}\nspeed_log: missing.txt\n", "s.yaml:2: speed_log: "),  # (then the file's whole path)
     ("task: {speed: 5}\npath_controller: mpc\n", "s.yaml:2: path_controller: unknown path_controller 'mpc'"),
     ("task: {speed: 5}\ndriver: {stanly: {gain: 1}}\n",
      "s.yaml:2: driver.stanly: unknown key; did you mean 'stanley'?"),
@@ -140,7 +141,9 @@ def test_overrides_set_nested_values_and_controller_gains(tmp_path):
     ("task: {speed: 5}\nexpect: {distance_m: {}}\n", "s.yaml:2: expect.distance_m: give min, max or both"),
     ("task: {speed: 5}\nsensors: {gps: false}\norigin: {latitude: 1, longitude: 2}\n",
      "s.yaml:3: origin: an origin needs the gps sensor"),
-    ("task: {speed: 5}\nspeeed: 3\n", "s.yaml:2: speeed: unknown key; known: name"),
+    ("task: {speed: 5}\nspeeed: 3\n", "s.yaml:2: speeed: unknown key; did you mean 'seed'? (known: name, description"),
+    ("task: {speed: 5}\nspeed_controler: pi_ff\n", "s.yaml:2: speed_controler: unknown key; did you mean "
+                                                     "'speed_controller'?"),
 ])
 def test_bad_files_give_one_located_line(tmp_path, text, message):
     _refused_on_one_line(tmp_path, text, message)

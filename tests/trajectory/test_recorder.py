@@ -33,3 +33,16 @@ def test_speed_log_format_and_original_logs(tmp_path):
 def test_bad_period():
     with pytest.raises(ValueError):
         TrajectoryRecorder("x", period=0)
+
+
+@pytest.mark.parametrize(("body", "error"), [
+    ("", "SpeedLog.txt: no samples"),
+    ("0.0\t1.0\n\n0.25\t2.0 3.0\n", "SpeedLog.txt:4: 3 values"),
+    ("0.0\tfast\n", "SpeedLog.txt:2: value 'fast' is not a number"),
+    ("0.0\tnan\n", "SpeedLog.txt:2: value 'nan' is not finite"),
+])
+def test_a_speed_log_that_is_not_a_time_and_a_speed_a_line_is_refused_with_its_line(tmp_path, body, error):
+    f = tmp_path / "SpeedLog.txt"
+    f.write_text(SPEED_LOG_HEADER + "\n" + body, encoding="utf-8")
+    with pytest.raises(ValueError, match=error):
+        load_speed_log(f)

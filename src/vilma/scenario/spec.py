@@ -75,6 +75,7 @@ from vilma.trajectory import (
     TrajectoryFileError,
     arrival_profile,
     densify,
+    load_speed_log,
     load_trajectory,
     resample,
     speed_profile,
@@ -249,8 +250,19 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
         name=name, description=description, file=file, sim=sim, driver=driver, task=task,
         initial=_initial(data, src, top, road), duration=_duration(data, src, period),
         metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
-        speed_log=get(data, src, ("speed_log",), str, None), road=road, traffic=_traffic(data, src, road),
+        speed_log=_speed_log(data, src, file), road=road, traffic=_traffic(data, src, road),
         planner=planner, perception=perception)
+
+
+def _speed_log(data: dict, src: Source, file: Path | None) -> str | None:
+    """``speed_log``, a file beside ``file`` read now: a bad one is refused before the run, not after it."""
+    name = get(data, src, ("speed_log",), str, None)
+    if name is not None:
+        try:
+            load_speed_log(beside(file, name))
+        except ValueError as e:
+            raise src.error(("speed_log",), str(e)) from None
+    return name
 
 
 def _traffic(data: dict, src: Source, road: EgoTask | None) -> str:
@@ -272,7 +284,7 @@ def _document(data: Any, src: Source, overrides: dict[str, str]) -> tuple[dict, 
     data, src = apply_overrides(data, src, overrides)
     for k in data:
         if k not in TOP_KEYS:
-            raise src.error((k,), f"unknown key; known: {', '.join(TOP_KEYS)}")
+            raise src.error((k,), f"unknown key{_suggest(str(k), TOP_KEYS)}")
     if "task" not in data and _road_keys(data.get("world")):
         data = {**data, "task": {"route": True}}  # a CommonRoad world: its planning problem is the task
     if "task" not in data:

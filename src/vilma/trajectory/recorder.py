@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from vilma.trajectory.io import _fail, _number, _read_text
+
 SPEED_LOG_HEADER = "Tempo desde o começo da simulação\tMódulo da velocidade do veículo"
 
 
@@ -67,6 +69,19 @@ class SpeedRecorder(_Recorder):
 
 
 def load_speed_log(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
-    """Read a ``SpeedLog`` file: times [s] and speeds [m/s]."""
-    data = np.loadtxt(path, skiprows=1, encoding="utf-8", ndmin=2)
+    """Read a ``SpeedLog`` file (a header line, then a time and a speed a line): times [s] and speeds [m/s].
+
+    Raises:
+        TrajectoryFileError: a missing, unreadable or too large file, or a line that is not two finite numbers.
+    """
+    path = Path(path)
+    rows = []
+    for n, line in enumerate(_read_text(path).splitlines()[1:], start=2):
+        if row := line.split():
+            if len(row) != 2:
+                raise _fail(path, n, f"{len(row)} values; a speed log has a time [s] and a speed [m/s] a line")
+            rows.append([_number(token, path, n, "value") for token in row])
+    if not rows:
+        raise _fail(path, None, "no samples; a speed log has a header line, then a time [s] and a speed [m/s] a line")
+    data = np.array(rows)
     return data[:, 0], data[:, 1]
