@@ -115,9 +115,27 @@ def test_overrides_set_nested_values_and_controller_gains(tmp_path):
         load_scenario(p, {"task.speed.x": "1"})
 
 
+def test_an_error_on_a_section_names_the_set_values_within_it(tmp_path):
+    p = _write(tmp_path, "task:\n  course: [[0, 0], [10, 0]]\n  speed: 5\n")
+    with pytest.raises(SpecError, match=r"s\.yaml:1 \(--set task\.speed=\): task: speed is missing"):
+        load_scenario(p, {"task.speed": ""})  # (an empty value is YAML's null: the task's check refuses it)
+    with pytest.raises(SpecError, match=r"s\.yaml:1 \(--set nosuch\.key=1\): nosuch: unknown key"):
+        load_scenario(p, {"nosuch.key": "1"})
+
+
+def test_a_vehicle_value_set_changes_the_scenarios_preset(tmp_path):
+    named, default = _write(tmp_path, "task: {speed: 5}\nvehicle: bmw_320i\n"), _write(tmp_path, "task: {speed: 5}\n",
+                                                                                        "d.yaml")
+    assert load_scenario(named, {"vehicle.mass": "2000"}).sim.vehicle == dataclasses.replace(preset("bmw_320i"),
+                                                                                           mass=2000.0)
+    assert load_scenario(default, {"vehicle.mass": "2000"}).sim.vehicle == dataclasses.replace(vilma(), mass=2000.0)
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("speed_controller: pi_ff\n", "s.yaml:1: no task"),
     ("task: {speed: 5}\nvehicle: tesla\n", "s.yaml:2: vehicle: unknown vehicle preset 'tesla'"),
+    ("task: {speed: 5}\nvehicle: car.yaml\n", "s.yaml:2: vehicle: "),  # (then the file's whole path: no such file)
+    ("task: {speed: 5}\nseed: -1\n", "s.yaml:2: seed: -1 is not a seed: give a whole number >= 0"),
     ("task: {speed: 5}\nvehicle: {preset: vilma, mas: 1}\n", "s.yaml:2: vehicle.mas: unknown key; did you mean 'mass'"),
     ("task: {speed: 5}\nplant: bullet\n", "s.yaml:2: plant: unknown plant 'bullet'"),
     ("task: {speed: 5}\nstep: 0.02\n", "s.yaml:2: step: physics step must be in [0.0001, 0.01] s"),

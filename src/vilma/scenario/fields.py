@@ -62,9 +62,12 @@ class Source:
         return self.name
 
     def error(self, key: Key, message: str) -> SpecError:
-        """A :class:`SpecError` located at ``key``."""
-        field = dotted(key)
-        return SpecError(f"{self.where(key)}: {field + ': ' if field else ''}{message}")
+        """A :class:`SpecError` located at ``key`` (and the ``--set`` values within it that it may come from)."""
+        field, where = dotted(key), self.where(key)
+        sets = [v for k, v in self.lines.items() if isinstance(v, str) and len(k) > len(key) and k[:len(key)] == key]
+        if sets and where not in sets:
+            where += f" ({', '.join(sets)})"
+        return SpecError(f"{where}: {field + ': ' if field else ''}{message}")
 
 
 def dotted(key: Key) -> str:

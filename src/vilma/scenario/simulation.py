@@ -14,7 +14,7 @@ from vilma.core.geodesy import GeodeticOrigin
 from vilma.plant3d.camera import CameraParams, stereo_pair
 from vilma.plant3d.laser import LaserParams
 from vilma.plant3d.world import World
-from vilma.scenario.fields import Key, Source, build, convert, get, read_yaml
+from vilma.scenario.fields import Key, Source, SpecError, build, convert, get, read_yaml
 from vilma.sensors import SensorSuite
 from vilma.sensors.objects import ObjectsParams
 from vilma.sim import SimConfig
@@ -40,6 +40,8 @@ def read_sim(data: dict, src: Source, base: Path) -> SimConfig:
     laser, objects = _optional(LaserParams, data, src, "laser"), _optional(ObjectsParams, data, src, "objects")
     integrator, step = get(data, src, ("integrator",), str, "rk4"), get(data, src, ("step",), float, 0.01)
     seed, watchdog_timeout = get(data, src, ("seed",), int, 0), get(data, src, ("watchdog_timeout",), float, 0.5)
+    if seed < 0:
+        raise src.error(("seed",), f"{seed} is not a seed: give a whole number >= 0")
     sensors = _sensors(data, src)
     try:
         sim = SimConfig(vehicle=vehicle, model=model, integrator=integrator, step=step, sensors=sensors, seed=seed,
@@ -66,7 +68,10 @@ def _vehicle(value: Any, src: Source, base: Path) -> VehicleParams:
     """``vehicle``: a preset name, a parameter file (relative to ``base``) or a mapping of fields."""
     key: Key = ("vehicle",)
     if isinstance(value, str) and value.endswith((".yaml", ".yml")):
-        data, src = read_yaml(base / value)
+        try:
+            data, src = read_yaml(base / value)
+        except SpecError as e:
+            raise src.error(key, str(e)) from None
         key = ()
     else:
         data = value

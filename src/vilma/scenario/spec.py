@@ -81,6 +81,7 @@ from vilma.trajectory import (
     speed_profile,
 )
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
+from vilma.vehicle.params import PRESETS
 
 if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonRoad file; the planner for a plan
     from vilma.planning import PlannerParams
@@ -459,6 +460,8 @@ def apply_overrides(data: dict, src: Source, overrides: dict[str, str]) -> tuple
             nxt = node.get(part)
             if isinstance(nxt, str) and part in ("speed_controller", "path_controller"):
                 nxt = {"type": nxt}  # --set speed_controller.kp=... on a file that names only the type
+            if i == 0 and part == "vehicle" and (nxt is None or nxt in PRESETS):
+                nxt = {"preset": nxt or "vilma"}  # --set vehicle.mass=...: the file's preset (or the default's) changed
             if nxt is None:
                 nxt = {}
             if not isinstance(nxt, dict):
