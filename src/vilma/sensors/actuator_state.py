@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vilma.core.checks import check_numbers
 from vilma.core.messages import ActuatorState
 from vilma.sensors.base import Samples
 from vilma.vehicle.state import BRAKE, STEER
@@ -17,6 +18,9 @@ class ActuatorStateParams:
 
     rate_hz: float = 50.0
     """Report rate [Hz]."""
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "sensor actuator_state", positive=("rate_hz",))
 
 
 class ActuatorStateSensor:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from vilma.core.checks import check_numbers
 from vilma.core.geodesy import EnuFrame, GeodeticOrigin, enu_to_geodetic
 from vilma.core.messages import GpsFix
 from vilma.sensors.base import Samples
@@ -35,6 +36,10 @@ class GpsParams:
     offset: tuple[float, float, float] = (0.0, 0.0, 1.5)
     """Antenna position in the body frame from the centre of mass (x forward, y left, z up) [m]."""
     origin: GeodeticOrigin = GeodeticOrigin()
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "sensor gps", positive=("rate_hz", "bias_tau"),
+                      non_negative=("horizontal_noise", "vertical_noise", "bias_sigma"))
 
 
 @njit(cache=True, error_model="numpy")

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from vilma.core.checks import check_numbers
 from vilma.core.geometry import wrap
 from vilma.core.messages import Imu
 from vilma.sensors.base import Samples
@@ -47,6 +48,10 @@ class ImuParams:
     """Standard deviation of the reported yaw [rad]."""
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """Mounting point in the body frame from the centre of mass [m]."""
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "sensor imu", positive=("rate_hz", "bias_tau"),
+                      non_negative=("accel_noise", "gyro_noise", "accel_bias", "gyro_bias", "orientation_noise"))
 
 
 @njit(cache=True, error_model="numpy")

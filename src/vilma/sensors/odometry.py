@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from vilma.core.checks import check_numbers
 from vilma.core.geometry import wrap
 from vilma.core.messages import Odometry
 from vilma.sensors.base import Samples
@@ -36,6 +37,9 @@ class OdometryParams:
 
     A mismatch between the two wheels turns straight lines into arcs (yaw
     drift ``v * mismatch / track``): 0.1 % is a calibrated car."""
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "sensor odometry", positive=("rate_hz",), non_negative=("wheel_noise",))
 
 
 @njit(cache=True, error_model="numpy")

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from vilma.core.checks import check_numbers
 from vilma.core.geometry import wrap
 from vilma.core.messages import Pose
 from vilma.sensors.base import Samples
@@ -24,6 +25,9 @@ class PoseParams:
     """Standard deviation of x and y [m]."""
     yaw_noise: float = 0.0
     """Standard deviation of yaw [rad]."""
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "sensor pose", positive=("rate_hz",), non_negative=("position_noise", "yaw_noise"))
 
 
 @njit(cache=True, error_model="numpy")

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from vilma.core.checks import check_numbers
 from vilma.core.messages import Velocity
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
@@ -24,6 +25,9 @@ class VelocityParams:
     """Standard deviation of each body linear component [m/s]."""
     angular_noise: float = 0.0
     """Standard deviation of each body angular rate [rad/s] (the planar plant has only the yaw rate)."""
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "sensor velocity", positive=("rate_hz",), non_negative=("linear_noise", "angular_noise"))
 
 
 NORMALS, NORMALS_3D = 3, 5

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from vilma.core.checks import check_numbers
 from vilma.core.messages import WheelSpeeds
 from vilma.sensors.base import Samples
 from vilma.sensors.noise import standard_normals
@@ -30,6 +31,9 @@ class WheelSpeedParams:
     """Sample rate [Hz]."""
     noise: float = 0.05
     """Standard deviation of each wheel's angular speed [rad/s]."""
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "sensor wheel_speed", positive=("rate_hz",), non_negative=("noise",))
 
 
 @njit(cache=True, error_model="numpy")
