@@ -13,6 +13,12 @@ from vilma.trajectory import Trajectory, TrajectoryFileError, load_trajectory, s
 from vilma.trajectory.io import MAX_FILE_BYTES
 
 
+def test_pairs_split_anyhow_read_as_the_original_read_them(tmp_path):
+    f = tmp_path / "PositionLog.txt"
+    f.write_text("0 0 10\n0 20 0\n\n30 5\n")  # X, Y, X, Y ... across lines, as its Input From File took them
+    assert np.array_equal(load_trajectory(f).xy, [(0, 0), (10, 0), (20, 0), (30, 5)])
+
+
 def test_loads_the_original_logs():
     t = load_trajectory(LOGS / "PositionLog_curved.txt")
     assert len(t) == 357 and t.length == pytest.approx(169, abs=2)  # "357 points over about 169 m"
@@ -25,6 +31,7 @@ def test_loads_the_original_logs():
     ("1 2\n3 x4\n", 2, "'x4' is not a number"),
     ("", None, "no points"),
     ("1 2\nnan 3\n", 2, "not finite"),
+    ("0 0 5\n10 0 5\n20 0 5\n30 0 5\n", None, "3 numbers on every line; this format holds x y pairs"),  # not 6 points
 ])
 def test_bad_original_files_name_file_and_line(tmp_path, text, line, what):
     f = tmp_path / "PositionLog.txt"

@@ -88,12 +88,18 @@ def _read_text(path: Path) -> str:
 
 
 def _load_pairs(path: Path, text: str) -> Trajectory:
+    """The original's format: numbers split by any white space, read as x, y, x, y ... [m]."""
     values: list[float] = []
-    last_line = 0
+    last_line, widths = 0, set()
     for n, line in enumerate(text.splitlines(), start=1):
-        for token in line.split():
+        tokens = line.split()
+        widths.add(len(tokens) or 2)
+        for token in tokens:
             values.append(_number(token, path, n, "token"))
             last_line = n
+    if len(widths) == 1 and (k := widths.pop()) > 2 and last_line > 1:  # columns, not pairs: x y speed, say
+        raise _fail(path, None, f"{k} numbers on every line; this format holds x y pairs: for more columns write a CSV "
+                                "file with a header x,y[,speed]")
     if not values:
         raise _fail(path, None, "no points; a trajectory file holds 'x y' pairs of numbers")
     if len(values) % 2:
