@@ -98,9 +98,11 @@ class DriverParams:
         # one spelling (sorted, defaults left out), so that parameters that drive alike compare equal
         object.__setattr__(self, "gains", tuple(sorted((name, params) for name, params in gains.items()
                                                        if params != type(params)())))
-        for name in ("stop_deceleration", "max_accel"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"driver {name} must be > 0 m/s^2, got {getattr(self, name)!r}")
+        for name in ("stop_deceleration", "max_lateral_accel", "max_accel"):
+            if not 0 < getattr(self, name) < math.inf:
+                raise ValueError(f"driver {name} must be a finite number > 0 m/s^2, got {getattr(self, name)!r}")
+        if not 0 <= self.rest_speed < math.inf:
+            raise ValueError(f"driver rest_speed must be a finite number >= 0 m/s, got {self.rest_speed!r}")
 
     def gains_of(self, name: str) -> Any:
         """The parameters of the controller ``name``: as set, or its defaults."""

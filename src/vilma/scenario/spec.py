@@ -51,6 +51,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import yaml
 
 from vilma.control import registry
@@ -80,6 +81,7 @@ from vilma.trajectory import (
     resample,
     speed_profile,
 )
+from vilma.trajectory.points import MAX_POINTS
 from vilma.trajectory.smooth import smooth_banded, smooth_iterative
 from vilma.vehicle.params import PRESETS
 
@@ -88,12 +90,16 @@ if TYPE_CHECKING:  # the roads extra is imported when a scenario names a CommonR
     from vilma.world.commonroad import EgoTask
 
 
+COURSE_SPACING = 0.5
+"""A ``course``'s points are this far apart along it [m]."""
+
+
 @lru_cache(maxsize=8)  # a sweep or a benchmark drives one course many times: one spline for them all
 def _course(points: tuple[tuple[float, float], ...]) -> Trajectory:
     """:func:`~vilma.trajectory.course.course` through ``points`` (a trajectory is immutable: shared)."""
     from vilma.trajectory.course import course
 
-    return course(points)
+    return course(points, COURSE_SPACING)
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Scenario:
@@ -349,6 +355,14 @@ def _task(data: dict, src: Source, top_speed: float, file: Path | None) -> TaskS
     """``task``, its speed within the car's ``top_speed`` [m/s] and its ``follow`` file beside ``file``."""
     task = build(TaskSpec, data["task"], src, ("task",))
     _check_speed(task.speed, top_speed, src, ("task", "speed"))
+    if task.course is not None:  # the spline's points, a point every COURSE_SPACING m
+        chords = np.hypot(*np.diff(np.array(task.course), axis=0).T)
+        if not (chords > 0).all():
+            i = int(np.argmin(chords > 0)) + 1
+            raise src.error(("task", "course", i), "the same point as the one before: a course's points must differ")
+        if not chords.sum() <= MAX_POINTS * COURSE_SPACING:
+            raise src.error(("task", "course"), f"{chords.sum():.4g} m long, more than the "
+                                                f"{MAX_POINTS * COURSE_SPACING / 1000:g} km a course may be")
     if task.follow is not None and not beside(file, task.follow).is_file():
         raise src.error(("task", "follow"), f"no such trajectory file {beside(file, task.follow)}")
     return task
