@@ -137,7 +137,7 @@ def test_a_tune_on_a_real_scheduler_and_worker(tmp_path):
     (GAINS + "constraints: {overshoot: {max: 1}}\n", "t.yaml:8: constraints.overshoot: not a scorecard key"),
     (GAINS + "trials: 0\n", "t.yaml:8: trials: expected a whole number from 1 to 10000, got 0"),
     (GAINS.replace("{uniform: [0.3, 3]}", "{uniform: [-1, 3]}"),  # an end of the space the controller refuses
-     "t.yaml:4: " + f"{load_scenario(SHORT).file}:6: speed_controller: pi_ff kp must be a finite number >= 0, got -1"),
+     "t.yaml:4: --set speed_controller.kp=-1: speed_controller.kp: pi_ff kp must be a finite number >= 0, got -1"),
     (GAINS.replace(f"[{SHORT}]", "[nope]"), "nope: no such file, nor a bundled scenario"),
     (GAINS.replace("objective: {minimize: speed_error_rms_mps}\n", ""),
      "t.yaml:1: missing objective: add e.g. objective: {minimize: speed_error_rms_mps}"),

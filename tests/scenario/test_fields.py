@@ -58,7 +58,7 @@ def test_values_defaults_and_merging():
 
 @pytest.mark.parametrize(("text", "message"), [
     ("name: a\ninner:\n  gian: 2\n", "f.yaml:3: inner.gian: unknown key; did you mean 'gain'?"),
-    ("name: a\ninner:\n  gain: -1\n", "f.yaml:2: inner: gain must be >= 0, got -1.0"),
+    ("name: a\ninner:\n  gain: -1\n", "f.yaml:3: inner.gain: gain must be >= 0, got -1.0"),
     ("name: a\ninner: {gain: .nan}\n", "f.yaml:2: inner.gain: expected a finite number, got nan"),
     ("name: a\ninner: {count: 1.5}\n", "f.yaml:2: inner.count: expected a whole number, got 1.5"),
     ("name: a\nenabled: yes please\n", "f.yaml:2: enabled: expected true or false, got 'yes please'"),
@@ -68,6 +68,8 @@ def test_values_defaults_and_merging():
     ("inner: {}\n", "f.yaml:1: missing name"),
     ("name: a\nname: b\n", "f.yaml:2: name: given twice; keep one"),
     ("name: [a\n", "f.yaml:2: not valid YAML"),
+    ("name: a\ninner: {count: 1\x00}\n", "f.yaml:2: not valid YAML: the character '\\x00' is not allowed"),
+    (f"name: a\ninner: {{count: {'9' * 5000}}}\n", "f.yaml: a number of more than 4300 digits"),
     ("- 1\n- 2\n", "f.yaml:1: expected a mapping of Outer fields, got a list"),
     ("name: a\ninner: 3\n", "f.yaml:2: inner: expected a mapping of Inner fields, got 3"),
 ])

@@ -18,6 +18,7 @@ import dataclasses
 import functools
 import math
 import re
+import sys
 import types
 import typing
 from collections.abc import Iterable, Mapping
@@ -152,8 +153,17 @@ def load_yaml(text: str, name: str) -> tuple[Any, Source]:
         mark = e.problem_mark or e.context_mark
         line = f":{mark.line + 1}" if mark else ""
         raise SpecError(f"{name}{line}: not valid YAML: {e.problem or e.context}") from None
+    except yaml.reader.ReaderError as e:  # a control character
+        c = chr(e.character) if isinstance(e.character, int) else e.character
+        raise SpecError(f"{name}:{text.count(chr(10), 0, e.position) + 1}: not valid YAML: the character {c!r} is "
+                        "not allowed; remove it") from None
     except yaml.YAMLError as e:
-        raise SpecError(f"{name}: not valid YAML: {e}") from None
+        raise SpecError(f"{name}: not valid YAML: {' '.join(str(e).split())}") from None
+    except SpecError:  # the loader's own limits
+        raise
+    except ValueError:  # PyYAML's int() of a number longer than Python converts
+        raise SpecError(f"{name}: a number of more than {sys.get_int_max_str_digits()} digits; no value needs that "
+                        "many") from None
     lines: dict[Key, int] = {}
     if node is not None:
         _collect_lines(node, (), lines, name)
@@ -226,8 +236,9 @@ def build(cls: type, data: Any, src: Source, key: Key = (), base: Any = None, ot
         if missing:
             raise src.error(key, f"missing {', '.join(missing)}") from None
         raise src.error(key, str(e)) from None
-    except ValueError as e:
-        raise src.error(key, str(e)) from None
+    except ValueError as e:  # located at the field it names first, if one was given, else at the mapping
+        named = [(m.start(), n) for n in values if (m := re.search(rf"\b{n}\b", str(e)))]
+        raise src.error((*key, min(named)[1]) if named else key, str(e)) from None
 
 
 @functools.cache
