@@ -248,3 +248,16 @@ def test_the_command_ends_with_its_status_after_the_exit_handlers(tmp_path):
     assert done.returncode == 1, done.stderr
     assert "files in" in done.stdout and done.stdout.splitlines()[-1] == "the exit handlers ran"
     assert json.loads((tmp_path / "o" / "metrics.json").read_text())["sim_time_s"] == pytest.approx(2.0)
+
+
+def test_a_scenario_name_never_writes_outside_out(tmp_path):
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "metrics.json").write_text("mine")
+    p = tmp_path / "n.yaml"
+    p.write_text(f"name: {victim}\ntask: {{speed: 5}}\n")
+    out = tmp_path / "out"
+    assert main(["run", str(p), "--set", "duration=0.5,1", "--out", str(out), "-q", "--no-record", "--overwrite"]) == 0
+    assert (victim / "metrics.json").read_text() == "mine"
+    runs = sorted(d.name for d in out.iterdir() if (d / "metrics.json").is_file())
+    assert [n.rpartition("_victim-")[2] for n in runs] == ["duration_0.5", "duration_1"]

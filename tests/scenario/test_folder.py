@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -9,13 +10,13 @@ import pytest
 from vilma.app.batch import Job, out_dirs
 from vilma.scenario import load_scenario
 from vilma.scenario.fields import SpecError
-from vilma.scenario.folder import RUN_FILES, claim
+from vilma.scenario.folder import NAME_BYTES, RUN_FILES, claim, folder_name
 
 
-def _job(tmp_path: Path, folder: str, sets: tuple = ()) -> Job:
+def _job(tmp_path: Path, folder: str, sets: tuple = (), name: str | None = None) -> Job:
     f = tmp_path / folder / "s.yaml"
-    f.parent.mkdir(exist_ok=True)
-    f.write_text("task: {speed: 5}\nduration: 2\n")
+    f.parent.mkdir(parents=True, exist_ok=True)
+    f.write_text(("" if name is None else f"name: {json.dumps(name)}\n") + "task: {speed: 5}\nduration: 2\n")
     return Job(load_scenario(f, dict(sets)), sets)
 
 
@@ -27,6 +28,35 @@ def test_every_run_of_a_batch_gets_its_own_folder(tmp_path):
     assert out_dirs([a], tmp_path / "one") == [tmp_path / "one"]
     default = out_dirs([a, b], None)
     assert len(set(default)) == 2 and all(d.parent == Path("runs") for d in default)
+
+
+@pytest.mark.parametrize(("name", "folder"), [
+    ("step-task.speed_4", "step-task.speed_4"), ("../../../escape", "escape"), ("/tmp/x/victim", "tmp_x_victim"),
+    ("", "run"), ("..", "run"), ("a\nb", "a_b"), (".hidden", "hidden"), ("-rf", "rf"), ("a\\b\x00c\u202ed", "a_b_c_d"),
+    ("Überholen 2", "Überholen_2"),
+])
+def test_a_name_is_one_folder_name(name, folder):
+    assert folder_name(name) == folder
+
+
+def test_a_long_name_is_cut_to_whole_characters():
+    for name in ("x" * 300, "é" * 300):
+        f = folder_name(name)
+        assert len(f.encode()) <= NAME_BYTES and name.startswith(f) and len(f.encode()) > NAME_BYTES - 2
+
+
+def test_no_scenario_name_or_file_puts_a_run_outside_its_root(tmp_path, monkeypatch):
+    names = ("../../../escape", str(tmp_path / "victim"), "", "a\nb", "x" * 300, "../../../escape")
+    hostile = [_job(tmp_path, "w/n", name=n) for n in names]
+    for folder in ("w", "w/d", "."):
+        _job(tmp_path, folder)
+    monkeypatch.chdir(tmp_path / "w")
+    same = [Job(load_scenario(f)) for f in ("s.yaml", "d/s.yaml", "../s.yaml")]
+    dirs = out_dirs([*hostile, *same], tmp_path / "out")
+    assert all(d.parent == tmp_path / "out" and not d.name.startswith((".", "-")) for d in dirs)
+    assert len(set(dirs)) == len(dirs)
+    assert [d.name for d in dirs[-3:]] == ["w-s", "d-s", f"{tmp_path.name}-s"]  # the files' folders, not "" or ".."
+    assert all(d.parent == Path("runs") for d in out_dirs(hostile, None))
 
 
 def test_a_folder_that_holds_anything_is_refused(tmp_path):

@@ -21,7 +21,7 @@ from vilma.record.run import record_run
 from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the demo and the tests find them
 from vilma.scenario.bundled import find_scenario as find_scenario
 from vilma.scenario.fields import SpecError
-from vilma.scenario.folder import RunFolder, claim, write_metrics
+from vilma.scenario.folder import RunFolder, claim, folder_name, write_metrics
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario, load_scenario
 
@@ -209,15 +209,16 @@ class _Bar:
 def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:
     """Each run's folder: ``out`` for a single run, else ``<out>/<name>`` (``runs/<name>-<timestamp>``
     without ``out``); a name is the scenario's, its ``--set`` values, and where two runs would still share
-    it, the scenario file's folder, then ``-2``, ``-3``..."""
+    it, the scenario file's folder, then ``-2``, ``-3``... Each name is one folder inside the root
+    (:func:`~vilma.scenario.folder.folder_name`), whatever the scenario calls itself."""
     if out is not None and len(jobs) == 1:
         return [out]
-    names = [job.scenario.name + "".join(f"-{k}_{v}" for k, v in job.overrides) for job in jobs]
+    names = [folder_name(job.scenario.name + "".join(f"-{k}_{v}" for k, v in job.overrides)) for job in jobs]
     files: dict[str, set] = {}
     for job, n in zip(jobs, names, strict=True):
         files.setdefault(n, set()).add(job.scenario.file)
-    names = [f"{job.scenario.file.parent.name}-{n}" if len(files[n]) > 1 and job.scenario.file else n
-             for job, n in zip(jobs, names, strict=True)]
+    names = [folder_name(f"{job.scenario.file.resolve().parent.name}-{n}")
+             if len(files[n]) > 1 and job.scenario.file else n for job, n in zip(jobs, names, strict=True)]
     seen: Counter[str] = Counter()
     unique = []
     for n in names:

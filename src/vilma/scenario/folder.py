@@ -9,6 +9,7 @@ is refused unless the user says ``--overwrite``, and then the earlier run's file
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
@@ -36,6 +37,19 @@ RUN_FILES = ("metrics.json", "timeseries.csv", "timeseries.csv.part", "scenario.
 """The files a run writes in its folder."""
 REPORT_DIR = "run-report"
 """Where ``vilma report`` puts the report of the folder's recording."""
+NAME_BYTES = 200
+"""Longest folder name :func:`folder_name` gives [bytes of UTF-8]: room under a file system's 255 for the
+``-<timestamp>`` and ``-2`` a run's folder may get."""
+
+
+def folder_name(text: str) -> str:
+    """``text`` (a scenario's name and ``--set`` values) as one folder name that stays where it is put: each run of
+    characters other than letters, digits and ``._+=,-`` made ``_`` (no ``/``, no control characters), no ``.``,
+    ``_`` or ``-`` at either end (never hidden, never ``..``), at most :data:`NAME_BYTES`; ``run`` if nothing is
+    left."""
+    name = re.sub(r"[^\w.+=,-]+", "_", text).strip("._-")
+    name = name.encode()[:NAME_BYTES].decode(errors="ignore").rstrip("._-")
+    return name or "run"
 
 
 def claim(dirs: Sequence[Path], overwrite: bool) -> None:
