@@ -261,3 +261,37 @@ def test_a_scenario_name_never_writes_outside_out(tmp_path):
     assert (victim / "metrics.json").read_text() == "mine"
     runs = sorted(d.name for d in out.iterdir() if (d / "metrics.json").is_file())
     assert [n.rpartition("_victim-")[2] for n in runs] == ["duration_0.5", "duration_1"]
+
+
+def test_a_batch_and_the_demo_refuse_a_folder_that_holds_anything(tmp_path, capsys):
+    out = tmp_path / "b"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    p = tmp_path / "s.yaml"
+    p.write_text("task: {speed: 5}\n")
+    batch = ["run", str(p), "--set", "duration=0.5,1", "--out", str(out), "-q", "--no-record"]
+    for args in (batch, ["demo", "--out", str(out), "-q"]):
+        assert main(args) == 2
+        assert capsys.readouterr().err == (f"vilma {args[0]}: error: {out}: holds an earlier run or other files "
+                                           "(notes.txt); give --overwrite to replace the run's files, or choose "
+                                           "another --out\n")
+        assert [p.name for p in out.iterdir()] == ["notes.txt"]
+    assert main([*batch, "--overwrite"]) == 0
+    assert main([*batch, "--overwrite"]) == 0  # again: each run's folder cleared of the earlier run's files
+    runs = [d for d in out.iterdir() if d.is_dir()]
+    assert (out / "notes.txt").read_text() == "mine" and len(runs) == 2
+    assert all(sorted(p.name for p in d.iterdir()) == ["metrics.json", "scenario.yaml", "timeseries.csv"]
+               for d in runs)
+
+
+def test_an_out_that_cannot_be_made_is_one_line_before_the_run(tmp_path, capsys):
+    (tmp_path / "afile").write_text("")
+    assert main(["run", "pi_ff_speed_5", "--out", str(tmp_path / "afile" / "sub")]) == 2
+    assert capsys.readouterr().err == (f"vilma run: error: {tmp_path / 'afile' / 'sub'}: {tmp_path / 'afile'} is a "
+                                       "file, not a folder; choose another --out\n")
+    for command in (["run", "pi_ff_speed_5"], ["demo"], ["report", "run.mcap"]):
+        with pytest.raises(SystemExit) as e:
+            main([*command, "--out", ""])
+        assert e.value.code == 2
+        assert capsys.readouterr().err.splitlines()[-1] == (f"vilma {command[0]}: error: argument --out: empty; give "
+                                                            "a folder, or no --out for the default")

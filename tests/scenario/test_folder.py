@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -67,8 +68,24 @@ def test_a_folder_that_holds_anything_is_refused(tmp_path):
         claim([d], overwrite=False)
     claim([tmp_path / "new", tmp_path / "empty"], overwrite=False)  # missing or empty: fine
     (tmp_path / "file").write_text("")
-    with pytest.raises(SpecError, match="is a file, not a folder"):
+    with pytest.raises(SpecError, match="file: it is a file, not a folder; choose another --out"):
         claim([tmp_path / "file"], overwrite=True)
+    with pytest.raises(SpecError, match=f"file/sub/run: {tmp_path / 'file'} is a file, not a folder; choose another"):
+        claim([tmp_path / "file" / "sub" / "run"], overwrite=True)
+
+
+def test_a_folder_that_cannot_be_written_is_refused_before_anything(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    if os.access(ro, os.W_OK):  # root writes in any folder; not on a read-only file system
+        ro = Path("/proc/sys")
+    if os.access(ro, os.W_OK):
+        pytest.skip("no folder this user cannot write in")
+    with pytest.raises(SpecError, match=f"{ro}: cannot write in it .*; choose another --out"):
+        claim([ro], overwrite=True)
+    with pytest.raises(SpecError, match=f"{ro / 'a' / 'b'}: cannot write in {ro} "):
+        claim([ro / "a" / "b"], overwrite=False)
 
 
 def test_overwrite_clears_the_earlier_run_and_keeps_the_rest(tmp_path):

@@ -16,6 +16,7 @@ from vilma.app.options import (
     duration,
     folder,
     non_negative,
+    out_folder,
     plant,
     port,
     port_or_any,
@@ -48,7 +49,8 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
 
 
 def _demo(d: argparse.ArgumentParser) -> None:
-    d.add_argument("--out", metavar="DIR", help="where the runs' files go (default runs/demo-<timestamp>/)")
+    d.add_argument("--out", type=out_folder, metavar="DIR",
+                   help="where the runs' files go (default runs/demo-<timestamp>/)")
     d.add_argument("--overwrite", action="store_true", help="replace the files of earlier runs in --out")
     d.add_argument("--realtime", type=positive, default=None, metavar="K",
                    help="pace each run to K times real time (default: as fast as possible)")
@@ -60,7 +62,8 @@ def _run(r: argparse.ArgumentParser) -> None:
     r.epilog = f"bundled scenarios (`vilma scenarios` describes them): {', '.join(bundled.names())}"
     r.add_argument("scenarios", nargs="+", metavar="SCENARIO",
                    help="scenario YAML files or bundled scenario names").completer = complete_scenario
-    r.add_argument("--out", metavar="DIR", help="where the files go (default runs/<name>-<timestamp>/)")
+    r.add_argument("--out", type=out_folder, metavar="DIR",
+                   help="where the files go (default runs/<name>-<timestamp>/)")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (dotted key, YAML value); KEY=a,b,c sweeps over the values")
     r.add_argument("--plant", type=plant, metavar="MODEL", help=PLANT_HELP)
@@ -83,7 +86,8 @@ def _run(r: argparse.ArgumentParser) -> None:
 
 def _sweep(w: argparse.ArgumentParser) -> None:
     w.add_argument("sweep", metavar="SWEEP.yaml", help="the sweep file (scenarios, grid, samples, seeds)")
-    w.add_argument("--out", metavar="DIR", help="where the table and plots go (default sweeps/<SWEEP>/)")
+    w.add_argument("--out", type=out_folder, metavar="DIR",
+                   help="where the table and plots go (default sweeps/<SWEEP>/)")
     w.add_argument("--plots", action=argparse.BooleanOptionalAction, default=True,
                    help="draw the box plots of the table (default: drawn)")
     _engine(w)
@@ -92,7 +96,8 @@ def _sweep(w: argparse.ArgumentParser) -> None:
 def _tune(t: argparse.ArgumentParser) -> None:
     t.add_argument("tune", metavar="TUNE.yaml", help="the tune file (scenarios, params, objective, constraints, "
                    "trials, seed)")
-    t.add_argument("--out", metavar="DIR", help="where the trials, plot and best.yaml go (default tunes/<TUNE>/)")
+    t.add_argument("--out", type=out_folder, metavar="DIR",
+                   help="where the trials, plot and best.yaml go (default tunes/<TUNE>/)")
     _cluster(t, "")
 
 
@@ -169,7 +174,8 @@ def _gui(g: argparse.ArgumentParser) -> None:
 
 def _report(rp: argparse.ArgumentParser) -> None:
     rp.add_argument("recording", metavar="RUN.mcap", help="the recording, or a run's folder (its run.mcap)")
-    rp.add_argument("--out", metavar="DIR", help="where metrics.json and the plots go (default RUN-report/)")
+    rp.add_argument("--out", type=out_folder, metavar="DIR",
+                    help="where metrics.json and the plots go (default RUN-report/)")
 
 
 def _export(ex: argparse.ArgumentParser) -> None:

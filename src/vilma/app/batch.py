@@ -108,8 +108,7 @@ def run_cars(jobs: list[Job], out: Path | None, console: Console, overwrite: boo
     folder (:func:`out_dirs`) without plots or recording: ``timeseries.csv``, ``scenario.yaml``, ``metrics.json``."""
     from vilma.scenario.fleet import run_fleet
 
-    dirs = out_dirs(jobs, out)
-    claim(dirs, overwrite)
+    dirs = claim_dirs(jobs, out, overwrite)
     collector.started()  # (the cars' objects come and go as usual)
     with _Bar(console, True) as bar, install_listener("numba:compile", _Compiling(console, bar)):
         task = bar.add(f"{len(jobs)} cars", len(jobs))
@@ -126,13 +125,12 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
     """Run the jobs in order with a progress bar, writing each run's files (``run.mcap`` too, if ``record``; the
     plots if ``plots``) into its own folder (:func:`out_dirs`); returns the results.
 
-    A folder that holds anything stops the batch before it runs, unless ``overwrite`` (then the earlier
-    run's files go first). The ``observers`` of a scenario watch its run as it goes (see
+    A folder that holds anything (a batch's ``out`` too) stops the batch before it runs, unless ``overwrite`` (then
+    the earlier run's files go first). The ``observers`` of a scenario watch its run as it goes (see
     :func:`~vilma.scenario.runner.run`); ``started`` is when the command began (:func:`time.perf_counter`),
     counted in the first run's ``wall_time_s``.
     """
-    dirs = out_dirs(jobs, out)
-    claim(dirs, overwrite)
+    dirs = claim_dirs(jobs, out, overwrite)
     if realtime is not None:  # a paced run lasts: the collector as usual from the start
         collector.started()
     results = []
@@ -204,6 +202,14 @@ class _Bar:
             from rich.text import Text
 
             self.progress.update(task, description=Text(text) if text is not None else None, completed=done)
+
+
+def claim_dirs(jobs: Sequence[Job], out: Path | None, overwrite: bool) -> list[Path]:
+    """Each run's folder (:func:`out_dirs`), claimed (:func:`~vilma.scenario.folder.claim`) with a batch's ``out``:
+    a batch's folder, as a single run's, must be new or empty unless ``overwrite``."""
+    dirs = out_dirs(jobs, out)
+    claim([out, *dirs] if out is not None and dirs != [out] else dirs, overwrite)
+    return dirs
 
 
 def out_dirs(jobs: Sequence[Job], out: Path | None) -> list[Path]:

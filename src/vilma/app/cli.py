@@ -26,7 +26,7 @@ def _demo(args: argparse.Namespace) -> int:
 
     console = batch.Quiet() if args.quiet else _console(args)
     jobs = batch.plan(demo.scenario_names(), [])
-    root = demo.out_root(Path(args.out) if args.out else None)
+    root = demo.out_root(args.out)
     console.print(f"vilma demo: {len(jobs)} bundled scenarios, headless, files in {root}", highlight=False)
     results = batch.run_all(jobs, root, args.realtime, console, overwrite=args.overwrite, started=STARTED)
     if not console.quiet:  # (the table imports rich)
@@ -79,7 +79,7 @@ def _run(args: argparse.Namespace) -> int:
         if args.plots:
             raise ValueError("--cars writes each car's files without plots or run.mcap: drop --plots")
         jobs = batch.as_cars(jobs, args.cars)
-        results = batch.run_cars(jobs, Path(args.out) if args.out else None, console, args.overwrite)
+        results = batch.run_cars(jobs, args.out, console, args.overwrite)
     else:
         live = None
         if args.foxglove is not None:
@@ -87,7 +87,7 @@ def _run(args: argparse.Namespace) -> int:
 
             live = foxglove_observer(args.foxglove, args.realtime, console.print)
         with live or contextlib.nullcontext():
-            results = batch.run_all(jobs, Path(args.out) if args.out else None, args.realtime, console,
+            results = batch.run_all(jobs, args.out, args.realtime, console,
                                     live.watch if live else lambda _: (), record=not args.no_record,
                                     plots=args.plots, overwrite=args.overwrite, started=STARTED)
     if not console.quiet:  # (rich would draw the tables, then drop them)

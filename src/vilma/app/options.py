@@ -117,6 +117,13 @@ def plant(name: str) -> str:
     return name
 
 
+def out_folder(name: str) -> Path:
+    """Where a command writes (``--out``): any path but an empty one, which would quietly mean the default."""
+    if not name:
+        raise argparse.ArgumentTypeError("empty; give a folder, or no --out for the default")
+    return Path(name)
+
+
 def folder(name: str) -> Path:
     """A folder that exists."""
     if not Path(name).is_dir():

@@ -35,7 +35,7 @@ def report_command(args: argparse.Namespace) -> int:
     ``run.mcap``)."""
     path = Path(args.recording)
     rec = read_recording(path / RECORDING if path.is_dir() else path)
-    result = report(rec, Path(args.out) if args.out else None)
+    result = report(rec, args.out)
     if args.quiet:  # what failed only
         for line in result.failures:
             print(f"FAIL {line}", file=sys.stderr)

@@ -9,6 +9,7 @@ is refused unless the user says ``--overwrite``, and then the earlier run's file
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from collections.abc import Sequence
@@ -53,15 +54,20 @@ def folder_name(text: str) -> str:
 
 
 def claim(dirs: Sequence[Path], overwrite: bool) -> None:
-    """Check that no run's folder holds anything; with ``overwrite``, remove the earlier run's files
-    (:data:`RUN_FILES` and its report), leaving anything else there as it is.
+    """Check that each folder can be made and written, and that none holds anything; with ``overwrite``, remove the
+    earlier run's files (:data:`RUN_FILES` and its report), leaving anything else there as it is.
 
     Raises:
-        SpecError: a folder holds files and ``overwrite`` is not given; one line naming it.
+        SpecError: a folder (or the one it would be made in) is a file or cannot be written, or a folder holds files
+            and ``overwrite`` is not given; one line naming it.
     """
     for d in dirs:
-        if d.exists() and not d.is_dir():
-            raise SpecError(f"{d}: is a file, not a folder; choose another --out")
+        base = next(p for p in (d, *d.parents) if p.exists())  # the folder itself, or where it would be made
+        where = "it" if base == d else base
+        if not base.is_dir():
+            raise SpecError(f"{d}: {where} is a file, not a folder; choose another --out")
+        if not os.access(base, os.W_OK | os.X_OK | (os.R_OK if base == d else 0)):
+            raise SpecError(f"{d}: cannot write in {where} (no permission, or a read-only disk); choose another --out")
         held = sorted(p.name for p in d.iterdir()) if d.is_dir() else []
         if held and not overwrite:
             shown = ", ".join(held[:4]) + (", ..." if len(held) > 4 else "")
