@@ -175,7 +175,9 @@ def _gui(g: argparse.ArgumentParser) -> None:
 def _report(rp: argparse.ArgumentParser) -> None:
     rp.add_argument("recording", metavar="RUN.mcap", help="the recording, or a run's folder (its run.mcap)")
     rp.add_argument("--out", type=out_folder, metavar="DIR",
-                    help="where metrics.json and the plots go (default RUN-report/)")
+                    help="where metrics.json and the plots go (default RUN-report/; a new or empty folder)")
+    rp.add_argument("--overwrite", action="store_true", help="replace the files of an earlier report in the --out "
+                    "folder (without it, a folder that holds anything is refused)")
 
 
 def _export(ex: argparse.ArgumentParser) -> None:

@@ -18,12 +18,12 @@ from vilma.core.closing import Closeable
 from vilma.record.live import FoxgloveLive
 from vilma.record.reader import read_recording
 from vilma.record.replay import Replayer
-from vilma.record.report import report, world_counts
+from vilma.record.report import report, report_dir, world_counts
 from vilma.record.road_scene import scenario_road
 from vilma.record.ros1 import Ros1Bridge, init_node, rospy_or_reason, shutdown_node
 from vilma.record.rosbag import export_rosbag2
 from vilma.scenario.drive_log import DriveLog
-from vilma.scenario.folder import RECORDING
+from vilma.scenario.folder import RECORDING, claim
 from vilma.scenario.result import RunObserver
 from vilma.scenario.spec import Scenario
 from vilma.sensors import Readings
@@ -32,10 +32,16 @@ from vilma.sim import Simulator
 
 def report_command(args: argparse.Namespace) -> int:
     """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone (a run's folder: its
-    ``run.mcap``)."""
+    ``run.mcap``), in a folder claimed as a run's (:func:`~vilma.scenario.folder.claim`); never the recording's
+    own folder, whose run's files ``--overwrite`` would replace."""
     path = Path(args.recording)
     rec = read_recording(path / RECORDING if path.is_dir() else path)
-    result = report(rec, args.out)
+    out = args.out or report_dir(rec.path)
+    if out.is_dir() and out.samefile(rec.path.parent):
+        raise ValueError(f"{out}: holds the recording {rec.path.name}; its report goes in a folder of its own (by "
+                         f"default {report_dir(rec.path)}): choose another --out")
+    claim([out], args.overwrite)
+    result = report(rec, out)
     if args.quiet:  # what failed only
         for line in result.failures:
             print(f"FAIL {line}", file=sys.stderr)

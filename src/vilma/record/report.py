@@ -331,9 +331,14 @@ def _task_at(tasks: list[Task], epoch: int, t: float) -> Task:
                 "the recording holds neither the driver's orders nor its status")
 
 
+def report_dir(recording: Path) -> Path:
+    """Where the report of ``recording`` goes by default: ``<RUN>-report/`` beside it."""
+    return recording.with_name(recording.stem + "-report")
+
+
 def report(recording: Path | Recording, out_dir: Path | None = None) -> Report:
     """Score and plot ``recording`` (a path, or one already read): ``metrics.json`` (the scorecard and its
-    ``segments``) and the last segment's plots go to ``out_dir`` (default ``<RUN>-report/`` beside it).
+    ``segments``) and the last segment's plots go to ``out_dir`` (default :func:`report_dir`).
 
     Raises:
         RecordingError: the file is not a recording, or has nothing to score.
@@ -342,7 +347,7 @@ def report(recording: Path | Recording, out_dir: Path | None = None) -> Report:
 
     rec = recording if isinstance(recording, Recording) else read_recording(recording)
     result = score(rec)
-    result.out_dir = Path(out_dir) if out_dir is not None else rec.path.with_name(rec.path.stem + "-report")
+    result.out_dir = Path(out_dir) if out_dir is not None else report_dir(rec.path)
     result.out_dir.mkdir(parents=True, exist_ok=True)
     plot_run(result, result.out_dir)
     write_atomic(result.out_dir / "metrics.json",

@@ -1,0 +1,27 @@
+"""``vilma report``'s folder: claimed as a run's, never the recording's own."""
+
+from __future__ import annotations
+
+from vilma.app.cli import main
+
+
+def test_a_report_never_replaces_a_run_or_an_earlier_report_unasked(tmp_path, capsys):
+    s = tmp_path / "s.yaml"
+    s.write_text("task: {speed: 5}\nduration: 1\n")
+    run = tmp_path / "r1"
+    assert main(["run", str(s), "--out", str(run), "-q"]) == 0
+    scorecard = (run / "metrics.json").read_bytes()
+    for more in ([], ["--overwrite"]):  # the run's own folder: refused, whatever is asked
+        assert main(["report", str(run / "run.mcap"), "--out", str(run), "-q", *more]) == 2
+        assert capsys.readouterr().err == (f"vilma report: error: {run}: holds the recording run.mcap; its report goes "
+                                           f"in a folder of its own (by default {run / 'run-report'}): choose another "
+                                           "--out\n")
+    assert (run / "metrics.json").read_bytes() == scorecard
+    assert main(["report", str(run), "-q"]) == 0
+    (run / "run-report" / "notes.txt").write_text("mine")
+    assert main(["report", str(run), "-q"]) == 2
+    assert capsys.readouterr().err.startswith(f"vilma report: error: {run / 'run-report'}: holds an earlier run or "
+                                              "other files (cross_track.png, ")
+    assert main(["report", str(run), "-q", "--overwrite"]) == 0
+    assert (run / "run-report" / "notes.txt").read_text() == "mine" and (run / "run-report" / "metrics.json").is_file()
+    assert (run / "metrics.json").read_bytes() == scorecard
