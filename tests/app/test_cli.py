@@ -295,3 +295,26 @@ def test_an_out_that_cannot_be_made_is_one_line_before_the_run(tmp_path, capsys)
         assert e.value.code == 2
         assert capsys.readouterr().err.splitlines()[-1] == (f"vilma {command[0]}: error: argument --out: empty; give "
                                                             "a folder, or no --out for the default")
+
+
+def test_a_trajectory_tool_never_writes_its_input_and_replaces_its_output_only_when_asked(tmp_path, capsys):
+    path = tmp_path / "in.txt"
+    path.write_bytes(CURVED.read_bytes())
+    (tmp_path / "link.txt").symlink_to(path)
+    for action in ("smooth", "densify", "resample"):
+        for out in (path, tmp_path / "link.txt"):
+            for more in ([], ["--overwrite"]):
+                assert main(["trajectory", action, str(path), str(out), *more]) == 2
+                err = capsys.readouterr().err
+                assert err == f"vilma trajectory: error: {out}: is the input; give another OUT file\n"
+    assert path.read_bytes() == CURVED.read_bytes()
+    out = tmp_path / "out.txt"
+    out.write_text("mine")
+    assert main(["trajectory", "densify", str(path), str(out)]) == 2
+    assert capsys.readouterr().err == (f"vilma trajectory: error: {out}: exists; give --overwrite to replace it, or "
+                                       "another OUT file\n")
+    assert out.read_text() == "mine"
+    assert main(["trajectory", "densify", str(path), str(out), "--overwrite"]) == 0
+    assert len(load_trajectory(out)) == 2 * 357 - 1
+    assert main(["trajectory", "densify", str(path), str(tmp_path), "--overwrite"]) == 2
+    assert capsys.readouterr().err == f"vilma trajectory: error: {tmp_path}: is a folder; give another OUT file\n"

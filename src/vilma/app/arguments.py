@@ -215,6 +215,7 @@ def _trajectory(t: argparse.ArgumentParser) -> None:
     t.add_argument("action", choices=("info", "smooth", "densify", "resample"))
     t.add_argument("input", metavar="IN")
     t.add_argument("output", metavar="OUT", nargs="?")
+    t.add_argument("--overwrite", action="store_true", help="replace OUT if it exists (never IN)")
     t.add_argument("--alpha", type=positive, default=ALPHA, help=f"smooth: weight_data (default {ALPHA})")
     t.add_argument("--beta", type=non_negative, default=BETA, help=f"smooth: weight_smooth (default {BETA})")
     t.add_argument("--tolerance", type=positive, default=TOLERANCE, help=f"smooth: tolerance [m] (default {TOLERANCE})")

@@ -148,6 +148,12 @@ def _trajectory(args: argparse.Namespace) -> int:
         return 0
     if args.output is None:
         raise ValueError(f"trajectory {args.action}: give the output file after the input")
+    output = Path(args.output)
+    if output.exists():
+        if output.is_dir() or output.samefile(args.input):
+            raise ValueError(f"{output}: is {'a folder' if output.is_dir() else 'the input'}; give another OUT file")
+        if not args.overwrite:
+            raise ValueError(f"{output}: exists; give --overwrite to replace it, or another OUT file")
     if args.action == "smooth":
         sm = SmoothSpec(alpha=args.alpha, beta=args.beta, tolerance=args.tolerance, solver=args.solver)
         xy = (smooth_iterative(path.xy, sm.alpha, sm.beta, sm.tolerance) if sm.solver == "iterative"
