@@ -318,3 +318,28 @@ def test_a_trajectory_tool_never_writes_its_input_and_replaces_its_output_only_w
     assert len(load_trajectory(out)) == 2 * 357 - 1
     assert main(["trajectory", "densify", str(path), str(tmp_path), "--overwrite"]) == 2
     assert capsys.readouterr().err == f"vilma trajectory: error: {tmp_path}: is a folder; give another OUT file\n"
+
+
+@pytest.mark.parametrize("args", [["scenarios"], ["run", "pi_ff_speed_5", "--no-record"]])
+def test_a_closed_pipe_ends_the_command_quietly(args, tmp_path):
+    """``vilma ... | head -1``: the reader gone, the command ends with no error line and SIGPIPE's status (141), a
+    run's files written."""
+    read, write = os.pipe()
+    os.close(read)  # the reader gone before the command's first line
+    out = ["--out", str(tmp_path / "o")] if args[0] == "run" else []
+    if out:  # its kernels compiled and cached first: a first compile's notice would be the line the pipe refuses
+        assert main([*args, "--out", str(tmp_path / "warm"), "-q"]) == 0
+    with os.fdopen(write, "wb") as pipe:
+        done = subprocess.run([sys.executable, "-m", "vilma", *args, *out], stdout=pipe, stderr=subprocess.PIPE,
+                              text=True, timeout=300, env={**os.environ, "VILMA_SERVE": "off"})
+    assert done.returncode == 141 and done.stderr == ""
+    assert args[0] != "run" or json.loads((tmp_path / "o" / "metrics.json").read_text())["completed"]
+
+
+def test_a_broken_pipe_that_is_not_the_output_is_an_error(monkeypatch, capsys):
+    def recorder_gone(args):
+        raise BrokenPipeError(32, "the recording process has gone")
+
+    monkeypatch.setitem(HANDLERS, "scenarios", recorder_gone)
+    assert main(["scenarios"]) == 2
+    assert capsys.readouterr().err == "vilma scenarios: error: [Errno 32] the recording process has gone\n"

@@ -6,8 +6,11 @@ from __future__ import annotations
 import argparse
 import atexit
 import contextlib
+import errno
 import logging
 import os
+import select
+import signal
 import sys
 import threading
 import time
@@ -19,6 +22,9 @@ from vilma.core.extras import MissingExtraError
 
 STARTED = time.perf_counter()
 """When the command began (its imports aside: a few ms): the first run's ``wall_time_s`` counts from here."""
+PIPE_CLOSED = 128 + signal.SIGPIPE
+"""The exit status of a command whose output's reader went away (``vilma scenarios | head -1``): 141, as a shell
+reports a command that SIGPIPE ended (``seq 100000 | head -1``)."""
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -35,10 +41,15 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _console(args: argparse.Namespace):
-    """Where a command's progress and tables go: nowhere with ``--quiet``."""
+    """Where a command's progress and tables go: nowhere with ``--quiet``. A closed pipe (``| head``) raises
+    ``BrokenPipeError`` for :func:`main` to end the command (rich's own answer is ``SystemExit(1)``: a failed run's)."""
     from rich.console import Console
 
-    return Console(width=None if sys.stdout.isatty() else 160, quiet=args.quiet)
+    class _Console(Console):
+        def on_broken_pipe(self) -> None:
+            raise BrokenPipeError(errno.EPIPE, os.strerror(errno.EPIPE))
+
+    return _Console(width=None if sys.stdout.isatty() else 160, quiet=args.quiet)
 
 
 def _report_failures(results, console) -> int:
@@ -264,14 +275,36 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
     quiet_or_verbose = logging.ERROR if args.quiet else max(logging.DEBUG, logging.WARNING - 10 * args.verbose)
     logging.getLogger().setLevel(quiet_or_verbose)  # set even when a handler exists (basicConfig would not)
     try:
-        return HANDLERS[args.command](args)
+        code = HANDLERS[args.command](args)
+        sys.stdout.flush()  # what is still buffered: a closed pipe shows here, not at the exit
+        return code
     except (ValueError, OSError, MissingExtraError) as e:
+        if isinstance(e, BrokenPipeError) and (closed := _closed_outputs()):
+            return _reader_gone(closed)
         print(f"vilma {args.command}: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as e:
         if str(e):  # a run says where it stopped and what it kept
             print(f"vilma {args.command}: {e}", file=sys.stderr)
         return 130
+
+
+def _closed_outputs() -> list[int]:
+    """The standard output and error (1, 2) whose reader has gone: pipes closed at the other end (``| head -1``)."""
+    poll = select.poll()
+    for fd in (1, 2):
+        poll.register(fd, 0)  # (an error is always reported)
+    return [fd for fd, events in poll.poll(0) if events & select.POLLERR]
+
+
+def _reader_gone(closed: list[int]) -> int:
+    """End a command whose reader went away as Python's docs on SIGPIPE advise: quietly, the streams ``closed`` sent to
+    /dev/null (nothing left in them fails at the exit); the status a shell gives a command SIGPIPE ended."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    for fd in closed:
+        os.dup2(devnull, fd)
+    os.close(devnull)
+    return PIPE_CLOSED
 
 
 def entry() -> None:
