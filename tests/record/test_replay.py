@@ -60,6 +60,17 @@ def test_pause_stops_publishing_and_seek_jumps(recording):
     player.close()
 
 
+def test_a_seek_outside_the_recording_is_refused(recording):
+    player = Replayer(recording, LocalBus())
+    end = player.end_ns * 1e-9
+    for t in (-1.0, end + 1e-3, 1e9, float("nan")):
+        with pytest.raises(ValueError, match=rf"is not within the recording's sim time, 0 to {end:.2f} s"):
+            player.seek(t)
+    player.seek(end)  # the last message plays next
+    assert player.position_ns == player.end_ns
+    player.close()
+
+
 def test_a_recording_made_before_the_standard_types_replays_as_written():
     bus = LocalBus()
     sensors = {name: BoundedQueue(bus, topic(name), maxsize=1000) for name in legacy.readings()}

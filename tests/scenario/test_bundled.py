@@ -30,6 +30,9 @@ def test_an_unknown_name_lists_the_bundled_ones(tmp_path):
     assert all(n in str(e.value) for n in names()) and "\n" not in str(e.value)
     with pytest.raises(SpecError, match="no such file"):
         find_scenario(tmp_path / "course_30kmh_stanley.yaml")  # a path is a file, never a bundled name
+    with pytest.raises(SpecError, match=r"^course_30kmh_stanly: no such file, nor a bundled scenario \(did you mean "
+                                        r"'course_30kmh_stanley'\? bundled: "):
+        find_scenario("course_30kmh_stanly")
 
 
 @pytest.mark.parametrize("name", names())

@@ -16,7 +16,7 @@ from vilma.bus.topics import SENSOR_TOPICS, topic
 from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 from vilma.core.closing import Closeable
 from vilma.record.live import FoxgloveLive
-from vilma.record.reader import read_recording
+from vilma.record.reader import Recording, read_recording
 from vilma.record.replay import Replayer
 from vilma.record.report import report, report_dir, world_counts
 from vilma.record.road_scene import scenario_road
@@ -34,8 +34,7 @@ def report_command(args: argparse.Namespace) -> int:
     """``vilma report RUN.mcap [--out DIR]``: scorecard and plots from a recording alone (a run's folder: its
     ``run.mcap``), in a folder claimed as a run's (:func:`~vilma.scenario.folder.claim`); never the recording's
     own folder, whose run's files ``--overwrite`` would replace."""
-    path = Path(args.recording)
-    rec = read_recording(path / RECORDING if path.is_dir() else path)
+    rec = _recording(args.recording)
     out = args.out or report_dir(rec.path)
     if out.is_dir() and out.samefile(rec.path.parent):
         raise ValueError(f"{out}: holds the recording {rec.path.name}; its report goes in a folder of its own (by "
@@ -63,9 +62,38 @@ def report_command(args: argparse.Namespace) -> int:
     return 1 if result.failures else 0
 
 
+def _recording(name: str) -> Recording:
+    """The recording ``name`` (a run's folder: its ``run.mcap``), read; one cut short is said on stderr, one without a
+    message refused.
+
+    Raises:
+        ValueError: no recording there, or not a message in it.
+    """
+    path = Path(name)
+    if path.is_dir():
+        if not (path / RECORDING).is_file():
+            raise ValueError(f"{path}: holds no {RECORDING} (a run with --no-record or --cars records none); give a "
+                             "recording or a run's folder that has one")
+        path = path / RECORDING
+    rec = read_recording(path)
+    if not any(rec.count(topic) for topic in rec.raw):
+        raise ValueError(f"{path}: holds no messages{'' if rec.complete else ' (cut short before its first chunk)'}")
+    if not rec.complete:
+        print(f"vilma: {path} was cut short (no footer): read up to its last whole chunk", file=sys.stderr)
+    return rec
+
+
+def _seconds(text: str) -> float:
+    """``text`` as a number of seconds, or a ValueError saying it is not one."""
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a number of seconds") from None
+
+
 def export_command(args: argparse.Namespace) -> int:
-    """``vilma export rosbag2 RUN.mcap OUTDIR``."""
-    counts = export_rosbag2(Path(args.recording), Path(args.out))
+    """``vilma export rosbag2 RUN.mcap OUTDIR`` (a run's folder: its ``run.mcap``)."""
+    counts = export_rosbag2(_recording(args.recording), Path(args.out))
     print(f"vilma export: rosbag2 (MCAP storage) in {args.out}: "
           + ", ".join(f"{t} {n}" for t, n in counts.items()))
     return 0
@@ -75,9 +103,10 @@ def replay_command(args: argparse.Namespace) -> int:
     """``vilma replay RUN.mcap``: play onto Zenoh; stdin lines ``p`` (pause/resume), ``s T`` (seek to T s),
     ``x K`` (speed K), ``q`` (quit)."""
 
+    rec = _recording(args.recording)
     bus, cfg = zenoh_bus(args, (DEFAULT_ENDPOINT,), ())
     with bus:
-        player = Replayer(Path(args.recording), bus, args.speed)
+        player = Replayer(rec, bus, args.speed)
         if args.start:
             player.seek(args.start)
         print(f"vilma replay: {args.recording}, {(player.end_ns - player.start_ns) * 1e-9:.2f} s of sim time at "
@@ -91,9 +120,9 @@ def replay_command(args: argparse.Namespace) -> int:
                         if word == "p":
                             player.resume() if player.paused else player.pause()
                         elif word == "s" and rest:
-                            player.seek(float(rest[0]))
+                            player.seek(_seconds(rest[0]))
                         elif word == "x" and rest:
-                            player.set_speed(float(rest[0]))
+                            player.set_speed(_seconds(rest[0]))
                         elif word == "q":
                             stop.set()
                             return

@@ -106,7 +106,13 @@ class Replayer:
             self._cv.notify_all()
 
     def seek(self, t_s: float) -> None:
-        """Jump to sim time ``t_s`` [s] (the first message at or after it plays next)."""
+        """Jump to sim time ``t_s`` [s] (the first message at or after it plays next).
+
+        Raises:
+            ValueError: ``t_s`` is not within 0 and the last message's time.
+        """
+        if not 0 <= t_s <= self.end_ns * 1e-9:
+            raise ValueError(f"{t_s:g} s is not within the recording's sim time, 0 to {self.end_ns * 1e-9:.2f} s")
         with self._cv:
             self._i = bisect.bisect_left(self._stamps, round(t_s * 1e9))
             self._done.clear()

@@ -233,8 +233,9 @@ TOPICS = {  # vilma topic -> (ROS topic, ROS type, converter)
 """What :func:`export_rosbag2` writes for each vilma topic (see the module docstring)."""
 
 
-def export_rosbag2(recording: Path, out_dir: Path) -> dict[str, int]:
-    """Write the recording ``recording`` as a rosbag2 in ``out_dir`` (which must not exist yet).
+def export_rosbag2(recording: Recording | Path, out_dir: Path) -> dict[str, int]:
+    """Write the recording ``recording`` (a path, or one already read) as a rosbag2 in ``out_dir`` (which must not
+    exist yet).
 
     Returns the number of messages written per ROS topic.
 
@@ -242,7 +243,7 @@ def export_rosbag2(recording: Path, out_dir: Path) -> dict[str, int]:
         FileExistsError: ``out_dir`` exists (rosbags will not write into it).
         RecordingError: the recording cannot be read.
     """
-    rec = read_recording(recording)
+    rec = recording if isinstance(recording, Recording) else read_recording(recording)
     out_dir = Path(out_dir)
     if out_dir.exists():
         raise FileExistsError(f"{out_dir} exists; give a new folder for the bag")

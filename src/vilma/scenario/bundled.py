@@ -31,9 +31,13 @@ def find_scenario(name: str | Path) -> Path:
     bundled = BUNDLED / (path.name if path.suffix == ".yaml" else f"{path.name}.yaml")
     if not path.parent.parts and bundled.is_file():
         return bundled
+    import difflib  # on a mistake only
+
     from vilma.scenario.fields import SpecError
 
-    raise SpecError(f"{name}: no such file, nor a bundled scenario (bundled: {', '.join(names())}; "
+    close = difflib.get_close_matches(path.stem, names(), n=1) if not path.parent.parts else []
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    raise SpecError(f"{name}: no such file, nor a bundled scenario ({hint}bundled: {', '.join(names())}; "
                     "`vilma scenarios` describes them)")
 
 
