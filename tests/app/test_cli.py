@@ -320,6 +320,22 @@ def test_a_trajectory_tool_never_writes_its_input_and_replaces_its_output_only_w
     assert capsys.readouterr().err == f"vilma trajectory: error: {tmp_path}: is a folder; give another OUT file\n"
 
 
+def test_a_trajectory_tool_refuses_what_it_cannot_write_and_says_what_its_output_leaves_out(tmp_path, capsys):
+    path = tmp_path / "in.csv"
+    path.write_text("x,y,speed\n0,0,5\n10,0,5\n20,0,5\n")
+    assert main(["trajectory", "info", str(path), str(tmp_path / "o.txt")]) == 2
+    assert capsys.readouterr().err == (f"vilma trajectory: error: trajectory info prints what it finds and writes "
+                                       f"nothing: drop {tmp_path / 'o.txt'}\n")
+    assert main(["trajectory", "densify", str(path), str(tmp_path / "o.gpx")]) == 2
+    assert "o.gpx: GPX holds latitudes and longitudes" in capsys.readouterr().err
+    assert not (tmp_path / "o.gpx").exists() and not (tmp_path / "o.txt").exists()
+    assert main(["trajectory", "densify", str(path), str(tmp_path / "o.txt")]) == 0
+    assert capsys.readouterr().out.endswith("without its speeds (the original's format has none: write a .csv to keep "
+                                            "them)\n")
+    assert main(["trajectory", "densify", str(path), str(tmp_path / "o.csv")]) == 0
+    assert np.array_equal(load_trajectory(tmp_path / "o.csv").speed, [5.0] * 5)
+
+
 @pytest.mark.parametrize("args", [["scenarios"], ["run", "pi_ff_speed_5", "--no-record"]])
 def test_a_closed_pipe_ends_the_command_quietly(args, tmp_path):
     """``vilma ... | head -1``: the reader gone, the command ends with no error line and SIGPIPE's status (141), a

@@ -146,6 +146,8 @@ def _trajectory(args: argparse.Namespace) -> int:
         smooth_iterative,
     )
 
+    if args.action == "info" and args.output is not None:
+        raise ValueError(f"trajectory info prints what it finds and writes nothing: drop {args.output}")
     path = load_trajectory(args.input)
     if args.action == "info":
         gaps = np.diff(path.s)
@@ -175,7 +177,9 @@ def _trajectory(args: argparse.Namespace) -> int:
     else:
         out = resample(path, args.spacing)
     save_trajectory(args.output, out)
-    print(f"{args.action}: {len(path)} -> {len(out)} points, written to {args.output}")
+    dropped = out.speed is not None and output.suffix.lower() != ".csv"
+    print(f"{args.action}: {len(path)} -> {len(out)} points, written to {args.output}"
+          + (" without its speeds (the original's format has none: write a .csv to keep them)" if dropped else ""))
     return 0
 
 

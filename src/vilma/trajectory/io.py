@@ -185,12 +185,16 @@ def load_trajectory(path: str | os.PathLike, origin: GeodeticOrigin | None = Non
 
 
 def save_trajectory(path: str | os.PathLike, path_: Trajectory) -> None:
-    """Write a trajectory atomically: CSV (x,y[,speed]) for .csv, else the original's ``%f\\t%f`` lines.
+    """Write a trajectory atomically: CSV (x,y[,speed]) for .csv, else the original's ``%f\\t%f`` lines (no speeds;
+    not .gpx, whose points are geodetic).
 
     The file is written beside the target and renamed over it, so a failed
     save never damages an existing file.
     """
     path = Path(path)
+    if path.suffix.lower() == ".gpx":
+        raise _fail(path, None, "GPX holds latitudes and longitudes, not a path's metres: save it as .csv "
+                                "(x,y[,speed]) or in the original's x y lines")
     if path.suffix.lower() == ".csv":
         cols = ["x", "y"] + (["speed"] if path_.speed is not None else [])
         data = path_.xy if path_.speed is None else np.column_stack([path_.xy, path_.speed])
