@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import re
 import signal
 import sys
@@ -10,6 +11,7 @@ import threading
 
 import pandas as pd
 import pytest
+import yaml
 from distributed import Client
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -17,7 +19,7 @@ from hypothesis import strategies as st
 from tests.conftest import Processes, free_port
 from vilma.app import sweep, sweep_plan
 from vilma.app.cli import main
-from vilma.scenario.fields import load_yaml
+from vilma.scenario.fields import SpecError, load_yaml
 from vilma.scenario.runner import run
 from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS
 from vilma.scenario.spec import load_scenario
@@ -293,7 +295,15 @@ def test_a_run_asked_for_twice_runs_once():
     ("scenarios: [nope]\n", "s.yaml: nope: no such file, nor a bundled scenario"),
     (f"scenarios: {SHORT}\nseeds: 0\n", "s.yaml:2: seeds: expected a count of seeds >= 1"),
     (f"scenarios: {SHORT}\nsamples: {{count: 2, values: {{duration: {{uniform: [3, 1]}}}}}}\n",
-     "s.yaml:2: samples.values.duration.uniform: expected [low, high], low < high, got [3, 1]"),
+     "s.yaml:2: samples.values.duration.uniform: expected [low, high], low < high, finite numbers at most 1.8e308 "
+     "apart, got [3, 1]"),
+    *((f"scenarios: {SHORT}\ngrid: {{duration: 3}}\nsamples: {{count: 2, seed: 1, values: {{kp: {{{d}}}}}}}\n",
+       f"s.yaml:3: samples.values.kp.{d.partition(':')[0]}: expected [") for d in (
+        "uniform: [0.5, .inf]", "uniform: [-1e308, 1e308]", "loguniform: [1, .inf]", "normal: [1, .inf]",
+        "normal: [.nan, 1]", "choice: [1, .nan]", "uniform: [0, 1" + "0" * 400 + "]")),
+    # a draw past the largest float: half the draws of a normal about it (all 64 within: 2**-64)
+    (f"scenarios: {SHORT}\nsamples: {{count: 64, values: {{kp: {{normal: [1.7976931348623157e+308, 1.0e+308]}}}}}}\n",
+     "s.yaml:2: samples.values.kp: drew inf, not a finite number; narrow the distribution"),
     (f"scenarios: {SHORT}\nsamples: {{count: 2, values: {{duration: {{gamma: [3, 1]}}}}}}\n",
      "s.yaml:2: samples.values.duration.gamma: unknown distribution (known: uniform, normal, loguniform, choice)"),
     (f"scenarios: {SHORT}\ngrid: {{task.speed: [5, abc]}}\n",
@@ -342,6 +352,23 @@ def test_samples_stay_within_their_distributions(lo, span, count, seed):
     for d in draws:
         v = {k: json.loads(x) for k, x in d}
         assert lo <= v["u"] <= hi and lo * (1 - 1e-12) <= v["l"] <= hi * (1 + 1e-12) and v["c"] in ("a", 3, True)
+
+
+@settings(max_examples=200, deadline=None)
+@given(name=st.sampled_from(["uniform", "normal", "loguniform"]), a=st.floats(), b=st.floats())
+def test_distribution_parameters_are_drawn_finite_or_refused_with_their_line(name, a, b):
+    args = yaml.safe_dump([a, b], default_flow_style=True).strip()
+    data, src = load_yaml(f"samples:\n  count: 3\n  values:\n    k: {{{name}: {args}}}\n", "s.yaml")
+    # what numpy's generator draws from: finite numbers, uniform's high - low within a float too
+    fine = math.isfinite(a) and math.isfinite(b) and {"uniform": a < b and math.isfinite(b - a),
+                                                      "normal": b >= 0, "loguniform": 0 < a < b}[name]
+    try:
+        draws = sweep_plan._samples(data["samples"], src)
+    except SpecError as e:
+        assert str(e).startswith("s.yaml:4: samples.values.k") and "\n" not in str(e)
+        assert not fine or "drew inf" in str(e) or "drew -inf" in str(e)  # a normal past the largest float
+        return
+    assert fine and all(math.isfinite(json.loads(x)) for d in draws for _, x in d)
 
 
 def test_rows_cut_short_by_a_kill_are_dropped_and_done_runs_not_written_twice(tmp_path):

@@ -19,6 +19,7 @@ import hashlib
 import itertools
 import json
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,10 +36,11 @@ KEYS = ("scenarios", "grid", "samples", "seeds")
 """The keys of a sweep file."""
 SAMPLE_KEYS = ("count", "seed", "values")
 DISTRIBUTIONS = {  # name -> (its arguments, a draw from numpy's Generator)
-    "uniform": ("[low, high]", lambda g, a: g.uniform(*a)),
-    "normal": ("[mean, std]", lambda g, a: g.normal(*a)),
-    "loguniform": ("[low, high], both > 0", lambda g, a: math.exp(g.uniform(math.log(a[0]), math.log(a[1])))),
-    "choice": ("[option, option, ...]", lambda g, a: a[int(g.integers(len(a)))]),
+    "uniform": ("[low, high], low < high, finite numbers at most 1.8e308 apart", lambda g, a: g.uniform(*a)),
+    "normal": ("[mean, std], finite numbers, std >= 0", lambda g, a: g.normal(*a)),
+    "loguniform": ("[low, high], finite numbers, 0 < low < high",
+                   lambda g, a: math.exp(g.uniform(math.log(a[0]), math.log(a[1])))),
+    "choice": ("[option, option, ...], numbers finite", lambda g, a: a[int(g.integers(len(a)))]),
 }
 """The distributions of ``samples.values``."""
 CONFIRM_RUNS = 10_000
@@ -181,9 +183,13 @@ def _samples(raw: Any, src: Source) -> list[tuple[tuple[str, str], ...]]:
     if not isinstance(values, Mapping) or not values:
         raise src.error(("samples", "values"), "expected a mapping of --set keys to distributions, e.g. "
                                                "task.speed: {uniform: [5, 10]}")
-    draws = {str(k): _distribution(v, src, ("samples", "values", k)) for k, v in values.items()}
+    draws = {k: _distribution(v, src, ("samples", "values", k)) for k, v in values.items()}
     rng = np.random.default_rng(seed)
-    return [tuple((k, json.dumps(draw(rng, args))) for k, (draw, args) in draws.items()) for _ in range(count)]
+    out = [tuple((k, draw(rng, args)) for k, (draw, args) in draws.items()) for _ in range(count)]
+    for k, v in itertools.chain.from_iterable(out):
+        if isinstance(v, float) and not math.isfinite(v):  # a normal's draw past the largest float
+            raise src.error(("samples", "values", k), f"drew {v}, not a finite number; narrow the distribution")
+    return [tuple((str(k), json.dumps(v)) for k, v in sample) for sample in out]
 
 
 def _distribution(raw: Any, src: Source, key: tuple) -> tuple:
@@ -194,13 +200,21 @@ def _distribution(raw: Any, src: Source, key: tuple) -> tuple:
     if name not in DISTRIBUTIONS:
         raise src.error((*key, name), f"unknown distribution{_suggest(str(name), DISTRIBUTIONS)}")
     shape, draw = DISTRIBUTIONS[name]
-    numbers = isinstance(args, list) and all(isinstance(a, int | float) and not isinstance(a, bool) for a in args)
-    ok = (isinstance(args, list) and len(args) > 0 if name == "choice" else numbers and len(args) == 2 and (
-        args[0] < args[1] if name != "normal" else args[1] >= 0) and (name != "loguniform" or args[0] > 0))
+    if name == "choice":
+        ok = isinstance(args, list) and len(args) > 0 and all(_finite(a) for a in args if isinstance(a, int | float))
+    else:  # numbers a float holds; numpy's uniform also refuses a high - low past the largest float
+        ok = isinstance(args, list) and len(args) == 2 and all(_finite(a) and not isinstance(a, bool) for a in args)
+        if ok:
+            a, b = args
+            ok = b >= 0 if name == "normal" else a < b and _finite(b - a) and (name == "uniform" or a > 0)
     if not ok:
-        raise src.error((*key, name), f"expected {shape}{'' if name in ('choice', 'normal') else ', low < high'}, "
-                                      f"got {args!r}")
+        raise src.error((*key, name), f"expected {shape}, got {args!r}")
     return draw, args
+
+
+def _finite(a: Any) -> bool:
+    """Whether ``a`` is a number a float holds (not NaN, not infinite, not an int past the largest float)."""
+    return isinstance(a, int | float) and abs(a) <= sys.float_info.max
 
 
 def _seeds(raw: Any, src: Source) -> list[int] | None:
