@@ -121,9 +121,10 @@ def test_a_tune_on_a_real_scheduler_and_worker(tmp_path):
 @pytest.mark.parametrize(("text", "message"), [
     (GAINS + "trails: 3\n", "t.yaml:8: trails: unknown key; did you mean 'trials'?"),
     (GAINS.replace("uniform: [0.3, 3]", "uniform: [3, 0.3]"),
-     "t.yaml:4: params.speed_controller.kp.uniform: expected [low, high], low < high, got [3, 0.3]"),
+     "t.yaml:4: params.speed_controller.kp.uniform: expected [low, high], low < high, finite numbers at most "
+     "1.8e308 apart, got [3, 0.3]"),
     (GAINS.replace("loguniform: [0.05, 1]", "loguniform: [0, 1]"),
-     "t.yaml:5: params.speed_controller.ki.loguniform: expected [low, high], 0 < low < high"),
+     "t.yaml:5: params.speed_controller.ki.loguniform: expected [low, high], finite numbers, 0 < low < high"),
     (GAINS.replace("{uniform: [0.3, 3]}", "{int: [1, 2.5]}"),
      "t.yaml:4: params.speed_controller.kp.int: expected [low, high], whole numbers"),
     (GAINS.replace("{uniform: [0.3, 3]}", "{gauss: [1, 2]}"),
@@ -139,6 +140,24 @@ def test_a_tune_on_a_real_scheduler_and_worker(tmp_path):
     (GAINS.replace("{uniform: [0.3, 3]}", "{uniform: [-1, 3]}"),  # an end of the space the controller refuses
      "t.yaml:4: --set speed_controller.kp=-1: speed_controller.kp: pi_ff kp must be a finite number >= 0, got -1"),
     (GAINS.replace(f"[{SHORT}]", "[nope]"), "nope: no such file, nor a bundled scenario"),
+    (GAINS.replace("{uniform: [0.3, 3]}", "{uniform: [0.3, .inf]}"),
+     "t.yaml:4: params.speed_controller.kp.uniform: expected [low, high], low < high, finite numbers"),
+    (GAINS.replace("{uniform: [0.3, 3]}", "{uniform: [-1.0e+308, 1.0e+308]}"),  # Optuna's draw overflowed
+     "t.yaml:4: params.speed_controller.kp.uniform: expected [low, high], low < high, finite numbers at most "
+     "1.8e308 apart"),
+    (GAINS.replace("{int: [4, 6]}", f"{{int: [4, {2**63}]}}"),  # the trials' table held no such int
+     "t.yaml:3: params.duration.int: expected [low, high], whole numbers within ±9007199254740992"),
+    (GAINS.replace("choice: [0, 2]", "choice: [0, .nan]"),
+     "t.yaml:6: params.initial.speed.choice: expected [option, option, ...] of finite numbers"),
+    (GAINS + "constraints: {speed_overshoot_pct: {max: .nan}}\n",  # Optuna refused the NaN once the cluster ran
+     "t.yaml:8: constraints.speed_overshoot_pct: expected bounds {min: a, max: b} (finite numbers, a <= b)"),
+    (GAINS + "constraints: {completed: yes please}\n",  # no trial could meet these
+     "t.yaml:8: constraints.completed: expected true or false (or bounds {min: a, max: b} on a number), got "
+     "'yes please'"),
+    (GAINS + "constraints: {speed_overshoot_pct: .nan}\n",
+     "t.yaml:8: constraints.speed_overshoot_pct: expected a finite number (or bounds"),
+    (GAINS + "constraints: {traffic: 3}\n", "t.yaml:8: constraints.traffic: expected a word"),
+    (GAINS + "constraints: {completed: {min: 1}}\n", "t.yaml:8: constraints.completed: expected bounds"),
     (GAINS.replace("objective: {minimize: speed_error_rms_mps}\n", ""),
      "t.yaml:1: missing objective: add e.g. objective: {minimize: speed_error_rms_mps}"),
 ])

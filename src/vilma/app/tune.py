@@ -33,7 +33,7 @@ from rich.table import Table
 from rich.text import Text
 
 from vilma.app.sweep import PNG_DPI, connect, dask_logs, run_remote, warm, write_table
-from vilma.app.sweep_plan import _scenarios
+from vilma.app.sweep_plan import _finite, _scenarios
 from vilma.core.files import atomic_path
 from vilma.scenario.fields import Source, SpecError, _suggest, read_yaml
 from vilma.scenario.report import agg_figure, write_png
@@ -48,6 +48,10 @@ AGGREGATES = ("mean", "max")
 """How a trial's objective comes from its scenarios' values."""
 WORDS = ("incomplete_reason", "traffic", "perception", "planner", "planner_reason")
 """Scorecard keys whose values are words: no objective, and only an equality constraint."""
+BOOLEANS = ("completed", "truncated", "goal_reached", "collisions_checked", "off_road")
+"""Scorecard keys whose values are true or false: only an equality constraint (as a scenario's ``expect``)."""
+MAX_INT = 2**53
+"""The largest bound of an ``int`` space: Optuna's TPE draws whole numbers as floats, exact up to 2**53."""
 MAX_TRIALS = 10_000
 """Trials one tune may ask for (each is a row held in memory)."""
 CSV, PARQUET, BEST, HISTORY = "trials.csv", "trials.parquet", "best.yaml", "history.png"
@@ -176,9 +180,10 @@ def _params(raw: Any, src: Source) -> tuple[Param, ...]:
         if space not in SPACES:
             raise src.error((*where, space), f"unknown search space{_suggest(str(space), dict.fromkeys(SPACES))}")
         if not _fits(space, args):
-            shape = {"choice": "[option, option, ...] of numbers, words or booleans",
-                     "int": "[low, high], whole numbers, low < high",
-                     "loguniform": "[low, high], 0 < low < high"}.get(space, "[low, high], low < high")
+            shape = {"choice": "[option, option, ...] of finite numbers, words or booleans",
+                     "int": f"[low, high], whole numbers within ±{MAX_INT}, low < high",
+                     "loguniform": "[low, high], finite numbers, 0 < low < high"}.get(
+                space, "[low, high], low < high, finite numbers at most 1.8e308 apart")
             raise src.error((*where, space), f"expected {shape}, got {args!r}")
         out.append(Param(str(k), space, tuple(args)))
     return tuple(out)
@@ -189,10 +194,11 @@ def _fits(space: str, args: Any) -> bool:
     if not isinstance(args, list) or not args:
         return False
     if space == "choice":
-        return all(isinstance(a, bool | int | float | str) for a in args)
+        return all(isinstance(a, bool | str) or _finite(a) for a in args)
     kind = int if space == "int" else int | float
     return (len(args) == 2 and all(isinstance(a, kind) and not isinstance(a, bool) for a in args)
-            and args[0] < args[1] and (space != "loguniform" or args[0] > 0))
+            and args[0] < args[1] and _finite(args[1] - args[0]) and (space != "loguniform" or args[0] > 0)
+            and (space != "int" or -MAX_INT <= args[0] < args[1] <= MAX_INT))
 
 
 def _constraints(raw: Any, src: Source) -> tuple[Constraint, ...]:
@@ -204,16 +210,23 @@ def _constraints(raw: Any, src: Source) -> tuple[Constraint, ...]:
     for k, v in raw.items():
         if k not in SCORECARD_KEYS:
             raise src.error(("constraints", k), f"not a scorecard key{_suggest(str(k), dict.fromkeys(SCORECARD_KEYS))}")
-        if not isinstance(v, Mapping):
-            if v is None or isinstance(v, list):
-                raise src.error(("constraints", k), f"expected a value or {{min: a, max: b}}, got {v!r}")
+        if not isinstance(v, Mapping):  # a value of the key's kind: one a scorecard may hold
+            kind, ok = "a finite number", _finite(v) and not isinstance(v, bool)
+            if k in WORDS:
+                kind, ok = "a word", isinstance(v, str)
+            elif k in BOOLEANS:
+                kind, ok = "true or false", isinstance(v, bool)
+            if not ok:
+                raise src.error(("constraints", k), f"expected {kind} (or bounds {{min: a, max: b}} on a number), "
+                                                    f"got {v!r}")
             out.append(Constraint(str(k), equal=v))
             continue
         bad = [b for b in v if b not in ("min", "max")]
-        numbers = all(isinstance(x, int | float) and not isinstance(x, bool) for x in v.values())
-        if bad or not v or not numbers or k in WORDS or v.get("min", -math.inf) > v.get("max", math.inf):
-            raise src.error(("constraints", k, *bad[:1]), f"expected bounds {{min: a, max: b}} (numbers, a <= b) on "
-                                                          f"a number of the scorecard, got {dict(v)!r}")
+        numbers = all(_finite(x) and not isinstance(x, bool) for x in v.values())
+        if (bad or not v or not numbers or k in (*WORDS, *BOOLEANS)
+                or v.get("min", -math.inf) > v.get("max", math.inf)):
+            raise src.error(("constraints", k, *bad[:1]), f"expected bounds {{min: a, max: b}} (finite numbers, "
+                                                          f"a <= b) on a number of the scorecard, got {dict(v)!r}")
         out.append(Constraint(str(k), min=v.get("min"), max=v.get("max")))
     return tuple(out)
 
