@@ -95,12 +95,18 @@ def test_ctrl_c_keeps_the_finished_trials(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_a_key_the_scenario_does_not_measure_fails_each_trial(tmp_path):
-    # a straight speed task has no path: its scorecard leaves the lateral error empty
-    path = _file(tmp_path, GAINS.replace("speed_error_rms_mps", "lateral_error_rms_m") + "trials: 2\n")
-    table = tune.tune(path, workers=1)
-    assert list(table["error"]) == [f"{SHORT}: no lateral_error_rms_m in its scorecard"] * 2
-    assert not table["feasible"].any() and table["objective"].isna().all()
+def test_a_key_a_run_does_not_measure_fails_each_trial_and_the_summary_says_so(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    # 9 m/s from at most 2 m/s takes at least 7 / (6000 N / 1211 kg) = 1.4 s at the car's largest drive force:
+    # runs of 1 s never rise to 90 % of 10 m/s
+    _file(tmp_path, GAINS.replace("{int: [4, 6]}", "{choice: [1]}").replace("speed_error_rms_mps",
+                                                                            "speed_rise_time_90_s") + "trials: 2\n")
+    assert main(["tune", "t.yaml", "--workers", "1", "--out", "out"]) == 1
+    table = pd.read_csv(tmp_path / "out" / tune.CSV)
+    missing = f"{SHORT}: no speed_rise_time_90_s in its scorecard"
+    assert list(table["error"]) == [missing] * 2 and not table["feasible"].any()
+    err = capsys.readouterr().err
+    assert err == f"vilma tune: no best: all 2 trials failed, e.g. {missing} (trials in out/trials.csv)\n"
 
 
 @pytest.mark.slow
@@ -158,6 +164,14 @@ def test_a_tune_on_a_real_scheduler_and_worker(tmp_path):
      "t.yaml:8: constraints.speed_overshoot_pct: expected a finite number (or bounds"),
     (GAINS + "constraints: {traffic: 3}\n", "t.yaml:8: constraints.traffic: expected a word"),
     (GAINS + "constraints: {completed: {min: 1}}\n", "t.yaml:8: constraints.completed: expected bounds"),
+    # keys no run of a speed task on flat ground measures, whatever its values
+    (GAINS.replace("minimize: speed_error_rms_mps", "maximize: min_distance_to_traffic_m"),
+     f"t.yaml:7: objective.maximize: {SHORT} never measures min_distance_to_traffic_m (it has no CommonRoad road, "
+     "nor boxes or cones on flat ground); choose another key or scenario"),
+    (GAINS.replace("speed_error_rms_mps", "lateral_error_rms_m"),
+     f"t.yaml:7: objective.minimize: {SHORT} never measures lateral_error_rms_m (a speed task has no path)"),
+    (GAINS + "constraints: {goal_reached: true}\n",
+     f"t.yaml:8: constraints.goal_reached: {SHORT} never measures goal_reached (it has no CommonRoad road)"),
     (GAINS.replace("objective: {minimize: speed_error_rms_mps}\n", ""),
      "t.yaml:1: missing objective: add e.g. objective: {minimize: speed_error_rms_mps}"),
 ])

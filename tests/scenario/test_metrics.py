@@ -20,6 +20,7 @@ from vilma.scenario.metrics import (
     scorecard,
     step_response,
     timing,
+    unmeasured,
 )
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, MetricsSpec, Scenario, TaskSpec
 from vilma.trajectory import Trajectory
@@ -217,3 +218,16 @@ def test_convex_gap_is_shapelys_distance_between_a_car_box_and_a_polygon(pose, s
     expected = shapely.Polygon(car).distance(shapely.Polygon(cone))
     assert convex_gap(car, cone) == pytest.approx(expected, abs=1e-9)
     assert convex_gap(car[None, None], cone[None, None]).shape == (1, 1)  # broadcast over leading axes
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["pi_ff_speed_10", "course_30kmh_ekf", "commonroad_tutorial", "planned_cones_30kmh",
+                                  "course_3d_obstacles"])
+def test_the_keys_a_scenario_never_measures_are_none_in_its_run(name):
+    from vilma.scenario.runner import run
+    from vilma.scenario.spec import load_scenario
+
+    scenario = load_scenario(name, {"duration": "4"})
+    metrics = run(scenario).metrics
+    never = unmeasured(scenario)
+    assert never and all(metrics[k] is None for k in never), [k for k in never if metrics[k] is not None]

@@ -36,6 +36,7 @@ from vilma.app.sweep import PNG_DPI, connect, dask_logs, run_remote, warm, write
 from vilma.app.sweep_plan import _finite, _scenarios
 from vilma.core.files import atomic_path
 from vilma.scenario.fields import Source, SpecError, _suggest, read_yaml
+from vilma.scenario.metrics import unmeasured
 from vilma.scenario.report import agg_figure, write_png
 from vilma.scenario.scorecard import SCORECARD_KEYS
 from vilma.scenario.spec import load_scenario, to_yaml
@@ -134,12 +135,18 @@ def read_tune(path: str | Path) -> TunePlan:
                     _whole(data.get("trials", 20), src, "trials", 1, MAX_TRIALS), _whole(data.get("seed", 0), src,
                                                                                          "seed", 0, 2**32 - 1))
     for label in plan.scenarios:  # every value a trial may take loads (each space's ends, each choice)
+        never = None  # the keys no run of it measures with any of these values
         for p in plan.params:
             for v in p.ends():
                 try:
-                    load_scenario(label, {p.key: json.dumps(v)})
+                    scenario = load_scenario(label, {p.key: json.dumps(v)})
                 except SpecError as e:
                     raise SpecError(f"{src.where(('params', p.key))}: {e}") from None
+                never = {k: why for k, why in unmeasured(scenario).items() if never is None or k in never}
+        keys = [(("objective", direction), plan.key), *((("constraints", c.key), c.key) for c in plan.constraints)]
+        for where, k in keys:
+            if k in never:
+                raise src.error(where, f"{label} never measures {k} ({never[k]}); choose another key or scenario")
     return plan
 
 
@@ -418,9 +425,11 @@ def tune_command(args, console: Console) -> int:
         console.print(Text(f"FAIL: {error}"), style="red")
     best = best_trial(plan, table)
     if best is None:
-        failed = int(table["error"].notna().sum())
-        print(f"vilma tune: no best: none of {len(table)} trials met the constraints ({failed} failed); loosen "
-              f"them or search other values (trials in {out / CSV})", file=sys.stderr)
+        errors = table["error"].dropna()  # every trial failed: say why, not that the constraints are too tight
+        why = (f"all {len(table)} trials failed, e.g. {errors.iloc[0]}" if len(errors) == len(table) else
+               f"none of {len(table)} trials met the constraints ({len(errors)} failed); loosen them or search other "
+               "values")
+        print(f"vilma tune: no best: {why} (trials in {out / CSV})", file=sys.stderr)
         return 1
     console.print(best_table(plan, best))
     console.print(Text(f"best scenario: {out / BEST} (vilma run {out / BEST})"))

@@ -35,12 +35,21 @@ import numpy as np
 
 from vilma.core.geometry import wrap_angle
 from vilma.scenario.drive_log import DriveLog
+from vilma.scenario.plan_keys import PLANNING_KEYS
 from vilma.scenario.spec import SCORECARD_KEYS, Bound, Scenario
 from vilma.sim.config import MUJOCO
 from vilma.trajectory import Trajectory
 
 WATCHDOG_STOP = "the watchdog stopped the car (the driver sent no command in time)"
 """Why a run whose watchdog tripped did not complete (the runner's and the report's words)."""
+ROAD_KEYS = ("goal_reached", "time_to_goal_s", "traffic", "collisions_checked", "off_road", "min_time_to_collision_s")
+"""The keys only a CommonRoad road's run measures (:func:`_road_checks`)."""
+PATH_KEYS = ("end_error_m", "path_progress", "waypoints_skipped", "lateral_error_rms_m", "lateral_error_max_m",
+             "lateral_error_p95_m", "heading_error_rms_rad")
+"""The keys measured against a path: every task's but a speed task's."""
+STEP_KEYS = ("speed_rise_time_90_s", "speed_overshoot_pct", "speed_settling_time_2pct_s",
+             "speed_steady_state_error_mps")
+"""The keys of a speed step (:func:`step_response`): a speed task's only."""
 
 
 def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_start: float,
@@ -99,6 +108,25 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
     if len(us) and not np.isnan(us).all():
         out["controller_time_per_step_us"] = float(np.nanmean(us))
     return {k: plain(v) for k, v in out.items()}
+
+
+def unmeasured(scenario: Scenario) -> dict[str, str]:
+    """The scorecard keys no run of ``scenario`` measures (None whatever the car does), each with why, in words: what
+    :func:`scorecard` and the runner (a plan's keys, the 3D plant's collisions) measure depends on these."""
+    kind, never = scenario.task.kind, {}
+    if scenario.road is None:
+        never |= dict.fromkeys(ROAD_KEYS, "it has no CommonRoad road")
+        if scenario.sim.traffic is None or scenario.sim.model == MUJOCO:
+            never["min_distance_to_traffic_m"] = "it has no CommonRoad road, nor boxes or cones on flat ground"
+    if kind != "plan":
+        never |= dict.fromkeys(PLANNING_KEYS, "it is not a plan task")
+    if kind == "speed":
+        never |= dict.fromkeys(PATH_KEYS, "a speed task has no path")
+    else:
+        never |= dict.fromkeys(STEP_KEYS, "only a speed task is a speed step")
+    if scenario.driver.pose_source == "truth":
+        never["pose_error_rms_m"] = "it steers by the true pose (pose: truth)"
+    return never
 
 
 def _road_checks(scenario: Scenario, log: DriveLog, out: dict) -> list[str]:
