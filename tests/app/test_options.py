@@ -9,7 +9,18 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from vilma.app.options import count, duration, non_negative, port, port_or_any, positive, sim_time, wall_delay
+from vilma.app.options import (
+    SCHEDULER_PROTOCOLS,
+    count,
+    duration,
+    non_negative,
+    port,
+    port_or_any,
+    positive,
+    scheduler,
+    sim_time,
+    wall_delay,
+)
 from vilma.core.clock import MAX_NS, NS_PER_S
 
 FLOATS = {
@@ -63,6 +74,26 @@ def test_any_text_is_a_number_in_range_or_one_argparse_line(kind, text):
 def test_whole_numbers_are_whole():
     assert _one_line_refusal(port, "80.5") == "expected a whole number, got '80.5'"
     assert _one_line_refusal(positive, "fast") == "expected a number, got 'fast'"
+
+
+@given(protocol=st.sampled_from(["", "tcp://", "tls://", "ws://", "http://", "inproc://", "tcp:/"]),
+       host=st.sampled_from(["", "127.0.0.1", "[::1]", "node-7.cluster"]), number=st.integers(-10, 70_000))
+def test_a_scheduler_address_is_taken_exactly_with_a_known_protocol_a_host_and_a_port(protocol, host, number):
+    text = f"{protocol}{host}:{number}"
+    if protocol.removesuffix("://") in ("", *SCHEDULER_PROTOCOLS) and host and 1 <= number <= 65535:
+        assert scheduler(text) == text
+    else:
+        assert _one_line_refusal(scheduler, text)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("tcp://127.0.0.1:99999", "port 99999 of 'tcp://127.0.0.1:99999' must be a TCP port, 1-65535"),
+    ("http://x", "unknown protocol 'http' in 'http://x'; use one of tcp, tls, ws, wss, ucx, e.g. tcp://host:8786"),
+    ("garbage", "expected a Dask scheduler's address, HOST:PORT or tcp://HOST:PORT (as `dask scheduler` prints it), "
+                "got 'garbage'"),
+])
+def test_a_malformed_scheduler_address_says_what_is_wrong(text, message):
+    assert _one_line_refusal(scheduler, text) == message
 
 
 def _need(kind) -> str:

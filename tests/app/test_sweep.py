@@ -329,6 +329,14 @@ def test_an_unreachable_scheduler_is_one_line_and_exit_2(tmp_path, capsys, monke
     assert err.count("\n") == 1 and not (tmp_path / "sweeps").exists()
 
 
+@pytest.mark.parametrize("address", ["tcp://127.0.0.1:99999", "http://x", "garbage"])
+def test_a_malformed_scheduler_address_is_an_argparse_error_before_any_connection(address, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["sweep", "s.yaml", "--scheduler", address])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "vilma sweep: error: argument --scheduler: " in err and "within" not in err
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["--workers", "2", "--cars", "3"], "--workers and --scheduler run on Dask as fast as they can: drop --cars"),
     (["--scheduler", "tcp://127.0.0.1:1", "--realtime", "1"], "drop --cars, --realtime and --foxglove"),

@@ -21,6 +21,7 @@ from vilma.app.options import (
     port,
     port_or_any,
     positive,
+    scheduler,
     sim_time,
     wall_delay,
 )
@@ -115,7 +116,8 @@ def _cluster(q: argparse.ArgumentParser, which: str) -> None:
     e = q.add_mutually_exclusive_group()
     e.add_argument("--workers", type=count, metavar="N", help=f"run on a local Dask cluster of N processes ({which}"
                    "default one a core)")
-    e.add_argument("--scheduler", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
+    e.add_argument("--scheduler", type=scheduler, metavar="ADDRESS",
+                   help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
 
 
 def _program(name: str) -> Callable[[argparse.ArgumentParser], None]:

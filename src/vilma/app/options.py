@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -74,6 +75,26 @@ def port(text: str) -> int:
 def port_or_any(text: str) -> int:
     """A TCP port, 1-65535, or 0 for any free one."""
     return _number(text, lambda v: 0 <= v <= 65535, "a TCP port, 1-65535, or 0 for any free port", int)
+
+
+SCHEDULER_PROTOCOLS = ("tcp", "tls", "ws", "wss", "ucx")
+"""The transports of a Dask scheduler's address (dask.distributed's; not ``inproc``: a scheduler in this process)."""
+
+
+def scheduler(text: str) -> str:
+    """A Dask scheduler's address, ``[PROTOCOL://]HOST:PORT`` (tcp by default; an IPv6 host in brackets), its port
+    1-65535."""
+    protocol, sep, location = text.rpartition("://")
+    host, _, number = location.rpartition(":")
+    if sep and protocol not in SCHEDULER_PROTOCOLS:
+        raise argparse.ArgumentTypeError(f"unknown protocol {protocol!r} in {text!r}; use one of "
+                                         f"{', '.join(SCHEDULER_PROTOCOLS)}, e.g. tcp://host:8786")
+    if not re.fullmatch(r"[\w.-]+|\[[0-9A-Fa-f:.]+\]", host) or not number.isdecimal():  # a name, IPv4, [IPv6]
+        raise argparse.ArgumentTypeError(f"expected a Dask scheduler's address, HOST:PORT or tcp://HOST:PORT (as "
+                                         f"`dask scheduler` prints it), got {text!r}")
+    if not 1 <= int(number) <= 65535:
+        raise argparse.ArgumentTypeError(f"port {number} of {text!r} must be a TCP port, 1-65535")
+    return text
 
 
 def scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", plant: str | None = None):

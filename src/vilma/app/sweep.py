@@ -64,15 +64,16 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> Iterato
     a core each), a thread each (runs hold the GIL).
 
     Raises:
-        OSError: no scheduler answers at ``scheduler`` within :data:`CONNECT_TIMEOUT`.
+        OSError: no scheduler answers at ``scheduler`` within :data:`CONNECT_TIMEOUT`, or it is no address.
     """
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT)
         except (OSError, ValueError, TypeError) as e:
-            why = "no Dask scheduler answers there" if isinstance(e, OSError) else f"not a scheduler address ({e})"
-            raise OSError(f"--scheduler {scheduler}: {why} within {CONNECT_TIMEOUT:g} s; start one with `dask "
-                          "scheduler` and give the address it prints (tcp://host:8786)") from None
+            why = (f"no Dask scheduler answers there within {CONNECT_TIMEOUT:g} s; start one with `dask scheduler` "
+                   "and give the address it prints" if isinstance(e, OSError) else
+                   f"not a Dask scheduler's address ({e}); give one as `dask scheduler` prints it")
+            raise OSError(f"--scheduler {scheduler}: {why} (tcp://host:8786)") from None
         with client:
             yield client
         return
