@@ -37,6 +37,17 @@ def test_info_densify_smooth_resample(tmp_path, capsys):
     assert np.all((np.diff(r.s)[:-1] > 1.95) & (np.diff(r.s)[:-1] <= 2.0 + 1e-9))
 
 
+def test_smoothing_weights_the_sweeps_cannot_converge_with_are_one_line_and_exit_2(tmp_path, capsys):
+    out = tmp_path / "o.csv"
+    assert main(["trajectory", "smooth", str(CURVED), str(out), "--beta", "1"]) == 2
+    assert capsys.readouterr().err == ("vilma trajectory: error: beta must be in [0, 0.75) with alpha 0.5 for the "
+                                       "iterative sweeps to converge (alpha + 2 beta < 2), got 1; lower it, or solve "
+                                       "directly: solver banded (--solver banded)\n")
+    assert not out.exists()
+    assert main(["trajectory", "smooth", str(CURVED), str(out), "--beta", "1", "--solver", "banded"]) == 0
+    assert np.isfinite(load_trajectory(out).xy).all()
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["trajectory", "smooth", str(CURVED)], "give the output file"),
     (["trajectory", "info", "missing.txt"], "missing.txt: no such file"),

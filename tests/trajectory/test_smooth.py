@@ -3,6 +3,7 @@ import pytest
 
 from tests.control.conftest import LOGS
 from vilma.trajectory import increase_point_count, load_trajectory, smooth_banded, smooth_iterative
+from vilma.trajectory.smooth import _gauss_seidel, check_iterative
 
 
 def _zigzag(n=60, seed=0):
@@ -47,3 +48,33 @@ def test_last_change_stopping_rule_stops_earlier():
     assert np.abs(old - exact).max() >= np.abs(full - exact).max()
     with pytest.raises(ValueError):
         smooth_iterative(xy, delta="first")
+
+
+@pytest.mark.parametrize(("alpha", "beta"), [(0.5, 0.1), (1.0, 0.45), (0.2, 0.85), (1.9, 0.0), (0.5, 0.8),
+                                             (0.5, 1.0), (1.0, 1.0), (2.5, 0.0)])
+def test_the_sweeps_converge_exactly_when_alpha_plus_two_beta_is_below_2(alpha, beta):
+    # SOR with omega = alpha + 2 beta on a symmetric positive definite matrix: converges iff 0 < omega < 2
+    # (Ostrowski-Reich). Here an error of 1 m shrinks below 1e-6 m in 300 sweeps where they converge (the matrix is
+    # tridiagonal: Young's rate, at most omega - 1 = 0.9 a sweep for these weights, 0.9^300 ~ 2e-14) and grows past
+    # 1e3 m where they do not (a rate of at least omega - 1 >= 1.1, Kahan: 1.1^300 ~ 3e12)
+    xy = _zigzag(30)
+    exact, s = smooth_banded(xy, alpha, beta), xy.copy()
+    s[1:-1] += 1.0
+    _gauss_seidel(xy, s, alpha, beta, 0.0, True, 300)
+    error = np.abs(s - exact).max()
+    if alpha + 2 * beta < 2:
+        assert error < 1e-6
+        check_iterative(alpha, beta)
+    else:
+        assert error > 1e3
+        with pytest.raises(ValueError, match=r"^(alpha|beta) must be in"):
+            smooth_iterative(xy, alpha, beta)
+
+
+def test_weights_outside_the_range_name_the_parameter_and_its_range_and_banded_solves_them():
+    xy = _zigzag()
+    with pytest.raises(ValueError, match=r"^beta must be in \[0, 0.75\) with alpha 0.5 .*got 1; .*--solver banded"):
+        smooth_iterative(xy, beta=1.0)
+    with pytest.raises(ValueError, match=r"^alpha must be in \(0, 2\) .*got 2;"):
+        smooth_iterative(xy, alpha=2.0, beta=0.0)
+    assert np.isfinite(smooth_banded(xy, beta=1.0)).all()

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from vilma.trajectory.points import MAX_DENSIFY, MAX_POINTS
-from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE
+from vilma.trajectory.smooth import ALPHA, BETA, TOLERANCE, check_iterative
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -26,6 +26,8 @@ class SmoothSpec:
             raise ValueError(f"solver must be 'iterative' or 'banded', got {self.solver!r}")
         if not (self.alpha > 0 and self.beta >= 0 and self.tolerance > 0):
             raise ValueError("alpha must be > 0, beta >= 0 and tolerance > 0")
+        if self.solver == "iterative":
+            check_iterative(self.alpha, self.beta)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -9,6 +9,12 @@ repeated while the sweep's total absolute change is at least ``tolerance``.
 Its fixed point solves the tridiagonal system
 ``(alpha + 2 beta) s_i - beta (s_{i-1} + s_{i+1}) = alpha p_i`` with the
 ends fixed, which :func:`smooth_banded` solves directly in O(n).
+
+The update is that system's Gauss-Seidel step relaxed by ``omega = alpha + 2 beta``
+(``s_i += omega (gs_i - s_i)``, ``gs_i`` the Gauss-Seidel value), i.e. SOR. The
+matrix is symmetric positive definite for alpha > 0, beta >= 0, so the sweeps
+converge exactly when 0 < omega < 2 (Ostrowski-Reich; Kahan: omega outside
+(0, 2) diverges for any matrix): ``alpha + 2 beta < 2`` (:func:`check_iterative`).
 """
 
 from __future__ import annotations
@@ -35,15 +41,31 @@ def _gauss_seidel(p, s, alpha, beta, tolerance, sum_delta, max_sweeps):
     return max_sweeps
 
 
+def check_iterative(alpha: float, beta: float) -> None:
+    """Raise ValueError, naming the parameter and its range, unless Algorithm 1's sweeps converge with these weights
+    (``alpha + 2 beta < 2``, module docstring); :func:`smooth_banded` solves any alpha > 0, beta >= 0."""
+    banded = "lower it, or solve directly: solver banded (--solver banded)"
+    if not alpha < 2:
+        raise ValueError(f"alpha must be in (0, 2) for the iterative sweeps to converge (alpha + 2 beta < 2), got "
+                         f"{alpha:g}; {banded}")
+    if not alpha + 2 * beta < 2:
+        raise ValueError(f"beta must be in [0, {(2 - alpha) / 2:g}) with alpha {alpha:g} for the iterative sweeps to "
+                         f"converge (alpha + 2 beta < 2), got {beta:g}; {banded}")
+
+
 def smooth_iterative(xy, alpha: float = ALPHA, beta: float = BETA, tolerance: float = TOLERANCE,
                      delta: str = "sum", max_sweeps: int = 1_000_000) -> np.ndarray:
     """Algorithm 1 exactly as the original, in float64 (the original used float32). Returns (n, 2).
 
     ``delta="sum"`` stops on the sweep's total |change| (the final version);
     ``delta="last"`` on the last y change only (older versions' ``delta =+`` bug, which stops earlier).
+
+    Raises:
+        ValueError: weights with which the sweeps diverge (:func:`check_iterative`), or a bad ``delta``.
     """
     if delta not in ("sum", "last"):
         raise ValueError(f"delta must be 'sum' or 'last', got {delta!r}")
+    check_iterative(alpha, beta)
     p = _points(xy)
     s = p.copy()
     if len(p) > 2:
