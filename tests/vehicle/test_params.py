@@ -1,9 +1,10 @@
 import dataclasses
 import math
+import re
 
 import pytest
 
-from vilma.vehicle.params import GRAVITY, PRESETS, bmw_320i, plant_consts, preset, vilma
+from vilma.vehicle.params import GRAVITY, LIMITS, PRESETS, bmw_320i, plant_consts, preset, vilma
 
 
 def test_vilma_preset_is_the_papers_car():
@@ -84,3 +85,26 @@ def test_top_speed_is_where_full_power_meets_the_resistance(name):
     no_drag = dataclasses.replace(p, drag_area=0.0)  # rolling resistance alone: P = f v
     assert no_drag.top_speed == pytest.approx(p.max_power / (p.rolling_resistance * p.mass * GRAVITY))
     assert dataclasses.replace(no_drag, rolling_resistance=0.0).top_speed == math.inf
+
+
+@pytest.mark.parametrize(("field", "value"), [("mass", 1e300), ("mass", 0.01), ("drag_area", 1e-300),
+                                              ("max_power", 1e300), ("friction", 1e300), ("drive_split_front", 7.0),
+                                              ("tyre_curvature", 2.0), ("wheel_radius", 1e5)])
+def test_absurd_parameters_are_refused_with_their_range(field, value):
+    low, high = LIMITS[field]
+    with pytest.raises(ValueError, match=re.escape(f"vehicle 'vilma': {field} must be within [{low:g}, {high:g}]")):
+        dataclasses.replace(vilma(), **{field: value})
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_the_derived_values_are_finite_at_every_corner_of_the_limits(name):
+    # the extremes that drive the top speed's Cardano terms: the heaviest, most resisted, least dragged car and the
+    # most powerful, least dragged one; each its top speed where full power meets the resistance
+    light, heavy = {k: lo for k, (lo, _) in LIMITS.items()}, {k: hi for k, (_, hi) in LIMITS.items()}
+    for corner in ({"mass": heavy["mass"], "rolling_resistance": heavy["rolling_resistance"]},
+                   {"max_power": heavy["max_power"]}, {"mass": light["mass"]}):
+        p = dataclasses.replace(preset(name), drag_area=light["drag_area"], air_density=light["air_density"],
+                                **corner)
+        v = p.top_speed
+        assert math.isfinite(v) and p.load_front > 0 and math.isfinite(p.understeer_gradient)
+        assert p.resistance(v) * v == pytest.approx(p.max_power, rel=1e-12)

@@ -21,6 +21,29 @@ from vilma.core.checks import check_numbers
 GRAVITY = 9.81
 """Gravitational acceleration [m/s^2]."""
 
+# The range of each number of a car: every wheeled vehicle there is, from a 1:10 model car (about 1 kg, wheelbase
+# 0.3 m, wheel radius 0.05 m, a few hundred watts) to the largest mining truck (about 800 t laden, 20 m long, 10 m
+# wide, 2 m wheels, 4.6 MW, Cd*A near 80 m^2), with a factor of 10 to 1000 beyond both ends, so that no car one may
+# model is refused while a typo by powers of ten (mass 1e300) is. Within them the derived values stay far from a
+# float's range: the axle loads, the top speed's Cardano terms (p^3 <= 1e42, q^2 <= 1e30) and the plant's forces.
+LIMITS = {
+    "mass": (0.1, 1e7),  # [kg]
+    "yaw_inertia": (1e-4, 1e10),  # [kg m^2], about m (length^2 + width^2) / 12
+    **dict.fromkeys(("cg_to_front", "cg_to_rear", "track", "length", "width", "wheel_radius"), (1e-3, 100.0)),  # [m]
+    **dict.fromkeys(("cornering_stiffness_front", "cornering_stiffness_rear"), (0.01, 1e10)),  # [N/rad], 5-30 loads
+    "tyre_shape": (0.1, 10.0),  # Pacejka's C, 1.3 for the lateral force
+    "tyre_curvature": (-100.0, 1.0),  # Pacejka's E, at most 1
+    "friction": (0.01, 10.0),  # ice 0.05, dry asphalt 1, racing slicks under 2
+    "max_power": (0.1, 1e9),  # [W]
+    **dict.fromkeys(("max_drive_force", "max_brake_force", "power_unit_force", "brake_unit_force"), (1e-3, 1e9)),  # [N]
+    **dict.fromkeys(("drive_split_front", "brake_split_front"), (0.0, 1.0)),  # shares
+    "drag_area": (1e-4, 1e3),  # [m^2] (0: no drag)
+    "air_density": (0.01, 10.0),  # [kg/m^3], Mars' ground 0.02, sea level 1.225 (0: no air)
+    "rolling_resistance": (1e-4, 1.0),  # (0: none)
+    **dict.fromkeys(("blend_speed_low", "blend_speed_high"), (1e-3, 1e3)),  # [m/s] (low 0: dynamic from rest)
+}
+"""The ``[low, high]`` of each number of :class:`VehicleParams` (0 is also taken where a field may be off)."""
+
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class ActuatorParams:
@@ -145,6 +168,10 @@ class VehicleParams:
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ValueError(f"vehicle '{self.name}': {name} must be > 0, got {getattr(self, name)!r}")
+        for name, (low, high) in LIMITS.items():
+            if getattr(self, name) and not low <= getattr(self, name) <= high:
+                raise ValueError(f"vehicle '{self.name}': {name} must be within [{low:g}, {high:g}] (any wheeled "
+                                 f"vehicle's, vilma.vehicle.params.LIMITS), got {getattr(self, name)!r}")
         if not 0 <= self.blend_speed_low < self.blend_speed_high:
             raise ValueError(f"vehicle '{self.name}': need 0 <= blend_speed_low < blend_speed_high")
         if not self.max_steer < math.pi / 2:
@@ -187,8 +214,9 @@ class VehicleParams:
         if k <= 0:
             return self.max_power / f if f > 0 else math.inf
         q, p = self.max_power / (2 * k), f / (3 * k)  # v^3 + 3 p v - 2 q = 0
-        root = math.sqrt(q * q + p**3)
-        return math.cbrt(q + root) + math.cbrt(q - root)
+        a = math.cbrt(q + math.sqrt(q * q + p**3))
+        # a - p / a, as 2 q over a sum of positive terms: no cancellation when rolling dominates (p^3 >> q^2)
+        return 2 * q / (a * a + p + (p / a) ** 2)
 
     def resistance(self, speed: float) -> float:
         """Drag plus rolling resistance at a forward ``speed`` > 0 [N]."""
