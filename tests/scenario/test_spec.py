@@ -136,6 +136,8 @@ def test_a_vehicle_value_set_changes_the_scenarios_preset(tmp_path):
     ("task: {speed: 5}\nvehicle: tesla\n", "s.yaml:2: vehicle: unknown vehicle preset 'tesla'"),
     ("task: {speed: 5}\nvehicle: car.yaml\n", "s.yaml:2: vehicle: "),  # (then the file's whole path: no such file)
     ("task: {speed: 5}\nseed: -1\n", "s.yaml:2: seed: -1 is not a seed: give a whole number >= 0"),
+    ("task: {speed: 5}\nactuators: {dead_time: -1}\n",
+     "s.yaml:2: actuators.dead_time: actuator dead_time must be a finite number >= 0, got -1.0"),
     ("task: {speed: 5}\nsensors: {gps: {horizontal_noise: -1}}\n",
      "s.yaml:2: sensors.gps.horizontal_noise: sensor gps horizontal_noise must be a finite number >= 0, got -1.0"),
     ("task: {speed: 5}\nsensors: {imu: {bias_tau: 0}}\n",

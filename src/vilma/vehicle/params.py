@@ -66,6 +66,10 @@ class ActuatorParams:
     stop_deceleration: float = 3.0
     """Deceleration of the watchdog's controlled stop [m/s^2]."""
 
+    def __post_init__(self) -> None:
+        check_numbers(self, "actuator", positive=("steer_rate_limit", "max_accel", "max_decel", "stop_deceleration"),
+                      non_negative=True)
+
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class SuspensionParams:
