@@ -38,7 +38,7 @@ from vilma.core.files import atomic_path
 from vilma.scenario.fields import Source, SpecError, _suggest, read_yaml
 from vilma.scenario.metrics import unmeasured
 from vilma.scenario.report import agg_figure, write_png
-from vilma.scenario.scorecard import SCORECARD_KEYS
+from vilma.scenario.scorecard import BOOLEAN_KEYS, SCORECARD_KEYS
 from vilma.scenario.spec import load_scenario, to_yaml
 
 KEYS = ("scenarios", "params", "objective", "constraints", "trials", "seed")
@@ -49,8 +49,6 @@ AGGREGATES = ("mean", "max")
 """How a trial's objective comes from its scenarios' values."""
 WORDS = ("incomplete_reason", "traffic", "perception", "planner", "planner_reason")
 """Scorecard keys whose values are words: no objective, and only an equality constraint."""
-BOOLEANS = ("completed", "truncated", "goal_reached", "collisions_checked", "off_road")
-"""Scorecard keys whose values are true or false: only an equality constraint (as a scenario's ``expect``)."""
 MAX_INT = 2**53
 """The largest bound of an ``int`` space: Optuna's TPE draws whole numbers as floats, exact up to 2**53."""
 MAX_TRIALS = 10_000
@@ -221,7 +219,7 @@ def _constraints(raw: Any, src: Source) -> tuple[Constraint, ...]:
             kind, ok = "a finite number", _finite(v) and not isinstance(v, bool)
             if k in WORDS:
                 kind, ok = "a word", isinstance(v, str)
-            elif k in BOOLEANS:
+            elif k in BOOLEAN_KEYS:
                 kind, ok = "true or false", isinstance(v, bool)
             if not ok:
                 raise src.error(("constraints", k), f"expected {kind} (or bounds {{min: a, max: b}} on a number), "
@@ -230,7 +228,7 @@ def _constraints(raw: Any, src: Source) -> tuple[Constraint, ...]:
             continue
         bad = [b for b in v if b not in ("min", "max")]
         numbers = all(_finite(x) and not isinstance(x, bool) for x in v.values())
-        if (bad or not v or not numbers or k in (*WORDS, *BOOLEANS)
+        if (bad or not v or not numbers or k in (*WORDS, *BOOLEAN_KEYS)
                 or v.get("min", -math.inf) > v.get("max", math.inf)):
             raise src.error(("constraints", k, *bad[:1]), f"expected bounds {{min: a, max: b}} (finite numbers, "
                                                           f"a <= b) on a number of the scorecard, got {dict(v)!r}")

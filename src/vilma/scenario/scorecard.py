@@ -27,6 +27,8 @@ SCORECARD_KEYS = (
 ``plan`` task: :mod:`vilma.scenario.planned`)."""
 TIMING_KEYS = SCORECARD_KEYS[-7:]
 """The keys measured on the wall clock: the only ones two runs of one scenario may differ in."""
+BOOLEAN_KEYS = ("completed", "truncated", "goal_reached", "collisions_checked", "off_road")
+"""The keys whose values are true or false (``null`` where they do not apply): bounded by equality only."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -63,7 +63,7 @@ from vilma.scenario.bundled import find_scenario
 from vilma.scenario.drive_log import COLUMNS, MAX_ROWS
 from vilma.scenario.fields import Key, Source, SpecError, _suggest, build, convert, get, load_yaml, read_yaml
 from vilma.scenario.plan_keys import read_perception, read_planner
-from vilma.scenario.scorecard import SCORECARD_KEYS, TIMING_KEYS, Bound, MetricsSpec
+from vilma.scenario.scorecard import BOOLEAN_KEYS, SCORECARD_KEYS, TIMING_KEYS, Bound, MetricsSpec
 from vilma.scenario.simulation import ROAD_KEYS, read_sim
 from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
@@ -444,7 +444,7 @@ def _expect(raw: Any, src: Source) -> dict[str, Bound | bool]:
                             "see benchmarks/ for speed targets")
         if k not in keys:
             raise src.error(("expect", k), f"not a scorecard key; use one of {', '.join(keys)}")
-        if k in ("completed", "truncated", "goal_reached", "collisions_checked", "off_road"):
+        if k in BOOLEAN_KEYS:
             out[k] = convert(bool, v, src, ("expect", k))
         else:
             bound = build(Bound, v, src, ("expect", k))
