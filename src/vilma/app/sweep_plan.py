@@ -206,7 +206,8 @@ def _distribution(raw: Any, src: Source, key: tuple) -> tuple:
         ok = isinstance(args, list) and len(args) == 2 and all(_finite(a) and not isinstance(a, bool) for a in args)
         if ok:
             a, b = args
-            ok = b >= 0 if name == "normal" else a < b and _finite(b - a) and (name == "uniform" or a > 0)
+            ok = math.copysign(1.0, b) > 0 if name == "normal" else (  # (numpy refuses a std of -0.0 too)
+                a < b and _finite(b - a) and (name == "uniform" or a > 0))
     if not ok:
         raise src.error((*key, name), f"expected {shape}, got {args!r}")
     return draw, args
