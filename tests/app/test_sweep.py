@@ -370,7 +370,8 @@ def test_distribution_parameters_are_drawn_finite_or_refused_with_their_line(nam
     data, src = load_yaml(f"samples:\n  count: 3\n  values:\n    k: {{{name}: {args}}}\n", "s.yaml")
     # what numpy's generator draws from: finite numbers, uniform's high - low within a float too
     fine = math.isfinite(a) and math.isfinite(b) and {"uniform": a < b and math.isfinite(b - a),
-                                                      "normal": b >= 0, "loguniform": 0 < a < b}[name]
+                                                      "normal": math.copysign(1.0, b) > 0,  # -0.0: not
+                                                      "loguniform": 0 < a < b}[name]
     try:
         draws = sweep_plan._samples(data["samples"], src)
     except SpecError as e:
