@@ -163,7 +163,8 @@ def test_ramps_on_the_planar_plant_are_refused_at_their_line(tmp_path):
     with pytest.raises(SpecError, match=r"flat.yaml:2: world: .*ramps or bumps needs the 3D plant"):
         load_scenario(f)
     f.write_text("plant: mujoco\ntask: {speed: 3}\nworld:\n  cones: [{pos: [12, 0], radius: -1}]\n", encoding="utf-8")
-    with pytest.raises(SpecError, match=r"flat.yaml:4: world.cones\[0\]: cone radius must be a finite number > 0"):
+    with pytest.raises(SpecError, match=r"flat.yaml:4: world.cones\[0\].radius: cone radius must be a finite "
+                                        r"number > 0"):
         load_scenario(f)
 
 
