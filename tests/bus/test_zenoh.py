@@ -152,6 +152,32 @@ def test_a_peer_flooding_malformed_frames_gets_a_warning_a_second_not_one_each(c
     b.close()
 
 
+def test_a_request_sent_as_a_bus_opens_waits_for_the_server_a_peer_tells_of():
+    """The server is a peer of the peer connected to (as a driver is of the simulator): it becomes known a moment
+    after the bus opens, and a request sent at once must wait for it rather than reach nobody."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    hub = ZenohBus(ZenohConfig(listen=(endpoint,)))
+    server = ZenohBus(ZenohConfig(listen=("tcp/127.0.0.1:0",), connect=(endpoint,)))
+    server.serve(topic("driver/cmd"), lambda order: Reply(ok=True))
+    for _ in range(10):
+        with ZenohBus(ZenohConfig(connect=(endpoint,))) as client:
+            assert client.request(topic("driver/cmd"), DriverOrder(action="manual"), timeout=10).ok
+    server.close()
+    hub.close()
+
+
+def test_a_request_nobody_answers_waits_its_timeout_only_when_it_did():
+    with ZenohBus(ZenohConfig()) as bus:
+        t0 = time.monotonic()
+        reply = bus.request(topic("driver/cmd"), DriverOrder(action="manual"), timeout=0.3)
+        assert time.monotonic() - t0 >= 0.3
+        assert reply == Reply(ok=False, error="nobody answered on vilma/vilma/driver/cmd within 0.3 s (is the program "
+                                              "running?)")
+        bus.session.declare_queryable(topic("driver/cmd"), lambda query: None)  # drops each query unanswered
+        assert bus.request(topic("driver/cmd"), DriverOrder(action="manual"), timeout=60).error == \
+            "the server of vilma/vilma/driver/cmd ended the request without an answer"
+
+
 def test_endpoints_beyond_loopback_are_recognised():
     """(The warning itself is checked on a real non-loopback listener in test_netns.py.)"""
     cfg = ZenohConfig(listen=("tcp/127.0.0.1:7447", "tcp/localhost:7448", "tcp/[::1]:7449", "tcp/0.0.0.0:7450",

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import logging
 import threading
+import time
 from dataclasses import dataclass
 
 import zenoh
@@ -140,14 +141,28 @@ class ZenohBus(Closeable):
         return _Undeclare(q)
 
     def request(self, key: str, msg: Message, timeout: float = 2.0) -> Reply:
-        for r in self.session.get(key, payload=encode(msg), timeout=timeout):
-            if r.ok is not None:
-                try:
-                    out = decode(r.ok.payload.to_bytes(), Reply)
-                except DecodeError as e:
-                    return Reply(ok=False, error=f"{key}: bad reply: {e}")
-                return out
+        """Send a request and wait for its reply (see :class:`~vilma.bus.base.Bus`); within ``timeout`` [s], first
+        for a server of ``key`` to be known: a peer just met tells of its servers a moment after it connects, and a
+        query sent before that reaches nobody."""
+        start = time.monotonic()
+        if self._server_known(key, timeout) and (left := timeout - (time.monotonic() - start)) > 0:
+            for r in self.session.get(key, payload=encode(msg), timeout=left):
+                if r.ok is not None:
+                    try:
+                        out = decode(r.ok.payload.to_bytes(), Reply)
+                    except DecodeError as e:
+                        return Reply(ok=False, error=f"{key}: bad reply: {e}")
+                    return out
+            if time.monotonic() - start < timeout:  # (Zenoh's timer never ends early: the server ended the query)
+                return Reply(ok=False, error=f"the server of {key} ended the request without an answer")
         return Reply(ok=False, error=f"nobody answered on {key} within {timeout:g} s (is the program running?)")
+
+    def _server_known(self, key: str, timeout: float) -> bool:
+        """Whether a server of ``key`` is known to this session, waiting up to ``timeout`` [s] for one."""
+        known = threading.Event()
+        with self.session.declare_querier(key) as querier, \
+                querier.declare_matching_listener(lambda status: status.matching and known.set()):
+            return querier.matching_status.matching or known.wait(timeout)
 
     def close(self) -> None:
         """Undeclare the publishers and close the session (closing again does nothing)."""
