@@ -100,6 +100,17 @@ def test_random_bytes_decode_or_fail_cleanly(frame):
         decode(frame)
 
 
+FRAME_START = b"\x92" + msgspec.msgpack.encode(SCHEMA_VERSION)
+"""A frame's two-item array and its schema version."""
+
+
+@given(st.integers(1, 100_000), st.sampled_from([b"\x91", b"\x81\xa1k", b"\xdc\x00\x01"]))
+def test_a_frame_nested_at_any_depth_is_a_decode_error(depth, container):
+    """A peer may nest arrays or maps far past Python's recursion limit (msgspec's RecursionError there)."""
+    with pytest.raises(DecodeError):
+        decode(FRAME_START + container * depth + b"\x00")
+
+
 def test_topic_names():
     assert topic("driver/status", "car2") == "vilma/car2/driver/status"
     assert message_type("vilma/car2/gps") is GpsFix

@@ -19,7 +19,7 @@ from vilma.app.batch import BUNDLED
 from vilma.bus import Latest, topic
 from vilma.bus.codec import MAX_FRAME_BYTES, decode, encode
 from vilma.bus.zenoh_bus import MAX_MESSAGE_BYTES, ZenohBus, ZenohConfig
-from vilma.core.messages import MAX_ORDER_POINTS, DriverOrder, Pose, Reply
+from vilma.core.messages import MAX_ORDER_POINTS, DriverOrder, Pose, Reply, SimControl
 from vilma.scenario import load_scenario
 from vilma.scenario.runner import run
 
@@ -147,6 +147,31 @@ def test_a_peer_flooding_malformed_frames_gets_a_warning_a_second_not_one_each(c
     assert 1 <= len(lines) <= 1 + elapsed  # one line a second at most (the throttle's period)
     held = sum(int(line.rsplit("(", 1)[1].split()[0]) for line in lines[1:])
     assert len(lines) + held <= flood  # the lines after the first count the frames held back
+    raw.undeclare()
+    a.close()
+    b.close()
+
+
+def test_a_frame_nested_past_the_recursion_limit_is_dropped_or_answered_with_the_usual_line(caplog):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    a = ZenohBus(ZenohConfig(listen=(endpoint,)))
+    b = ZenohBus(ZenohConfig(connect=(endpoint,)))
+    stamps, done = [], threading.Event()
+    b.subscribe(topic("pose"), lambda m: (stamps.append(m.stamp_ns), m.stamp_ns == 2 and done.set()))
+    b.serve(topic("sim/cmd"), lambda order: Reply(ok=True))
+    raw = a.session.declare_publisher(topic("pose"), congestion_control=zenoh.CongestionControl.BLOCK)
+    _wait(lambda: raw.put(encode(Pose(1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))) or stamps, 10, "the peers to meet")
+    deep = b"\x92\x02" + b"\x91" * 100_000
+    with caplog.at_level(logging.WARNING):
+        raw.put(deep)
+        raw.put(encode(Pose(2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)))  # one publisher: it comes after the deep frame
+        assert done.wait(10), "the frame after the deep one did not come"
+        assert a.request(topic("sim/cmd"), SimControl(action="status")).ok  # known: a raw query reaches it
+        replies = [decode(r.ok.payload.to_bytes(), Reply) for r in a.session.get(topic("sim/cmd"), payload=deep,
+                                                                                  timeout=5)]
+    assert [r.error.split(": ", 2)[:2] for r in replies] == [["vilma/vilma/sim/cmd", "not a vilma frame"]]
+    assert "dropped a message on vilma/vilma/pose: not a vilma frame" in caplog.text
+    assert not [r for r in caplog.records if r.levelno > logging.WARNING]  # no traceback in any callback
     raw.undeclare()
     a.close()
     b.close()

@@ -2,7 +2,7 @@
 
 A frame is the msgpack array ``[SCHEMA_VERSION, message]`` where the message
 is the tagged msgspec struct (its type name as tag). Decoding checks the
-version, the size, the shape and the type the topic carries; anything else is
+version, the size, the nesting, the shape and the type the topic carries; anything else is
 :class:`DecodeError`, which the buses log and drop (or answer, for a request).
 """
 
@@ -59,7 +59,8 @@ def decode(frame: bytes, expected: type[Message] | None = None) -> Message:
     unread.
 
     Raises:
-        DecodeError: too large, another schema version, a malformed frame, or another message type.
+        DecodeError: too large, another schema version, a malformed frame (nested too deep too), or another message
+            type.
     """
     limit = MAX_FRAME_BYTES if expected is not None and expected not in WORLD_TOPICS.values() else \
         MAX_WORLD_FRAME_BYTES
@@ -68,7 +69,7 @@ def decode(frame: bytes, expected: type[Message] | None = None) -> Message:
                           f"{expected.__name__ if expected else 'a message'}; send less in one message")
     try:
         version, _ = _version.decode(frame)
-    except (msgspec.DecodeError, msgspec.ValidationError) as e:
+    except (msgspec.DecodeError, msgspec.ValidationError, RecursionError) as e:  # (nested past Python's limit)
         raise DecodeError(f"not a vilma frame: {e}") from None
     if version != SCHEMA_VERSION:
         raise DecodeError(f"schema version {version}, this vilma speaks {SCHEMA_VERSION}: update the sender or vilma")
@@ -88,4 +89,5 @@ def _named(error: str, frame: bytes) -> str:
     except (msgspec.DecodeError, msgspec.ValidationError):
         kind = None
     fields = kind.__struct_fields__ if kind is not None else ()
+    error = error.removesuffix(" - at `$[1]`")  # (the message itself: its own check failed)
     return _FIELD.sub(lambda m: "`" + fields[int(m[1]) - 1] if 0 < int(m[1]) <= len(fields) else m[0], error)
