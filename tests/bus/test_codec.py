@@ -22,6 +22,7 @@ from vilma.core.messages import (
     DriverOrder,
     GpsFix,
     Image,
+    LocalPlan,
     Longitudinal,
     Pose,
     Reply,
@@ -120,3 +121,11 @@ def test_topic_names():
         topic("pose", "a/b")
     with pytest.raises(ValueError, match="not a vilma topic"):
         message_type("ros/pose")
+
+
+def test_a_plan_whose_xs_and_ys_differ_is_refused_naming_the_path():
+    frame = msgspec.msgpack.encode((SCHEMA_VERSION, ["LocalPlan", 1, "follow", "", 0.1, [0.0, 1.0], [0.0, 1.0],
+                                                     [2.0, 2.0], [{"id": -1, "status": 0, "x": [0.0], "y": []}]]))
+    with pytest.raises(DecodeError, match=r"^malformed message: a path of 1 x, 0 y: give as many of each - at "
+                                          r"`candidates\[0\]`$"):
+        decode(frame, LocalPlan)

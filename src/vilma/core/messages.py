@@ -294,6 +294,14 @@ MAX_PATH_POINTS = 1000
 _Floats = Annotated[list[float], msgspec.Meta(max_length=MAX_PATH_POINTS)]
 
 
+def _one_length(what: str, **columns: list) -> None:
+    """Raises ValueError unless the ``columns`` of a path (named by their fields) are equally long; a decoder
+    turns it into a refused frame, so no reader gets a path whose x and y do not pair up."""
+    if len({len(c) for c in columns.values()}) > 1:
+        counts = ", ".join(f"{len(c)} {name}" for name, c in columns.items())
+        raise ValueError(f"{what} of {counts}: give as many of each")
+
+
 class TrackedObject(msgspec.Struct, frozen=True):
     """One object as the car's perception tracks it, world frame: its track id, box centre [m], orientation [rad],
     velocity [m/s], box length and width [m], the covariance of (x, y, vx, vy) row by row (16 values, SI units
@@ -321,19 +329,23 @@ class TrackList(Message, frozen=True):
 
 class PlannedPath(msgspec.Struct, frozen=True):
     """A path of a plan [m]: a candidate (``status`` 0 free, 1 infeasible, 2 colliding; ``id`` -1) or an object's
-    predicted future (``id`` its track, ``status`` 0), at the plan's times."""
+    predicted future (``id`` its track, ``status`` 0), at the plan's times; ``x`` and ``y`` equally long (checked)."""
 
     id: int
     status: int
     x: _Floats
     y: _Floats
 
+    def __post_init__(self) -> None:
+        _one_length("a path", x=self.x, y=self.y)
+
 
 class LocalPlan(Message, frozen=True):
     """A planning cycle (``planning/plan``): the trajectory chosen, from the cycle's time on at steps of ``dt`` [s]
     (positions [m], speeds [m/s]), its ``mode`` (``velocity``, ``follow``, ``stop`` or ``fallback``) and
     ``reason`` (why the fallback), a sample of the candidates evaluated and the predicted futures of the
-    objects; ``planning_ms``: the wall time the cycle took [ms] (NaN: not measured)."""
+    objects; ``planning_ms``: the wall time the cycle took [ms] (NaN: not measured). ``x``, ``y`` and ``speed`` are
+    equally long (checked, as each path's)."""
 
     mode: str
     reason: str
@@ -344,3 +356,6 @@ class LocalPlan(Message, frozen=True):
     candidates: Annotated[list[PlannedPath], msgspec.Meta(max_length=MAX_PLAN_PATHS)] = []
     predictions: Annotated[list[PlannedPath], msgspec.Meta(max_length=MAX_PLAN_PATHS)] = []
     planning_ms: float = math.nan
+
+    def __post_init__(self) -> None:
+        _one_length("a trajectory", x=self.x, y=self.y, speed=self.speed)
