@@ -18,12 +18,16 @@ from vilma.core.messages import (
     MAX_GAINS,
     MAX_NAME_CHARS,
     MAX_ORDER_POINTS,
+    MAX_PATH_POINTS,
+    MAX_PLAN_PATHS,
+    MAX_REASON_CHARS,
     ActuatorCommand,
     DriverOrder,
     GpsFix,
     Image,
     LocalPlan,
     Longitudinal,
+    PlannedPath,
     Pose,
     Reply,
 )
@@ -93,6 +97,23 @@ def test_the_largest_order_fits_a_frame_and_one_more_point_or_name_is_refused():
                          ("gains", {str(i): {} for i in range(MAX_GAINS + 1)})):
         with pytest.raises(DecodeError, match=f"of length <= .* - at `{field}`$"):
             decode(encode(msgspec.structs.replace(largest, **{field: value})), DriverOrder)
+
+
+def test_the_largest_plan_fits_a_frame_and_one_more_path_point_or_character_is_refused():
+    full = [1e300] * MAX_PATH_POINTS
+    path = PlannedPath(-(2**63), -(2**63), full, full)
+    largest = LocalPlan(-(2**63), _word(0), chr(0x10000) * MAX_REASON_CHARS, 1e300, full, full, full,
+                        [path] * MAX_PLAN_PATHS, [path] * MAX_PLAN_PATHS, 1e300)
+    frame = encode(largest)
+    assert len(frame) <= MAX_FRAME_BYTES and decode(frame, LocalPlan).candidates == largest.candidates
+    longer = PlannedPath(-1, 0, [*full, 0.0], [*full, 0.0])
+    for field, value in (("candidates", [path] * (MAX_PLAN_PATHS + 1)), ("predictions", [longer]),
+                         ("mode", "a" * (MAX_NAME_CHARS + 1)), ("reason", "a" * (MAX_REASON_CHARS + 1))):
+        with pytest.raises(DecodeError, match=f"of length <= .* - at `{field}"):
+            decode(encode(msgspec.structs.replace(largest, **{field: value})), LocalPlan)
+    with pytest.raises(DecodeError, match=r"of length <= .* - at `x`$"):
+        decode(encode(msgspec.structs.replace(largest, x=[*full, 0.0], y=[*full, 0.0], speed=[*full, 0.0])),
+               LocalPlan)
 
 
 @given(st.binary(max_size=200))

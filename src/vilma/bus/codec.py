@@ -38,8 +38,9 @@ _tag = msgspec.msgpack.Decoder(tuple[int, _Tag])
 _types = {t.__name__: t for t in AnyMessage.__args__}
 
 MAX_FRAME_BYTES = 4 * 2**20
-"""The largest frame of a command, an order, a reply, a status or a reading [bytes]: room for the largest order
-(3.4 MB: ``MAX_ORDER_POINTS`` points and speeds at 28 bytes each, and every name at its cap)."""
+"""The largest frame of a command, an order, a plan, a reply, a status or a reading [bytes]: room for the largest
+order (3.4 MB: ``MAX_ORDER_POINTS`` points and speeds at 28 bytes each, and every name at its cap) and the largest
+plan (3.7 MB: ``MAX_PLAN_PATHS`` candidates and predictions of ``MAX_PATH_POINTS`` points at 18 bytes each)."""
 MAX_WORLD_FRAME_BYTES = 64 * 2**20
 """The largest frame of a camera image or a laser scan [bytes] (a 3840 x 2160 depth image takes 33 MB)."""
 

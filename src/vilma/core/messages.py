@@ -286,10 +286,12 @@ class ObjectList(Message, frozen=True):
 
 MAX_TRACKS = 256
 """The most tracked objects in one :class:`TrackList`."""
-MAX_PLAN_PATHS = 512
-"""The most paths (drawn candidates, predictions) in one :class:`LocalPlan`."""
-MAX_PATH_POINTS = 1000
-"""The most points in one planned, candidate or predicted path."""
+MAX_PLAN_PATHS = 256
+"""The most paths of each kind (drawn candidates, predictions) in one :class:`LocalPlan`: as many as tracks."""
+MAX_PATH_POINTS = 401
+"""The most points in one planned, candidate or predicted path: a planner's longest horizon, 400 steps."""
+MAX_REASON_CHARS = 1000
+"""The longest reason of a :class:`LocalPlan` [characters]."""
 
 _Floats = Annotated[list[float], msgspec.Meta(max_length=MAX_PATH_POINTS)]
 
@@ -347,8 +349,8 @@ class LocalPlan(Message, frozen=True):
     objects; ``planning_ms``: the wall time the cycle took [ms] (NaN: not measured). ``x``, ``y`` and ``speed`` are
     equally long (checked, as each path's)."""
 
-    mode: str
-    reason: str
+    mode: _Name
+    reason: Annotated[str, msgspec.Meta(max_length=MAX_REASON_CHARS)]
     dt: float
     x: _Floats
     y: _Floats

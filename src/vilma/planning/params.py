@@ -8,12 +8,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from vilma.core.checks import check_numbers
+from vilma.core.messages import MAX_PATH_POINTS
 from vilma.vehicle.params import VehicleParams, vilma
 
 MAX_CANDIDATES = 4000
 """Most candidates a cycle may sample (lateral times longitudinal samples)."""
-MAX_STEPS = 400
-"""Most time steps in a horizon."""
+MAX_STEPS = MAX_PATH_POINTS - 1
+"""Most time steps in a horizon: its points (one more) fit a bus message."""
 GRAVITY = 9.81
 """[m/s^2]"""
 EVASIVE_SPACING = 0.5
