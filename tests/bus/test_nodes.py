@@ -281,6 +281,53 @@ def test_any_order_gets_a_one_line_answer_and_the_node_keeps_serving(orders_bus,
     assert orders_bus.request(ORDERS, DriverOrder(action="set_speed", speed=1.0), timeout=30).ok
 
 
+@pytest.fixture(scope="module")
+def local_driver():
+    """A driver node (no pose: the car at the origin) on a local bus, and the bus."""
+    bus = LocalBus()
+    node = driver_on(bus)
+    yield bus, node
+    node.close()
+    bus.close()
+
+
+@given(speed=st.floats())
+def test_an_orders_speed_is_taken_above_0_up_to_the_cars_top_speed_and_0_to_set_a_stop(local_driver, speed):
+    bus, node = local_driver
+    top = node.driver.vehicle.top_speed
+    for order in (DriverOrder(action="set_speed", speed=speed), DriverOrder(action="go_to", x=10.0, y=0.0, speed=speed),
+                  DriverOrder(action="follow", points=[(0.0, 0.0), (10.0, 0.0)], speed=speed)):
+        low = speed >= 0 if order.action == "set_speed" else speed > 0  # (NaN: no speed, which these orders need)
+        assert bus.request(ORDERS, order).ok == (low and speed <= top)
+
+
+@pytest.mark.parametrize(("order", "error"), [
+    (DriverOrder(action="set_speed", speed=-50.0),
+     "set_speed: speed -50.0 m/s: give 0 (a stop) or more, up to the car's top speed, {top} m/s"),
+    (DriverOrder(action="set_speed", speed=1e300),
+     "set_speed: speed 1e+300 m/s: give 0 (a stop) or more, up to the car's top speed, {top} m/s"),
+    (DriverOrder(action="go_to", x=10.0, y=0.0, speed=-5.0),
+     "go_to: speed -5.0 m/s: give a speed above 0, up to the car's top speed, {top} m/s"),
+    (DriverOrder(action="go_to", x=1e300, y=1e300, speed=5.0),
+     "go_to: goal [1e+300, 1e+300] is over 100000 m from the car; give a nearer goal"),
+    (DriverOrder(action="go_to", x=math.nan, y=0.0, speed=5.0),
+     "go_to: goal x=nan y=0.0 is not a point; give finite x and y [m]"),
+    (DriverOrder(action="follow", points=[(1.0, 1.0), (1.0, 1.0)], speed=3.0),
+     "follow: path points must be 2 or more distinct finite [x, y] pairs [m]"),
+    (DriverOrder(action="follow", points=[(0.0, 0.0), (10.0, 0.0)], speeds=[-5.0, -5.0]),
+     "follow: path speeds must be from 0 to the car's top speed, {top} m/s"),
+    (DriverOrder(action="follow", points=[(0.0, 0.0), (10.0, 0.0)], speeds=[5.0, 1e300]),
+     "follow: path speeds must be from 0 to the car's top speed, {top} m/s"),
+    (DriverOrder(action="follow", points=[(0.0, 0.0), (2e5, 0.0)], speed=3.0),
+     "follow: path points over 100000 m from the car; send the path near the car"),
+])
+def test_a_bad_order_is_refused_in_one_line_as_a_plan_order_is_and_the_task_goes_on(local_driver, order, error):
+    bus, node = local_driver
+    assert bus.request(ORDERS, DriverOrder(action="set_speed", speed=2.0)).ok
+    assert bus.request(ORDERS, order) == Reply(ok=False, error=error.format(top=f"{node.driver.vehicle.top_speed:.3g}"))
+    assert node.driver.status.mode == "set_speed" and node.driver.task.speed == 2.0
+
+
 def test_nodes_in_a_with_block_leave_the_bus_even_when_the_block_raises():
     bus = LocalBus()
     with pytest.raises(RuntimeError, match="boom"), SimNode(Simulator(), bus) as sim_node, driver_on(bus) as drv:

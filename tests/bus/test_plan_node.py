@@ -22,7 +22,7 @@ from vilma.planning import PlannerParams
 from vilma.scenario import load_scenario
 from vilma.scenario.planned import MOT_THRESHOLD
 from vilma.scenario.runner import initial_state
-from vilma.sim import Simulator
+from vilma.sim import SimConfig, Simulator
 from vilma.world.states import X, Y
 
 ORDERS = topic("driver/cmd")
@@ -115,6 +115,8 @@ def _with_pose():
 
 
 BEHIND = "is behind the car"
+TOP = SimConfig().vehicle.top_speed
+"""The default car's top speed [m/s]."""
 
 
 @pytest.mark.parametrize(("order", "error"), [
@@ -131,7 +133,9 @@ BEHIND = "is behind the car"
     (DriverOrder(action="plan", x=30.0, y=0.0),
      "plan: a straight route to the goal needs a speed; give speed [m/s]"),
     (DriverOrder(action="plan", x=30.0, y=0.0, speed=-1.0),
-     "plan: speed -1.0 m/s: give a positive speed, or none for the points' speeds"),
+     f"plan: speed -1.0 m/s: give a speed above 0, up to the car's top speed, {TOP:.3g} m/s"),
+    (DriverOrder(action="plan", x=30.0, y=0.0, speed=TOP * 1.01),
+     f"plan: speed {TOP * 1.01!r} m/s: give a speed above 0, up to the car's top speed, {TOP:.3g} m/s"),
     (DriverOrder(action="plan", x=30.0, y=0.0, points=[(0.0, 0.0)], speed=5.0),
      "plan: route points must be 2 or more distinct finite [x, y] pairs [m]"),
     (DriverOrder(action="plan", x=30.0, y=0.0, points=[(0.0, 0.0), (math.nan, 0.0)], speed=5.0),
@@ -141,7 +145,7 @@ BEHIND = "is behind the car"
     (DriverOrder(action="plan", x=30.0, y=0.0, points=[(0.0, 0.0), (50.0, 0.0)], speeds=[5.0]),
      "plan: route of 2 points with 1 speeds; give a speed for each point, or speed [m/s]"),
     (DriverOrder(action="plan", x=30.0, y=0.0, points=[(0.0, 0.0), (50.0, 0.0)], speeds=[5.0, -5.0]),
-     "plan: route speeds must be finite and not negative [m/s]"),
+     f"plan: route speeds must be from 0 to the car's top speed, {TOP:.3g} m/s"),
     (DriverOrder(action="plan", x=2e5, y=0.0, speed=5.0),
      "plan: goal [200000.0, 0.0] is over 100000 m from the car; give a nearer goal"),
     (DriverOrder(action="plan", x=30.0, y=0.0, points=[(0.0, 0.0), (50.0, 0.0), (0.0, 2e5)], speed=5.0),

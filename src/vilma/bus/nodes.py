@@ -9,7 +9,8 @@ commands that arrive on ``cmd`` at the start of the next frame. It answers
 :class:`DriverNode` collects the readings of each frame, runs the driver
 once per driver period of sim time when a frame ends, publishes the command
 on ``cmd`` and its status on ``driver/status``, and takes orders on
-``driver/cmd``; each order it took is published there too, for recorders. A ``follow`` order may name a
+``driver/cmd``; each order it took is published there too, for recorders. Every order's speed, goal and points are
+checked alike (:func:`order_speed`, :func:`check_goal`, :func:`check_points`). A ``follow`` order may name a
 trajectory file only in the data folder the driver was given (none: file orders are refused), and the reply
 never quotes a file: a peer is not a user of this machine. A ``plan`` order plans on the scans of ``objects`` or
 ``laser`` each replan period of sim time (:mod:`vilma.bus.plan_node`).
@@ -250,17 +251,19 @@ class DriverNode(Closeable):
         d, a, plan = self.driver, order.action, None
         stamp = d.stamp_ns  # now: a tune order swaps the driver for a new one, which has no time yet
         speed = None if math.isnan(order.speed) else order.speed
+        top, car = d.vehicle.top_speed, _car(d)
         try:
             if a == "manual":
                 d.manual()
             elif a == "set_speed":
-                d.set_speed(_need(speed, "speed"))
+                d.set_speed(order_speed(_need(speed, "speed"), top, stop=True))
             elif a == "hold_speed":
                 d.hold_current_speed()
             elif a == "go_to":
-                d.go_to(order.x, order.y, _need(speed, "speed"))
+                check_goal(order.x, order.y, car)
+                d.go_to(order.x, order.y, order_speed(_need(speed, "speed"), top))
             elif a == "follow":
-                d.follow(_path_of(order, self.data_dir), speed)
+                d.follow(_path_of(order, self.data_dir, car, top), None if speed is None else order_speed(speed, top))
             elif a == "plan":
                 from vilma.bus.plan_node import PlanSetup, start_plan  # the planner (numba): for a plan only
 
@@ -313,21 +316,69 @@ class DriverNode(Closeable):
             s.close()
 
 
+MAX_REACH = 100_000.0
+"""Farthest an order's goal and points may be from the car [m] (from the origin before the driver knows where the car
+is): a drive's, not a continent's."""
+
+
+def order_speed(speed: float, top: float, stop: bool = False) -> float:
+    """An order's ``speed`` [m/s], checked: above zero (zero too, to ``stop``) and at most the car's ``top`` speed.
+
+    Raises:
+        ValueError: any other speed (NaN and infinities too), in one line.
+    """
+    if not ((speed >= 0 if stop else speed > 0) and speed <= top):
+        raise ValueError(f"speed {speed!r} m/s: give {'0 (a stop) or more' if stop else 'a speed above 0'}, up to "
+                         f"the car's top speed, {top:.3g} m/s")
+    return speed
+
+
+def check_goal(x: float, y: float, car: tuple[float, float]) -> None:
+    """Raises ValueError unless ``(x, y)`` [m] is a point within :data:`MAX_REACH` of the car at ``car``."""
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ValueError(f"goal x={x!r} y={y!r} is not a point; give finite x and y [m]")
+    dx, dy = x - car[0], y - car[1]
+    if max(abs(dx), abs(dy)) > MAX_REACH or math.hypot(dx, dy) > MAX_REACH:  # (each first: hypot could overflow)
+        raise ValueError(f"goal {[x, y]} is over {MAX_REACH:g} m from the car; give a nearer goal")
+
+
+def check_points(xy: np.ndarray, speeds: np.ndarray | None, car: tuple[float, float], top: float, what: str) -> None:
+    """Raises ValueError unless the points ``xy`` (n, 2) [m] of a ``what`` (path, route) are 2 or more distinct finite
+    ones within :data:`MAX_REACH` of the car at ``car``, and their ``speeds`` [m/s] (None: none) from 0 to ``top``."""
+    finite = np.isfinite(xy).all()
+    if finite and len(xy) and (np.abs(xy - car).max() > MAX_REACH or np.hypot(*(xy - car).T).max() > MAX_REACH):
+        raise ValueError(f"{what} points over {MAX_REACH:g} m from the car; send the {what} near the car")
+    if not finite or not (np.hypot(*np.diff(xy, axis=0).T) > 1e-9).any():
+        raise ValueError(f"{what} points must be 2 or more distinct finite [x, y] pairs [m]")
+    if speeds is not None and not ((speeds >= 0) & (speeds <= top)).all():
+        raise ValueError(f"{what} speeds must be from 0 to the car's top speed, {top:.3g} m/s")
+
+
+def _car(driver: Driver) -> tuple[float, float]:
+    """Where the car is [m], as ``driver`` knows (the origin before it knows)."""
+    state = driver.state
+    return (float(state.x), float(state.y)) if state.has_pose else (0.0, 0.0)
+
+
 def _need(value: float | None, name: str) -> float:
     if value is None:
         raise ValueError(f"give {name}")
     return value
 
 
-def _path_of(order: DriverOrder, data_dir: Path | None) -> Trajectory:
+def _path_of(order: DriverOrder, data_dir: Path | None, car: tuple[float, float], top: float) -> Trajectory:
+    """The path of a ``follow`` order (its points, or its file), checked as every order's (:func:`check_points`)."""
     if order.file:
-        return _data_file(data_dir, order.file)
-    if len(order.points) > MAX_ORDER_POINTS:  # (a decoder refuses them first; this is for in-process senders)
+        path = _data_file(data_dir, order.file)
+    elif len(order.points) > MAX_ORDER_POINTS:  # (a decoder refuses them first; this is for in-process senders)
         raise ValueError(f"{len(order.points)} points, over the {MAX_ORDER_POINTS} an order may carry; resample "
                          "the path coarser (vilma trajectory resample)")
-    if len(order.points) < 2:
+    elif len(order.points) < 2:
         raise ValueError("give a trajectory file or at least 2 points")
-    return Trajectory.from_points(order.points, order.speeds or None)
+    else:
+        path = Trajectory.from_points(order.points, order.speeds or None)
+    check_points(path.xy, path.speed, car, top, "path")
+    return path
 
 
 def _data_file(folder: Path | None, name: str) -> Trajectory:

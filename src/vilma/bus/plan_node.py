@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.bus.base import Bus
+from vilma.bus.nodes import check_goal, check_points, order_speed
 from vilma.bus.topics import topic
 from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning, default_planner, road_bounds
@@ -27,8 +28,6 @@ from vilma.trajectory import Trajectory, speed_profile
 if TYPE_CHECKING:  # the roads extra
     from vilma.world.commonroad import RoadNetwork
 
-MAX_REACH = 100_000.0
-"""Farthest a plan's goal and route points may be from the car [m]: a local planner's route, not a continent's."""
 MAX_SPACING_RATIO = 1e6
 """Most a route's longest segment may be of its shortest (the Frenet frame's spline is ill-conditioned beyond)."""
 
@@ -90,8 +89,7 @@ def start_plan(order: DriverOrder, driver: Driver, setup: PlanSetup, bus: Bus, c
     est = driver.estimator.estimate
     if est is None:
         raise ValueError("no pose of the car yet; send the order once the simulator runs")
-    if math.hypot(order.x - est.x, order.y - est.y) > MAX_REACH:
-        raise ValueError(f"goal {list(goal)} is over {MAX_REACH:g} m from the car; give a nearer goal")
+    check_goal(order.x, order.y, (est.x, est.y))
     route = _route(order, driver, est)
     try:
         route = route.cut_at(goal)
@@ -107,9 +105,8 @@ def start_plan(order: DriverOrder, driver: Driver, setup: PlanSetup, bus: Bus, c
 
 def _route(order: DriverOrder, driver: Driver, est: PoseEstimate) -> Trajectory:
     """The order's route with speeds: its points, or a straight line from the car to the goal."""
-    speed = None if math.isnan(order.speed) else order.speed
-    if speed is not None and not (math.isfinite(speed) and speed > 0):
-        raise ValueError(f"speed {speed!r} m/s: give a positive speed, or none for the points' speeds")
+    top = driver.vehicle.top_speed
+    speed = None if math.isnan(order.speed) else order_speed(order.speed, top)
     if not order.points:
         if speed is None:
             raise ValueError("a straight route to the goal needs a speed; give speed [m/s]")
@@ -123,22 +120,14 @@ def _route(order: DriverOrder, driver: Driver, est: PoseEstimate) -> Trajectory:
         raise ValueError(f"route of {len(order.points)} points with {len(order.speeds)} speeds; give a speed for "
                          "each point, or speed [m/s]")
     xy = np.asarray(order.points, dtype=np.float64).reshape(-1, 2)
-    finite = np.isfinite(xy).all()
-    # (each coordinate first: a hypot of far points would overflow)
-    if finite and (np.abs(xy - (est.x, est.y)).max() > MAX_REACH
-                   or np.hypot(xy[:, 0] - est.x, xy[:, 1] - est.y).max() > MAX_REACH):
-        raise ValueError(f"route points over {MAX_REACH:g} m from the car; send the route near the car")
-    segments = np.hypot(*np.diff(xy, axis=0).T) if finite else np.zeros(0)
+    speeds = np.asarray(order.speeds, dtype=np.float64) if speed is None else None
+    check_points(xy, speeds, (est.x, est.y), top, "route")
+    segments = np.hypot(*np.diff(xy, axis=0).T)
     segments = segments[segments > 1e-9]  # (repeated points: the Frenet frame drops them)
-    if not len(segments):
-        raise ValueError("route points must be 2 or more distinct finite [x, y] pairs [m]")
     if segments.max() > MAX_SPACING_RATIO * segments.min():
         raise ValueError(f"route points spaced from {segments.min():.3g} m to {segments.max():.3g} m apart; resample "
                          "the route evenly (vilma trajectory resample)")
-    if speed is None:
-        speeds = np.asarray(order.speeds, dtype=np.float64)
-        if not (np.isfinite(speeds).all() and (speeds >= 0).all()):
-            raise ValueError("route speeds must be finite and not negative [m/s]")
+    if speeds is not None:
         return Trajectory(xy, speeds)
     p = driver.params
     return speed_profile(Trajectory(xy), speed, p.max_lateral_accel, p.stop_deceleration)
