@@ -109,6 +109,13 @@ def test_drive_data_dir_must_be_a_folder(capsys, tmp_path):
     (["trajectory", "smooth", "in", "out", "--alpha", "nan"], "--alpha", "must be a finite number > 0, got nan"),
     (["trajectory", "smooth", "in", "out", "--beta", "-1"], "--beta", "must be a finite number >= 0, got -1"),
     (["trajectory", "smooth", "in", "out", "--tolerance", "0"], "--tolerance", "must be a finite number > 0"),
+    (["drive", "--connect", "tcp/127.0.0.1:abc"], "--connect", "'tcp/127.0.0.1:abc': the port must be a whole number"),
+    (["drive", "--connect", "tcp/127.0.0.1:99999"], "--connect", "'tcp/127.0.0.1:99999': the port must be a whole"),
+    (["sim", "--connect", "tcp/127.0.0.1:0"], "--connect", "'tcp/127.0.0.1:0': the port must be a whole number"),
+    (["sim", "--listen", "garbage"], "--listen", "'garbage': not an endpoint: give <protocol>/<address>"),
+    (["gui", "--connect", "garbage"], "--connect", "'garbage': not an endpoint: give <protocol>/<address>"),
+    (["replay", "r.mcap", "--listen", "tcp/127.0.0.1:65536"], "--listen", "'tcp/127.0.0.1:65536': the port must"),
+    (["ros1-bridge", "--connect", "tcp/127.0.0.1"], "--connect", "'tcp/127.0.0.1': no port"),
 ])
 def test_bad_option_values_are_argparse_errors(args, option, message, capsys):
     with pytest.raises(SystemExit) as e:
@@ -117,6 +124,14 @@ def test_bad_option_values_are_argparse_errors(args, option, message, capsys):
     err = capsys.readouterr().err
     assert err.startswith("usage: vilma ") and "Traceback" not in err
     assert err.splitlines()[-1].startswith(f"vilma {args[0]}: error: argument {option}: {message}")
+
+
+def test_a_zenoh_config_file_given_by_mistake_is_not_shown(tmp_path, capsys):
+    file = tmp_path / "passwd"
+    file.write_text("root:hunter2:0:0:root:/root:/bin/bash\n")
+    assert main(["sim", "--zenoh-config", str(file)]) == 2
+    assert capsys.readouterr().err == (f"vilma sim: error: {file}: not a Zenoh configuration: expected a mapping of "
+                                       "listen, connect, multicast_scouting, extra\n")
 
 
 def test_hostile_scenarios_exit_2_with_one_line(tmp_path, capsys):

@@ -210,6 +210,21 @@ def test_endpoints_beyond_loopback_are_recognised():
     assert cfg.exposed() == ["tcp/0.0.0.0:7450", "udp/10.0.0.5:7451"]
 
 
+def test_a_zenoh_config_refuses_an_endpoint_zenoh_would_not_take_or_never_reach():
+    with pytest.raises(ValueError, match=r"^connect endpoint 2: the port must be a whole number 1-65535$"):
+        ZenohConfig(connect=("tcp/127.0.0.1:7447", "tcp/127.0.0.1:abc"))
+    with pytest.raises(ValueError, match=r"^listen endpoint 1: not an endpoint: give <protocol>/<address>"):
+        ZenohConfig(listen=("garbage",))
+
+
+def test_a_session_zenoh_cannot_open_is_one_line_without_zenohs_source_places():
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with ZenohBus(ZenohConfig(listen=(endpoint,))), pytest.raises(OSError) as e:
+        ZenohBus(ZenohConfig(listen=(endpoint,)))
+    assert str(e.value).startswith(f"cannot open Zenoh on listen ['{endpoint}'] connect []: ")
+    assert "Address already in use" in str(e.value) and ".rs:" not in str(e.value) and "\n" not in str(e.value)
+
+
 @pytest.mark.slow
 def test_zenoh_config_file_and_its_errors(tmp_path):
     good = tmp_path / "z.yaml"

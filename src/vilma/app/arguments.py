@@ -12,9 +12,11 @@ from vilma.app.options import (
     PLANT_HELP,
     cars,
     complete_scenario,
+    connect_endpoint,
     count,
     duration,
     folder,
+    listen_endpoint,
     non_negative,
     out_folder,
     plant,
@@ -133,9 +135,9 @@ def _program(name: str) -> Callable[[argparse.ArgumentParser], None]:
             q.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
                            help="serve every topic live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
         if name != "up":
-            q.add_argument("--listen", action="append", metavar="ENDPOINT",
+            q.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT",
                            help="Zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
-            q.add_argument("--connect", action="append", metavar="ENDPOINT",
+            q.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
                            help="Zenoh endpoint to connect to (repeatable)")
             q.add_argument("--zenoh-config", metavar="FILE",
                            help="YAML file with listen, connect (lists of endpoints) and multicast_scouting")
@@ -163,9 +165,10 @@ def _morse(q: argparse.ArgumentParser) -> None:
 def _gui(g: argparse.ArgumentParser) -> None:
     g.add_argument("scenario", nargs="?", metavar="SCENARIO", help="embedded: scenario file or bundled name (car, "
                    "sensors, controllers; its path fills the table)").completer = complete_scenario
-    g.add_argument("--connect", action="append", metavar="ENDPOINT",
+    g.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
                    help="join `vilma sim` / `vilma drive` over Zenoh at ENDPOINT, e.g. tcp/127.0.0.1:7447")
-    g.add_argument("--listen", action="append", metavar="ENDPOINT", help="with --connect: Zenoh endpoint to listen on")
+    g.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT",
+                   help="with --connect: Zenoh endpoint to listen on")
     g.add_argument("--zenoh-config", metavar="FILE", help="with --connect: YAML file with listen, connect")
     g.add_argument("--plant", type=plant, metavar="MODEL", help="embedded: " + PLANT_HELP)
     g.add_argument("--speed", type=positive, default=1.0, metavar="K", help="embedded: K times real time (default 1)")
@@ -192,8 +195,10 @@ def _replay(rl: argparse.ArgumentParser) -> None:
     rl.add_argument("recording", metavar="RUN.mcap")
     rl.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
     rl.add_argument("--start", type=sim_time, default=0.0, metavar="S", help="start at sim time S [s]")
-    rl.add_argument("--listen", action="append", metavar="ENDPOINT", help="Zenoh endpoint to listen on (repeatable)")
-    rl.add_argument("--connect", action="append", metavar="ENDPOINT", help="Zenoh endpoint to connect to")
+    rl.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT",
+                    help="Zenoh endpoint to listen on (repeatable)")
+    rl.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
+                    help="Zenoh endpoint to connect to")
     rl.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
 
 
@@ -203,9 +208,9 @@ def _ros1_bridge(rb: argparse.ArgumentParser) -> None:
     rb.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
     rb.add_argument("--duration", type=duration, default=float("inf"), help="stop after this sim time [s]")
     rb.add_argument("--cmd-topic", default="/cmd", help="ROS topic of actuator commands (default /cmd)")
-    rb.add_argument("--connect", action="append", metavar="ENDPOINT",
+    rb.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
                     help="bridge the Zenoh bus of a vilma sim at ENDPOINT instead of simulating here")
-    rb.add_argument("--listen", action="append", metavar="ENDPOINT", help=argparse.SUPPRESS)
+    rb.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT", help=argparse.SUPPRESS)
     rb.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
 
 

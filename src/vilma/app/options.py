@@ -97,6 +97,26 @@ def scheduler(text: str) -> str:
     return text
 
 
+def listen_endpoint(text: str) -> str:
+    """A Zenoh endpoint to listen on (port 0: any free one)."""
+    return _endpoint(text, listen=True)
+
+
+def connect_endpoint(text: str) -> str:
+    """A Zenoh endpoint to connect to."""
+    return _endpoint(text, listen=False)
+
+
+def _endpoint(text: str, listen: bool) -> str:
+    from vilma.core.net import check_endpoint
+
+    try:
+        check_endpoint(text, listen)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"{text!r}: {e}") from None
+    return text
+
+
 def scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", plant: str | None = None):
     """The scenario named (file or bundled), else the defaults with an idle task; ``plant`` overrides its plant."""
     from vilma.scenario.fields import load_yaml
@@ -112,17 +132,57 @@ def scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", p
 def zenoh_bus(args: argparse.Namespace, listen_default: tuple[str, ...], connect_default: tuple[str, ...]):
     """A Zenoh bus from ``--listen``, ``--connect`` and ``--zenoh-config`` (else the defaults), and its config."""
     from vilma.bus.zenoh_bus import ZenohBus, ZenohConfig
-    from vilma.scenario.fields import build, read_yaml
 
     cfg = ZenohConfig(listen=listen_default, connect=connect_default)
-    if args.zenoh_config:  # a YAML file with listen, connect, multicast_scouting
-        data, src = read_yaml(Path(args.zenoh_config))
-        cfg = build(ZenohConfig, data, src, base=cfg)
+    if args.zenoh_config:
+        cfg = zenoh_config_file(Path(args.zenoh_config), cfg)
     if args.listen is not None:
         cfg = dataclasses.replace(cfg, listen=tuple(args.listen))
     if args.connect is not None:
         cfg = dataclasses.replace(cfg, connect=tuple(args.connect))
     return ZenohBus(cfg), cfg
+
+
+def zenoh_config_file(path: Path, base):
+    """The :class:`~vilma.bus.zenoh_bus.ZenohConfig` ``base`` with the values of the YAML file ``path``: ``listen``
+    and ``connect`` (lists of endpoints), ``multicast_scouting`` (true or false), ``extra`` (a list of [key path,
+    JSON5 value] pairs). An error names the file, the line and the field, never what the file holds: a file given
+    by mistake (``/etc/passwd``) is not shown.
+
+    Raises:
+        ValueError: a file that cannot be read or holds anything else, in one line.
+    """
+    from vilma.core.net import check_endpoint
+    from vilma.scenario.fields import read_yaml
+
+    data, src = read_yaml(path)
+    fields = ("listen", "connect", "multicast_scouting", "extra")
+    if not isinstance(data, dict | None):
+        raise ValueError(f"{path}: not a Zenoh configuration: expected a mapping of {', '.join(fields)}")
+    values = {}
+    for key, value in (data or {}).items():
+        where = src.where((key,))
+        if key == "multicast_scouting":
+            if not isinstance(value, bool):
+                raise ValueError(f"{where}: {key}: expected true or false")
+            values[key] = value
+        elif key == "extra":
+            if not (isinstance(value, list) and all(isinstance(pair, list) and len(pair) == 2
+                                                    and all(isinstance(v, str) for v in pair) for pair in value)):
+                raise ValueError(f"{where}: {key}: expected a list of [key path, JSON5 value] pairs of text")
+            values[key] = tuple(tuple(pair) for pair in value)
+        elif key in fields:
+            if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+                raise ValueError(f"{where}: {key}: expected a list of endpoints, e.g. [tcp/127.0.0.1:7447]")
+            for i, endpoint in enumerate(value):
+                try:
+                    check_endpoint(endpoint, key == "listen")
+                except ValueError as e:
+                    raise ValueError(f"{src.where((key, i))}: {key}[{i}]: {e}") from None
+            values[key] = tuple(value)
+        else:
+            raise ValueError(f"{where}: unknown key; the keys are {', '.join(fields)}")
+    return dataclasses.replace(base, **values)
 
 
 PLANT_HELP = "the car's model instead of the scenario's: kinematic, single_track or mujoco (the 3D plant)"

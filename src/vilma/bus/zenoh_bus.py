@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import threading
 import time
 from dataclasses import dataclass
@@ -27,7 +28,7 @@ from vilma.bus.codec import MAX_WORLD_FRAME_BYTES, DecodeError, decode, encode
 from vilma.bus.topics import SENSOR_TOPICS, WORLD_TOPICS, message_type
 from vilma.core.closing import Closeable
 from vilma.core.messages import Message, Reply
-from vilma.core.net import is_loopback
+from vilma.core.net import check_endpoint, is_loopback
 from vilma.core.ratelimit import WarningThrottle
 
 log = logging.getLogger(__name__)
@@ -36,6 +37,8 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where ``vilma sim`` listens and the other programs connect by default."""
 MAX_MESSAGE_BYTES = MAX_WORLD_FRAME_BYTES + 2**20
 """The largest Zenoh message taken [bytes]: the largest frame, with room for its key and Zenoh's headers."""
+_RUST_PLACE = re.compile(r" at /\S+\.rs:\d+\.?")
+"""Where in Zenoh's Rust source an error was raised: no help to a user."""
 LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
 """Where the other programs listen by default: peers that meet through the simulator learn of each other
 (gossip) and connect directly, so a driver's status reaches a GUI without passing through the simulator."""
@@ -43,7 +46,8 @@ LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class ZenohConfig:
-    """Endpoints of a Zenoh peer, as ``tcp/<address>:<port>`` (also ``udp/``, ``tls/``...)."""
+    """Endpoints of a Zenoh peer, as ``tcp/<address>:<port>`` (also ``udp/``, ``tls/``...), checked when made
+    (:func:`~vilma.core.net.check_endpoint`)."""
 
     listen: tuple[str, ...] = ()
     """Endpoints to listen on (none: only connect out)."""
@@ -53,6 +57,14 @@ class ZenohConfig:
     """Find peers by UDP multicast on the local network (off: only the endpoints given)."""
     extra: tuple[tuple[str, str], ...] = ()
     """Other Zenoh settings: (key path, JSON5 value) pairs, e.g. ``("transport/unicast/max_links", "2")``."""
+
+    def __post_init__(self) -> None:
+        for field, listen in (("listen", True), ("connect", False)):
+            for i, endpoint in enumerate(getattr(self, field)):
+                try:
+                    check_endpoint(endpoint, listen)
+                except ValueError as e:
+                    raise ValueError(f"{field} endpoint {i + 1}: {e}") from None
 
     def exposed(self) -> list[str]:
         """Listen endpoints that are not on the loopback interface."""
@@ -80,8 +92,8 @@ class ZenohBus(Closeable):
         try:
             self.session = zenoh.open(config.to_zenoh())
         except zenoh.ZError as e:
-            raise OSError(f"cannot open Zenoh on listen {list(config.listen)} connect {list(config.connect)}: {e}")\
-                from None
+            raise OSError(f"cannot open Zenoh on listen {list(config.listen)} connect {list(config.connect)}: "
+                          f"{_RUST_PLACE.sub('', str(e))}") from None
         self.config = config
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._entities: list = []
