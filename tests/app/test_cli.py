@@ -116,6 +116,7 @@ def test_drive_data_dir_must_be_a_folder(capsys, tmp_path):
     (["gui", "--connect", "garbage"], "--connect", "'garbage': not an endpoint: give <protocol>/<address>"),
     (["replay", "r.mcap", "--listen", "tcp/127.0.0.1:65536"], "--listen", "'tcp/127.0.0.1:65536': the port must"),
     (["ros1-bridge", "--connect", "tcp/127.0.0.1"], "--connect", "'tcp/127.0.0.1': no port"),
+    (["gui", "--record-dir", "/nonexistent"], "--record-dir", "'/nonexistent' is not a folder; create it or give"),
 ])
 def test_bad_option_values_are_argparse_errors(args, option, message, capsys):
     with pytest.raises(SystemExit) as e:
@@ -124,6 +125,13 @@ def test_bad_option_values_are_argparse_errors(args, option, message, capsys):
     err = capsys.readouterr().err
     assert err.startswith("usage: vilma ") and "Traceback" not in err
     assert err.splitlines()[-1].startswith(f"vilma {args[0]}: error: argument {option}: {message}")
+
+
+@pytest.mark.parametrize("option", [["--listen", "tcp/127.0.0.1:0"], ["--zenoh-config", "z.yaml"]])
+def test_gui_options_for_zenoh_need_connect(option, capsys):
+    assert main(["gui", *option]) == 2
+    assert capsys.readouterr().err == (f"vilma gui: error: {option[0]} is for joining programs on Zenoh: give "
+                                       "--connect ENDPOINT too (the embedded simulator needs no Zenoh)\n")
 
 
 def test_a_zenoh_config_file_given_by_mistake_is_not_shown(tmp_path, capsys):

@@ -173,7 +173,8 @@ def _gui(g: argparse.ArgumentParser) -> None:
     g.add_argument("--plant", type=plant, metavar="MODEL", help="embedded: " + PLANT_HELP)
     g.add_argument("--speed", type=positive, default=1.0, metavar="K", help="embedded: K times real time (default 1)")
     g.add_argument("--refresh", type=count, default=250, metavar="MS", help="Car Status refresh [ms] (default 250)")
-    g.add_argument("--record-dir", metavar="DIR", help="where Record Trajectory / Speed write (default .)")
+    g.add_argument("--record-dir", type=folder, metavar="DIR",
+                   help="where Record Trajectory / Speed write, a folder that exists (default .)")
     g.add_argument("--quit-after", type=wall_delay, metavar="S", help="close after S wall seconds (for scripts)")
 
 

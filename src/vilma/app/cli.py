@@ -233,6 +233,9 @@ def _record_path(args: argparse.Namespace):
 
 
 def _gui(args: argparse.Namespace) -> int:
+    if not args.connect and (args.listen or args.zenoh_config):
+        raise ValueError(f"{'--listen' if args.listen else '--zenoh-config'} is for joining programs on Zenoh: give "
+                         "--connect ENDPOINT too (the embedded simulator needs no Zenoh)")
     from vilma.gui.app import main
 
     if args.connect:
