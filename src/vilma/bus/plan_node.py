@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vilma.bus.base import Bus
-from vilma.bus.nodes import check_goal, check_points, order_speed
+from vilma.bus.orders import check_goal, check_points, order_speed
 from vilma.bus.topics import topic
 from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning, default_planner, road_bounds
