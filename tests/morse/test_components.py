@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -71,6 +72,16 @@ def test_steer_force_signs_and_units():
     for bad in ({"steer": "a"}, {"force": float("nan")}, {"gear": 1}, [1, 2], None):
         with pytest.raises(CommandValueError):
             steer_force_command(bad, 0)
+
+
+@pytest.mark.parametrize("field", ["force", "brake"])
+def test_a_steer_force_too_large_for_a_force_is_refused_as_sent(field):
+    """A finite value whose force in newtons would overflow to infinity is refused naming what was sent."""
+    with pytest.raises(CommandValueError, match=f"SteerForce field '{field}' -1e\\+308 is out of range"):
+        steer_force_command({field: -1e308}, 0)
+    top = sys.float_info.max / (STEER_FORCE_UNIT if field == "force" else STEER_BRAKE_UNIT)
+    cmd = steer_force_command({field: top}, 0)
+    assert math.isfinite(cmd.drive) and math.isfinite(cmd.brake)
 
 
 def test_motion_vw_follows_the_curvature_and_limits():

@@ -59,6 +59,7 @@ see :class:`OriginalCar`.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
@@ -347,6 +348,10 @@ def steer_force_command(msg: Any, stamp_ns: int) -> ActuatorCommand:
     """A SteerForce message ``{"steer": rad, "force": MORSE units (negative forward), "brake": >= 0}``
     as a ``force``-mode command (units: :data:`STEER_FORCE_UNIT`, :data:`STEER_BRAKE_UNIT`)."""
     f = _fields("SteerForce", msg, ("steer", "force", "brake"))
+    for name, unit in (("force", STEER_FORCE_UNIT), ("brake", STEER_BRAKE_UNIT)):
+        if math.isinf(f[name] * unit):  # a finite value whose force in newtons overflows
+            raise CommandValueError(f"SteerForce field '{name}' {f[name]:g} is out of range: at most "
+                                    f"{sys.float_info.max / unit:.3g} in magnitude")
     return ActuatorCommand(stamp_ns=stamp_ns, steer=f["steer"], longitudinal=Longitudinal.FORCE,
                            drive=-f["force"] * STEER_FORCE_UNIT, brake=f["brake"] * STEER_BRAKE_UNIT)
 
