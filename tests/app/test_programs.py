@@ -44,6 +44,24 @@ def test_up_stops_cleanly_on_sigint(processes):
     assert p.returncode == 0 and "Traceback" not in err
 
 
+def test_a_repeated_stop_signal_during_shutdown_does_not_kill_the_program():
+    """``timeout`` sends its TERM twice (to the program, then to its group): the second may come after the block,
+    while the program closes; it must not kill it. Without a signal, the previous handlers come back."""
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with programs.stop_on_signals() as stop:
+            signal.raise_signal(signal.SIGTERM)
+            assert stop.wait(10)
+        signal.raise_signal(signal.SIGTERM)  # the repeat, after the block: this process lives on
+        signal.raise_signal(signal.SIGINT)
+    finally:
+        for s, h in before.items():
+            signal.signal(s, h)
+    with programs.stop_on_signals() as stop:
+        pass
+    assert {s: signal.getsignal(s) for s in before} == before and not stop.is_set()
+
+
 def test_a_task_the_driver_refuses_is_one_warning_and_the_drive_goes_on(tmp_path, caplog):
     (tmp_path / "here.yaml").write_text("task: {go_to: [0, 0], speed: 5}\n")  # where the car starts
     lines: list[str] = []

@@ -53,14 +53,23 @@ class MorseOptions:
 
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[threading.Event]:
-    """An event set by SIGINT or SIGTERM while the block runs (the previous handlers come back after)."""
+    """An event set by SIGINT or SIGTERM while the block runs. The previous handlers come back after it, unless one
+    of those signals came: the program is then shutting down, and a repeat must not kill it half way (``timeout``
+    sends its TERM twice, to the program and to its process group), so they keep only setting the event."""
     stop = threading.Event()
-    old = {s: signal.signal(s, lambda *_: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    signalled = threading.Event()
+
+    def handler(*_) -> None:
+        signalled.set()
+        stop.set()
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield stop
     finally:
-        for s, h in old.items():
-            signal.signal(s, h)
+        if not signalled.is_set():
+            for s, h in old.items():
+                signal.signal(s, h)
 
 
 def serve_driver(driver: Driver, bus: Bus, car: str, step_ns: int, scenario: Scenario | None,
