@@ -88,3 +88,13 @@ def test_line_buffer_memory_is_bounded_by_the_longest_line(length, chunk):
         assert len(out) == 2 and isinstance(out[0], p.TooLong) and out[1] == b"ok"
     else:
         assert out == [b"x" * length, b"ok"]
+
+
+def test_the_last_line_without_a_newline_ends_the_stream():
+    buf = p.LineBuffer(max_line=10)
+    assert buf.feed(b"a\nb c") == [b"a"]
+    assert buf.end() == [b"b c"] and buf.pending == 0
+    assert buf.end() == []  # nothing after it
+    assert [type(x) for x in buf.feed(b"x" * 15)] == [p.TooLong]
+    buf.feed(b"yyy")
+    assert buf.end() == []  # the rest of a line already refused as too long is no line

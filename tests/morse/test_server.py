@@ -9,6 +9,9 @@ import logging
 import math
 import socket
 import statistics
+import struct
+import subprocess
+import sys
 import threading
 import time
 
@@ -22,7 +25,7 @@ from tests.record.world_messages import WALL, red_square, wall_rays, wall_scan
 from vilma.core.messages import ActuatorCommand, Longitudinal, PointCloud, Pose
 from vilma.morse import COMPONENTS, MorseServer
 from vilma.morse.core import MAX_PENDING
-from vilma.morse.server import SERVICE_PORT_TRIES
+from vilma.morse.server import SERVICE_HIGH_WATER, SERVICE_PORT_TRIES
 from vilma.sensors.base import Readings
 from vilma.sensors.gps import GpsParams
 
@@ -446,16 +449,130 @@ def sleep_started(c: LineClient, rid: bytes) -> bool:
     return False
 
 
-def test_a_closed_connection_frees_the_sleep_it_ran(clocked):
+def reset(c: LineClient) -> None:
+    """Close ``c`` with a reset (RST) rather than a FIN, as the kernel of a vanished peer does."""
+    c.sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    c.close()
+
+
+def test_a_reset_connection_frees_the_sleep_it_ran(clocked):
     server, clock = clocked
     gone = LineClient(server.service_address[1])
     assert gone.ask(b"1 time sleep [9.0]\nx time mode\n").startswith(b"x SUCCESS")
-    gone.close()
+    reset(gone)
     c = LineClient(server.service_address[1])
-    wait_for(lambda: sleep_started(c, b"2"))  # refused until the server has seen the connection close
+    wait_for(lambda: sleep_started(c, b"2"))  # refused until the server has seen the connection go
     clock["sim"] = 500_000_000
     assert c.line() == b"2 SUCCESS\n"
     c.close()
+
+
+def test_a_client_that_ends_sending_gets_every_reply_then_the_server_closes(clocked):
+    """After ``shutdown(SHUT_WR)`` every request is answered, the asynchronous ``time sleep`` too, and the last
+    line counts without its newline; then the server closes."""
+    server, clock = clocked
+    c = LineClient(server.service_address[1])
+    c.send(b"1 time sleep [1.0]\n2 time mode\n3 time now")
+    c.sock.shutdown(socket.SHUT_WR)
+    assert c.line().startswith(b"2 SUCCESS")
+    assert c.line() == b"3 SUCCESS\n"  # sim time 0: as MORSE, a zero result goes bare
+    clock["sim"] = 1_000_000_000
+    assert c.line() == b"1 SUCCESS\n"
+    assert c.sock.recv(1) == b""
+    c.close()
+
+
+def test_a_closed_client_holds_its_sleep_until_its_time_as_in_morse(clocked):
+    server, clock = clocked
+    gone = LineClient(server.service_address[1])
+    assert gone.ask(b"1 time sleep [1.0]\nx time mode\n").startswith(b"x SUCCESS")
+    gone.close()  # a FIN, as shutdown(SHUT_WR): the server cannot tell them apart
+    c = LineClient(server.service_address[1])
+    assert not sleep_started(c, b"2")
+    clock["sim"] = 1_000_000_000
+    wait_for(lambda: sleep_started(c, b"3"))
+    c.close()
+
+
+def test_connections_beyond_the_cap_get_a_failed_line_and_one_warning_a_second(caplog):
+    commands: list = []
+    server = MorseServer(service_port=0, stream_port=0, on_command=commands.append, time_ns=lambda: 0,
+                         max_connections=4)
+    with server:
+        port, ports = server.service_address[1], server.stream_ports
+        held = [LineClient(port), LineClient(port), LineClient(ports["vilma.pose"]),
+                LineClient(ports["vilma.steer_force"])]
+        for c in held[:2]:
+            assert c.ask(b"m time mode\n").startswith(b"m SUCCESS")
+        wait_for(lambda: server.stats()["vilma.pose"]["clients"] == 1)
+        held[3].send(b'{"force": -1}\n')
+        wait_for(lambda: commands)
+        refused = 30
+        for i in range(refused):
+            c = LineClient(port if i % 2 else ports["vilma.imu"])
+            assert c.line() == (b'FAILED "vilma: this MORSE interface takes 4 connections at once and has them '
+                                b'all; close one and retry"\n')
+            assert c.sock.recv(1) == b""  # closed
+            c.close()
+        held[0].close()
+        again = LineClient(port)
+        wait_for(lambda: again.ask(b"m time mode\n").startswith(b"m SUCCESS"))  # once the server saw it close
+        for c in (again, *held[1:]):
+            c.close()
+    warned = [r for r in caplog.records if "refused a connection" in r.getMessage()]
+    assert 1 <= len(warned) < refused and not any(r.exc_info for r in warned)
+
+
+def test_a_client_that_does_not_read_its_replies_holds_its_requests_not_the_replies(served, client):
+    reply = len(client.ask(b"d simulation details\n"))
+    lazy = socket.socket()
+    lazy.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    lazy.connect(("127.0.0.1", served.port))
+    n = 2000  # all their replies: megabytes
+    lazy.sendall(b"".join(b"%d simulation details\n" % i for i in range(n)))
+    wait_for(lambda: any(c._blocked for c in list(served.server._service_conns)))
+    (conn,) = (c for c in list(served.server._service_conns) if c._blocked)
+    assert conn.transport.get_write_buffer_size() <= SERVICE_HIGH_WATER + reply
+    lazy.settimeout(10.0)
+    reader = LineClient.__new__(LineClient)
+    reader.sock, reader.buf = lazy, b""
+    assert [reader.line().split(b" ", 1)[0] for _ in range(n)] == [b"%d" % i for i in range(n)]  # all, in order
+    lazy.close()
+
+
+def test_out_of_file_descriptors_the_server_warns_a_line_a_second_and_serves_on():
+    """With the process out of file descriptors, each failed accept is throttled to a one-line warning (asyncio
+    logs a traceback for each), and the server takes connections again once some close."""
+    script = """if True:
+        import logging, os, resource, sys
+        from vilma.morse import MorseServer
+        logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")
+        server = MorseServer(service_port=0, stream_port=0, on_command=lambda c: None, time_ns=lambda: 0)
+        server.start()
+        resource.setrlimit(resource.RLIMIT_NOFILE, (len(os.listdir("/proc/self/fd")) + 8,
+                                                    resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+        print(server.service_address[1], flush=True)
+        sys.stdin.read()
+        server.stop()
+    """
+    with subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True) as proc:
+        try:
+            port = int(proc.stdout.readline())
+            held = [LineClient(port) for _ in range(40)]  # those beyond the descriptors wait in the backlog
+            assert held[0].ask(b"m time mode\n").startswith(b"m SUCCESS")
+            for c in held:
+                c.close()
+            probe = LineClient(port)
+            assert probe.ask(b"p time mode\n").startswith(b"p SUCCESS")
+            probe.close()
+            _, err = proc.communicate("", timeout=30)
+        finally:
+            proc.kill()
+    assert proc.returncode == 0 and "Traceback" not in err
+    lines = err.splitlines()
+    assert lines and all(line.startswith("WARNING vilma.morse.server: MORSE: cannot accept connections: [Errno 24]")
+                         for line in lines)
 
 
 def test_time_statistics_are_morses_fixed_step_figures(clocked):

@@ -344,6 +344,11 @@ class MorseCore:
             self._sleeping = None
             q.peer.send(p.format_reply(q.id, p.SUCCESS))
 
+    def waiting(self, peer: Peer) -> bool:
+        """Whether a request of ``peer`` is still to be answered (``time sleep``, ``reset_objects``)."""
+        return (self._sleeping is not None and self._sleeping.peer is peer) or any(
+            q.peer is peer for q in self._resetting)
+
     def peer_gone(self, peer: Peer) -> None:
         """Forget the requests of a closed connection (its ``time sleep`` no longer blocks others')."""
         if self._sleeping is not None and self._sleeping.peer is peer:

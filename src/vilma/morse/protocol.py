@@ -105,6 +105,12 @@ class LineBuffer:
             self._buf = b""
         return out
 
+    def end(self) -> list[bytes]:
+        """At the end of the stream: its last line if it had no ``\\n`` (one not already skipped as too long)."""
+        last, skipping = self._buf, self._skipping
+        self._buf, self._skipping = b"", False
+        return [last] if last and not skipping else []
+
 
 def first_token(raw: bytes | str) -> str:
     """The first whitespace-separated token of a line (the request id), or ``?``."""

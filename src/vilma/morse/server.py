@@ -7,11 +7,20 @@ call ``on_command`` (on the server thread). Topology and lines: ``reference/mors
 component fields and units: :mod:`vilma.morse.components`.
 
 Deviations from MORSE, all more tolerant: blank request lines are ignored; ``<id> cancel``
-only reaches requests of the same connection, and a closed connection's ``time sleep`` ends
-with it (in MORSE it blocks every other until its time is up); actuator messages may leave
-fields out (they default to 0); ``time now`` counts from the start of the run (MORSE's
-``use_relative_time``); ``reset_objects`` answers once the simulator has put the car back (its
+only reaches requests of the same connection; a service client that ends its sending side
+(``shutdown(SHUT_WR)``) still gets every reply, those of ``time sleep`` and ``reset_objects`` too, and its
+last line counts even without a final ``\\n`` (MORSE drops the connection at once); the server closes the
+connection after the last reply. It cannot tell a ``close()`` from that, so a client that closes while its
+``time sleep`` runs holds it until its time is up, as in MORSE; a connection reset (RST) ends it at once.
+Actuator messages may leave fields out (they default to 0); ``time now`` counts from the start of the run
+(MORSE's ``use_relative_time``); ``reset_objects`` answers once the simulator has put the car back (its
 next frame) rather than at once, so that every reading served after its reply is of the reset car.
+
+Limits: at most ``max_connections`` connections over all the ports at once (a connection beyond them gets
+a ``FAILED`` line and is closed). Each holds at most a line of :data:`~vilma.morse.protocol.MAX_LINE`
+bytes, one read of requests not yet answered (asyncio reads 256 KiB at most) and
+:data:`SERVICE_HIGH_WATER` bytes of replies (or ``stream_buffer_limit`` of frames) plus one reply or
+batch, which bounds the memory clients can make the server hold: about 100 MiB with the defaults.
 """
 
 from __future__ import annotations
@@ -28,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 from vilma.core.messages import ActuatorCommand, Message
 from vilma.core.net import is_loopback
+from vilma.core.ratelimit import WarningThrottle
 from vilma.morse import protocol as p
 from vilma.morse.components import LASER_RANGE
 from vilma.morse.core import MorseCore
@@ -43,8 +53,12 @@ SERVICE_PORT_TRIES = 10
 """Service ports tried from ``service_port`` on (MORSE: 4000-4009)."""
 STREAM_PORT_TRIES = 100
 """Busy ports skipped at most when placing one datastream."""
-SERVICE_HIGH_WATER = 256 * 1024
-"""Replies queued to one service client [bytes] above which the server stops reading its requests."""
+SERVICE_HIGH_WATER = 64 * 1024
+"""Replies queued to one service client [bytes] above which the server answers no more of its requests (and
+stops reading them) until it reads."""
+MAX_CONNECTIONS = 256
+"""Connections one server takes at once over all its ports. pymorse opens one to the service port and one a
+datastream it reads, so this serves tens of clients, and keeps file descriptors and memory bounded."""
 PUBLISH_BACKLOG = 256
 """Batches of readings or captures waiting for the server thread; older ones are dropped beyond it."""
 TICK = 0.02
@@ -66,45 +80,78 @@ def _listen(host: str, port: int) -> socket.socket:
     return s
 
 
+def _address(transport: asyncio.BaseTransport) -> str:
+    """The peer's IP address, or ``?``."""
+    peer = transport.get_extra_info("peername")
+    return str(peer[0]) if peer else "?"
+
+
 class _ServiceConn(asyncio.Protocol):
-    """One client of the service port."""
+    """One client of the service port: its requests are answered in order, while it reads the replies."""
 
     def __init__(self, server: MorseServer) -> None:
         self.server, self.lines = server, p.LineBuffer()
         self.transport: asyncio.Transport | None = None
         self.address = "?"
+        self._todo: deque[bytes | p.TooLong] = deque()
+        """Request lines received and not answered yet (while the client does not read its replies)."""
+        self._blocked = False
+        self._eof = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
-        self.transport = transport
-        peer = transport.get_extra_info("peername")
-        self.address = str(peer[0]) if peer else "?"
-        transport.set_write_buffer_limits(high=SERVICE_HIGH_WATER)
-        self.server._service_conns.add(self)
+        self.address = _address(transport)
+        if self.server._admit(transport, self.address):
+            self.transport = transport
+            transport.set_write_buffer_limits(high=SERVICE_HIGH_WATER)
+            self.server._service_conns.add(self)
 
     def data_received(self, data: bytes) -> None:
-        for line in self.lines.feed(data):
+        self._todo.extend(self.lines.feed(data))
+        self._answer()
+
+    def eof_received(self) -> bool:
+        """The client sends no more: its last line counts without a ``\\n``; the connection closes once every
+        request is answered (True: asyncio keeps it open for the replies)."""
+        self._eof = True
+        self._todo.extend(self.lines.end())
+        self._answer()
+        return True
+
+    def _answer(self) -> None:
+        while self._todo and not self._blocked:
             if self.transport is None or self.transport.is_closing():
                 return
-            self.server.core.handle_line(self, line)
+            self.server.core.handle_line(self, self._todo.popleft())
+        self._close_when_done()
+
+    def _close_when_done(self) -> None:
+        if self._eof and not self._todo and self.transport is not None and not self.server.core.waiting(self):
+            self.transport.close()
 
     def connection_lost(self, exc: Exception | None) -> None:
         self.server._service_conns.discard(self)
         self.server.core.peer_gone(self)
         self.transport = None
+        self._todo.clear()
 
-    def pause_writing(self) -> None:  # the client does not read its replies: stop reading its requests
+    def pause_writing(self) -> None:  # the client does not read its replies: answer and read no more for now
+        self._blocked = True
         if self.transport is not None:
             self.transport.pause_reading()
 
     def resume_writing(self) -> None:
+        self._blocked = False
         if self.transport is not None:
             self.transport.resume_reading()
+        self._answer()
 
     def send(self, data: bytes) -> None:
-        """Queue reply bytes (dropped if the connection is closing)."""
+        """Queue reply bytes (dropped if the connection is closing); after the client's end, the last reply
+        closes the connection."""
         if self.transport is not None and not self.transport.is_closing():
             self.transport.write(data)
+            self._close_when_done()
 
 
 class _OutConn(asyncio.Protocol):
@@ -116,6 +163,8 @@ class _OutConn(asyncio.Protocol):
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
+        if not self.server._admit(transport, _address(transport)):
+            return
         self.transport = transport
         sock = transport.get_extra_info("socket")
         if sock is not None:  # a small kernel buffer too: a slow reader gets fresh frames, not seconds-old ones
@@ -153,9 +202,10 @@ class _InConn(asyncio.Protocol):
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
+        self.address = _address(transport)
+        if not self.server._admit(transport, self.address):
+            return
         self.transport = transport
-        peer = transport.get_extra_info("peername")
-        self.address = str(peer[0]) if peer else "?"
         self.server._in_conns.add(self)
         core = self.server.core
         if not core.access.allowed(self.address):
@@ -212,6 +262,8 @@ class MorseServer:
         sensors: the car's sensors, for where the GPS and IMU sit (``get_configurations``,
             ``get_scene_objects``); default :class:`~vilma.sensors.SensorSuite`'s.
         wall_ns: a monotonic wall clock [ns], which times the frames for ``time statistics``.
+        max_connections: connections taken at once over all the ports; one more gets a ``FAILED`` line and
+            is closed.
     """
 
     def __init__(self, *, host: str = "127.0.0.1", service_port: int = 4000, stream_port: int = 60000,
@@ -221,12 +273,12 @@ class MorseServer:
                  allow_commands_from: Collection[str] | None = None, vehicle: VehicleParams | None = None,
                  stream_buffer_limit: int = 64 * 1024, world_topics: Collection[str] = (),
                  laser_range: float = LASER_RANGE, sensors: SensorSuite | None = None,
-                 wall_ns: Callable[[], int] = time.monotonic_ns) -> None:
+                 wall_ns: Callable[[], int] = time.monotonic_ns, max_connections: int = MAX_CONNECTIONS) -> None:
         for name, port in (("service_port", service_port), ("stream_port", stream_port)):
             if not 0 <= port <= 65535:
                 raise ValueError(f"{name} must be in 0..65535 (0: any free port), got {port}")
         self.host, self._service_port, self._stream_port = host, service_port, stream_port
-        self.stream_buffer_limit = stream_buffer_limit
+        self.stream_buffer_limit, self.max_connections = stream_buffer_limit, max_connections
         self.core = MorseCore(robot=robot, on_command=on_command, on_reset=on_reset, on_quit=on_quit,
                               time_ns=time_ns, allow_commands_from=allow_commands_from, vehicle=vehicle,
                               shutdown=self._close_sockets, world_topics=world_topics, laser_range=laser_range,
@@ -246,6 +298,7 @@ class MorseServer:
         self._open = False
         self.publish_dropped = 0
         """Batches of readings or captures dropped because the server thread fell behind."""
+        self._warnings = WarningThrottle(log)  # a client opening connections in a loop gets a line a second
 
     # -- life cycle --------------------------------------------------------------------------------------
 
@@ -343,8 +396,33 @@ class MorseServer:
         self._open = True
         loop.call_later(TICK, self._tick)
 
+    def _admit(self, transport: asyncio.Transport, address: str) -> bool:
+        """Whether a new connection fits under ``max_connections``; if not, it gets a FAILED line and is closed."""
+        taken = len(self._service_conns) + len(self._in_conns) + sum(len(c) for c in self._out.values())
+        if taken < self.max_connections:
+            return True
+        msg = (f"vilma: this MORSE interface takes {self.max_connections} connections at once and has them all; "
+               f"close one and retry")
+        self._warnings.warning("full", "MORSE: refused a connection from %s: %d connections are open, the most "
+                               "it takes", address, taken)
+        transport.write(p.format_reply("", p.FAILED, msg).lstrip())
+        transport.close()
+        return False
+
+    def _loop_error(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        """asyncio's errors: one that cannot accept (out of file descriptors) is a warning a second at most."""
+        exc = context.get("exception")
+        if isinstance(exc, OSError) and context.get("message", "").startswith("socket.accept()"):
+            self._warnings.warning("accept", "MORSE: cannot accept connections: %s (the process has too many "
+                                   "open files); retrying", exc)
+        elif isinstance(exc, ValueError) and not self._open:  # asyncio retrying such an accept on a port closed since
+            log.debug("MORSE: %s", context.get("message"))
+        else:
+            loop.default_exception_handler(context)
+
     def _run(self, loop: asyncio.AbstractEventLoop) -> None:
         asyncio.set_event_loop(loop)
+        loop.set_exception_handler(self._loop_error)
         try:
             loop.run_forever()
         finally:
