@@ -14,6 +14,7 @@ import pytest
 
 from vilma.app.arguments import COMMANDS, parser
 from vilma.app.cli import HANDLERS, main
+from vilma.morse import COMPONENTS
 from vilma.scenario.bundled import BUNDLED, names, summary
 from vilma.scenario.fields import MAX_YAML_DEPTH, MAX_YAML_VALUES
 from vilma.trajectory import load_trajectory
@@ -88,7 +89,12 @@ def test_drive_data_dir_must_be_a_folder(capsys, tmp_path):
     (["sim", "--foxglove", "0"], "--foxglove", "must be a TCP port, 1-65535, got 0"),
     (["up", "--foxglove", "http"], "--foxglove", "expected a whole number, got 'http'"),
     (["sim", "--morse-port", "65536"], "--morse-port", "must be a TCP port, 1-65535, or 0 for any free port"),
-    (["sim", "--morse-stream-port", "-1"], "--morse-stream-port", "must be a TCP port, 1-65535, or 0 for any"),
+    (["sim", "--morse-stream-port", "-1"], "--morse-stream-port", f"must be a TCP port, 1-{65536 - len(COMPONENTS)} "
+     f"(the {len(COMPONENTS)} datastreams take consecutive ports from it), or 0 for any free ports, got -1"),
+    (["sim", "--morse-stream-port", "65535"], "--morse-stream-port",
+     f"must be a TCP port, 1-{65536 - len(COMPONENTS)}"),
+    (["sim", "--morse-host", "999.1.1.1"], "--morse-host", "'999.1.1.1' is not an IP address; give one of this "
+     "machine, e.g. 127.0.0.1 (0.0.0.0 or :: for all its interfaces)"),
     (["sim", "--duration", "nan"], "--duration", "must be a number of seconds > 0 (inf: no end), got nan"),
     (["up", "--duration", "0"], "--duration", "must be a number of seconds > 0"),
     (["ros1-bridge", "--duration", "-5"], "--duration", "must be a number of seconds > 0"),

@@ -25,7 +25,7 @@ from tests.record.world_messages import WALL, red_square, wall_rays, wall_scan
 from vilma.core.messages import ActuatorCommand, Longitudinal, PointCloud, Pose
 from vilma.morse import COMPONENTS, MorseServer
 from vilma.morse.core import MAX_PENDING
-from vilma.morse.server import SERVICE_HIGH_WATER, SERVICE_PORT_TRIES
+from vilma.morse.server import SERVICE_HIGH_WATER, SERVICE_PORT_TRIES, ListenError
 from vilma.sensors.base import Readings
 from vilma.sensors.gps import GpsParams
 
@@ -299,6 +299,17 @@ def test_busy_service_port_moves_to_the_next_as_morse():
     finally:
         server.stop()
         blocker.close()
+
+
+def test_an_address_not_of_this_machine_or_streams_past_the_last_port_are_listen_errors(caplog):
+    with pytest.raises(ListenError, match=r"cannot listen on 192\.0\.2\.1: .*; give an address") as e:
+        MorseServer(host="192.0.2.1", service_port=0, stream_port=0, on_command=print, time_ns=lambda: 0).start()
+    assert e.value.argument == "host"  # not "all ports busy": the address is the fault
+    assert not caplog.records  # nor the warning of a server listening beyond loopback
+    n = len(COMPONENTS)
+    with pytest.raises(ListenError, match=f"start at {65536 - n} at most, or 0 for any free ports") as e:
+        MorseServer(service_port=0, stream_port=65537 - n, on_command=print, time_ns=lambda: 0).start()
+    assert e.value.argument == "stream_port"
 
 
 def test_stream_ports_follow_scene_order_from_the_first_port():

@@ -43,3 +43,12 @@ def test_bad_morse_options_exit_with_one_line():
     assert r.stderr.strip().splitlines() == [
         "vilma sim: error: allow_commands_from: 'no.such/99' is not an IP address or network; "
         "use e.g. '127.0.0.1' or '192.168.1.0/24'"]
+
+
+def test_an_address_not_of_this_machine_is_one_line_naming_the_option():
+    r = subprocess.run([sys.executable, "-m", "vilma.app.cli", "sim", "--listen", "tcp/127.0.0.1:0", "--morse-host",
+                        "192.0.2.1", "--morse-port", "0"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    (line,) = r.stderr.strip().splitlines()
+    assert line.startswith("vilma sim: error: --morse-host: cannot listen on 192.0.2.1: ")
+    assert line.endswith("; give an address of this machine, e.g. 127.0.0.1")

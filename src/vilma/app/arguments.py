@@ -10,11 +10,13 @@ from vilma.app import serve
 from vilma.app.options import (
     MAX_CARS,
     PLANT_HELP,
+    bind_address,
     cars,
     complete_scenario,
     connect_endpoint,
     count,
     duration,
+    first_stream_port,
     folder,
     listen_endpoint,
     non_negative,
@@ -151,11 +153,11 @@ def _program(name: str) -> Callable[[argparse.ArgumentParser], None]:
 
 def _morse(q: argparse.ArgumentParser) -> None:
     """``vilma sim``'s MORSE socket interface."""
-    q.add_argument("--morse-host", default="127.0.0.1", metavar="ADDR",
+    q.add_argument("--morse-host", type=bind_address, default="127.0.0.1", metavar="ADDR",
                    help="address of the MORSE socket interface (default 127.0.0.1; others are exposed)")
     q.add_argument("--morse-port", type=port_or_any, default=4000, metavar="PORT",
                    help="MORSE service port, the next free up to +9 (default 4000; 0: any free)")
-    q.add_argument("--morse-stream-port", type=port_or_any, default=60000, metavar="PORT",
+    q.add_argument("--morse-stream-port", type=first_stream_port, default=60000, metavar="PORT",
                    help="first MORSE datastream port (default 60000; 0: any free)")
     q.add_argument("--allow-commands-from", action="append", metavar="ADDR",
                    help="take MORSE commands only from this address or network (repeatable)")

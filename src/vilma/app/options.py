@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import ipaddress
 import math
 import re
 from collections.abc import Callable
@@ -115,6 +116,28 @@ def _endpoint(text: str, listen: bool) -> str:
     except ValueError as e:
         raise argparse.ArgumentTypeError(f"{text!r}: {e}") from None
     return text
+
+
+def bind_address(text: str) -> str:
+    """An IP address of this machine to listen on (``[v6]`` too; ``localhost``; 0.0.0.0 or :: for all)."""
+    host = text.strip("[]")
+    if host != "localhost":
+        try:
+            ipaddress.ip_address(host)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an IP address; give one of this machine, e.g. "
+                                             "127.0.0.1 (0.0.0.0 or :: for all its interfaces)") from None
+    return host
+
+
+def first_stream_port(text: str) -> int:
+    """The first port of the MORSE datastreams, which take consecutive ports from it: room for every one up to
+    65535, or 0 for any free ports."""
+    from vilma.morse import COMPONENTS
+
+    top = 65536 - len(COMPONENTS)
+    return _number(text, lambda v: 0 <= v <= top, f"a TCP port, 1-{top} (the {len(COMPONENTS)} datastreams take "
+                   "consecutive ports from it), or 0 for any free ports", int)
 
 
 def scenario_or_default(name: str | None, task: str = "task: {speed: 0.0001}", plant: str | None = None):

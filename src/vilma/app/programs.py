@@ -22,6 +22,7 @@ from vilma.control.driver import Driver
 from vilma.morse import MorseServer
 from vilma.morse.access import parse_networks
 from vilma.morse.components import LASER_RANGE
+from vilma.morse.server import ListenError
 from vilma.record.live import FoxgloveLive
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.road_scene import scenario_road
@@ -49,6 +50,10 @@ class MorseOptions:
                 raise ValueError(f"MORSE {name.replace('_', ' ')} must be in 0..65535 (0: any free port), "
                                  f"got {getattr(self, name)}")
         parse_networks(self.allow_commands_from)  # a bad address fails before anything starts
+
+
+MORSE_OPTIONS = {"host": "--morse-host", "service_port": "--morse-port", "stream_port": "--morse-stream-port"}
+"""``vilma sim``'s option of each :class:`MorseServer` argument."""
 
 
 @contextlib.contextmanager
@@ -158,12 +163,16 @@ def sim_program(scenario: Scenario, bus: Bus, speed: float, duration: float, rep
         stop = stack.enter_context(stop_on_signals())
         if morse is not None:
             laser = scenario.sim.laser
-            server = stack.enter_context(MorseServer(
+            server = MorseServer(
                 host=morse.host, service_port=morse.service_port, stream_port=morse.stream_port,
                 on_command=node.command, on_reset=node.reset, on_quit=stop.set, time_ns=lambda: sim.time_ns,
                 allow_commands_from=morse.allow_commands_from, vehicle=sim.config.vehicle,
                 sensors=sim.config.sensors, world_topics=world,
-                laser_range=laser.max_range if laser is not None else LASER_RANGE))
+                laser_range=laser.max_range if laser is not None else LASER_RANGE)
+            try:
+                stack.enter_context(server)
+            except ListenError as e:  # what to change, as the command line says it
+                raise OSError(f"{MORSE_OPTIONS[e.argument]}: {e.reason}") from None
             node.on_frame, node.on_captures = server.publish, server.publish_captures
             host, port = server.service_address
             first, last = min(server.stream_ports.values()), max(server.stream_ports.values())

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import logging
 import socket
 import threading
@@ -63,6 +64,15 @@ PUBLISH_BACKLOG = 256
 """Batches of readings or captures waiting for the server thread; older ones are dropped beyond it."""
 TICK = 0.02
 """Period of the check for due ``time sleep`` requests when no readings arrive [s]."""
+
+
+class ListenError(OSError):
+    """The server cannot listen where it was asked: ``argument`` names the one to change (``host``,
+    ``service_port`` or ``stream_port``), ``reason`` says why and how."""
+
+    def __init__(self, argument: str, reason: str) -> None:
+        super().__init__(f"{argument}: {reason}")
+        self.argument, self.reason = argument, reason
 
 
 def _listen(host: str, port: int) -> socket.socket:
@@ -313,14 +323,15 @@ class MorseServer:
         """Bind every port and serve from a daemon thread; returns once listening.
 
         Raises:
-            OSError: no free service port in ``service_port .. +9`` or no free stream port.
+            ListenError: no free service port in ``service_port .. +9``, no free stream port, or ``host`` is
+                not an address of this machine.
         """
         if self._thread is not None:
             raise RuntimeError("MorseServer.start() was already called; make a new server to restart")
+        socks = self._bind()
         if not is_loopback(self.host):
             log.warning("MORSE interface bound to %s, not loopback: anyone who can reach it can drive the car "
                         "(restrict with allow_commands_from)", self.host or "all interfaces")
-        socks = self._bind()
         loop = asyncio.new_event_loop()
         self._loop = loop
         self._thread = threading.Thread(target=self._run, args=(loop,), name="vilma-morse", daemon=True)
@@ -344,6 +355,10 @@ class MorseServer:
         self.stop()
 
     def _bind(self) -> dict[str, socket.socket]:
+        n = len(self.core.specs)
+        if self._stream_port + n - 1 > 65535:
+            raise ListenError("stream_port", f"the {n} datastreams take consecutive ports from {self._stream_port}, "
+                                             f"past 65535: start at {65536 - n} at most, or 0 for any free ports")
         socks: dict[str, socket.socket] = {}
         try:
             socks[""] = self._bind_service()
@@ -364,24 +379,37 @@ class MorseServer:
         return socks
 
     def _bind_service(self) -> socket.socket:
-        if self._service_port == 0:
-            return _listen(self.host, 0)
-        last = self._service_port + SERVICE_PORT_TRIES - 1
-        for port in range(self._service_port, min(last, 65535) + 1):
-            with contextlib.suppress(OSError):
-                return _listen(self.host, port)
-        raise OSError(f"MORSE service ports {self._service_port}-{last} on {self.host} are all busy: stop the other "
-                      f"simulator, or pass service_port=0 for any free port")
+        first = self._service_port
+        last = min(first + SERVICE_PORT_TRIES - 1, 65535) if first else 0
+        sock = self._first_free(first, last, "service_port")
+        if sock is None:
+            raise ListenError("service_port", f"MORSE service ports {first}-{last} on {self.host} are all in use: stop "
+                                              f"the other simulator, or start from another port (0: any free)")
+        return sock
 
     def _bind_stream(self, fqn: str, first: int) -> socket.socket:
-        if first == 0:
-            return _listen(self.host, 0)
-        last = min(first + STREAM_PORT_TRIES - 1, 65535)
+        last = min(first + STREAM_PORT_TRIES - 1, 65535) if first else 0
+        sock = self._first_free(first, last, "stream_port")
+        if sock is None:  # (first is past 65535 when the earlier streams skipped busy ports up to there)
+            span = f"in {first}-{last}" if first <= last else "up to 65535"
+            raise ListenError("stream_port", f"no free port for the {fqn} datastream {span} on {self.host}: start "
+                                             f"from another port (0: any free)")
+        return sock
+
+    def _first_free(self, first: int, last: int, argument: str) -> socket.socket | None:
+        """A socket listening on the first port of ``first .. last`` not in use (MORSE's way), or None; any
+        other failure is a :class:`ListenError` blaming ``host`` or ``argument``."""
         for port in range(first, last + 1):
-            with contextlib.suppress(OSError):
+            try:
                 return _listen(self.host, port)
-        raise OSError(f"no free port for the {fqn} datastream in {first}-{last} on {self.host}: pass another "
-                      f"stream_port, or 0 for any free ports")
+            except OSError as e:
+                if e.errno == errno.EADDRINUSE:
+                    continue
+                if isinstance(e, socket.gaierror) or e.errno in (errno.EADDRNOTAVAIL, errno.EAFNOSUPPORT):
+                    raise ListenError("host", f"cannot listen on {self.host}: {e.strerror}; give an address of "
+                                              f"this machine, e.g. 127.0.0.1") from None
+                raise ListenError(argument, f"cannot listen on port {port} of {self.host}: {e.strerror}") from None
+        return None
 
     async def _serve(self, socks: dict[str, socket.socket]) -> None:
         loop = asyncio.get_running_loop()
