@@ -25,7 +25,8 @@ from tests.record.world_messages import WALL, red_square, wall_rays, wall_scan
 from vilma.core.messages import ActuatorCommand, Longitudinal, PointCloud, Pose
 from vilma.morse import COMPONENTS, MorseServer
 from vilma.morse.core import MAX_PENDING
-from vilma.morse.server import SERVICE_HIGH_WATER, SERVICE_PORT_TRIES, ListenError
+from vilma.morse.ports import SERVICE_PORT_TRIES, ListenError
+from vilma.morse.server import SERVICE_HIGH_WATER
 from vilma.sensors.base import Readings
 from vilma.sensors.gps import GpsParams
 

@@ -22,7 +22,7 @@ from vilma.control.driver import Driver
 from vilma.morse import MorseServer
 from vilma.morse.access import parse_networks
 from vilma.morse.components import LASER_RANGE
-from vilma.morse.server import ListenError
+from vilma.morse.ports import ListenError
 from vilma.record.live import FoxgloveLive
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.road_scene import scenario_road

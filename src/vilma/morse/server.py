@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import errno
 import logging
 import socket
 import threading
@@ -42,6 +41,7 @@ from vilma.core.ratelimit import WarningThrottle
 from vilma.morse import protocol as p
 from vilma.morse.components import LASER_RANGE
 from vilma.morse.core import MorseCore
+from vilma.morse.ports import bind_ports
 from vilma.vehicle.params import VehicleParams
 
 if TYPE_CHECKING:
@@ -50,10 +50,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-SERVICE_PORT_TRIES = 10
-"""Service ports tried from ``service_port`` on (MORSE: 4000-4009)."""
-STREAM_PORT_TRIES = 100
-"""Busy ports skipped at most when placing one datastream."""
 SERVICE_HIGH_WATER = 64 * 1024
 """Replies queued to one service client [bytes] above which the server answers no more of its requests (and
 stops reading them) until it reads."""
@@ -64,30 +60,6 @@ PUBLISH_BACKLOG = 256
 """Batches of readings or captures waiting for the server thread; older ones are dropped beyond it."""
 TICK = 0.02
 """Period of the check for due ``time sleep`` requests when no readings arrive [s]."""
-
-
-class ListenError(OSError):
-    """The server cannot listen where it was asked: ``argument`` names the one to change (``host``,
-    ``service_port`` or ``stream_port``), ``reason`` says why and how."""
-
-    def __init__(self, argument: str, reason: str) -> None:
-        super().__init__(f"{argument}: {reason}")
-        self.argument, self.reason = argument, reason
-
-
-def _listen(host: str, port: int) -> socket.socket:
-    """A listening TCP socket on ``host:port`` (port 0: any free); OSError when busy."""
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    s = socket.socket(family, socket.SOCK_STREAM)
-    try:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        s.bind((host, port))
-        s.listen(128)
-        s.setblocking(False)
-    except BaseException:
-        s.close()
-        raise
-    return s
 
 
 def _address(transport: asyncio.BaseTransport) -> str:
@@ -323,12 +295,15 @@ class MorseServer:
         """Bind every port and serve from a daemon thread; returns once listening.
 
         Raises:
-            ListenError: no free service port in ``service_port .. +9``, no free stream port, or ``host`` is
-                not an address of this machine.
+            ~vilma.morse.ports.ListenError: no free service port in ``service_port .. +9``, no free stream
+                port, or ``host`` is not an address of this machine.
         """
         if self._thread is not None:
             raise RuntimeError("MorseServer.start() was already called; make a new server to restart")
-        socks = self._bind()
+        socks = bind_ports(self.host, self._service_port, self._stream_port, self.core.specs)
+        self._address = (self.host, socks[""].getsockname()[1])
+        self.stream_ports.update((fqn, sock.getsockname()[1]) for fqn, sock in socks.items() if fqn)
+        self.core.stream_ports = dict(self.stream_ports)
         if not is_loopback(self.host):
             log.warning("MORSE interface bound to %s, not loopback: anyone who can reach it can drive the car "
                         "(restrict with allow_commands_from)", self.host or "all interfaces")
@@ -353,63 +328,6 @@ class MorseServer:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
-
-    def _bind(self) -> dict[str, socket.socket]:
-        n = len(self.core.specs)
-        if self._stream_port + n - 1 > 65535:
-            raise ListenError("stream_port", f"the {n} datastreams take consecutive ports from {self._stream_port}, "
-                                             f"past 65535: start at {65536 - n} at most, or 0 for any free ports")
-        socks: dict[str, socket.socket] = {}
-        try:
-            socks[""] = self._bind_service()
-            self._address = (self.host, socks[""].getsockname()[1])
-            port = self._stream_port
-            for fqn in self.core.specs:
-                socks[fqn] = s = self._bind_stream(fqn, port)
-                self.stream_ports[fqn] = s.getsockname()[1]
-                if port:
-                    port = self.stream_ports[fqn] + 1
-        except BaseException:
-            for s in socks.values():
-                s.close()
-            self.stream_ports.clear()
-            self._address = None
-            raise
-        self.core.stream_ports = dict(self.stream_ports)
-        return socks
-
-    def _bind_service(self) -> socket.socket:
-        first = self._service_port
-        last = min(first + SERVICE_PORT_TRIES - 1, 65535) if first else 0
-        sock = self._first_free(first, last, "service_port")
-        if sock is None:
-            raise ListenError("service_port", f"MORSE service ports {first}-{last} on {self.host} are all in use: stop "
-                                              f"the other simulator, or start from another port (0: any free)")
-        return sock
-
-    def _bind_stream(self, fqn: str, first: int) -> socket.socket:
-        last = min(first + STREAM_PORT_TRIES - 1, 65535) if first else 0
-        sock = self._first_free(first, last, "stream_port")
-        if sock is None:  # (first is past 65535 when the earlier streams skipped busy ports up to there)
-            span = f"in {first}-{last}" if first <= last else "up to 65535"
-            raise ListenError("stream_port", f"no free port for the {fqn} datastream {span} on {self.host}: start "
-                                             f"from another port (0: any free)")
-        return sock
-
-    def _first_free(self, first: int, last: int, argument: str) -> socket.socket | None:
-        """A socket listening on the first port of ``first .. last`` not in use (MORSE's way), or None; any
-        other failure is a :class:`ListenError` blaming ``host`` or ``argument``."""
-        for port in range(first, last + 1):
-            try:
-                return _listen(self.host, port)
-            except OSError as e:
-                if e.errno == errno.EADDRINUSE:
-                    continue
-                if isinstance(e, socket.gaierror) or e.errno in (errno.EADDRNOTAVAIL, errno.EAFNOSUPPORT):
-                    raise ListenError("host", f"cannot listen on {self.host}: {e.strerror}; give an address of "
-                                              f"this machine, e.g. 127.0.0.1") from None
-                raise ListenError(argument, f"cannot listen on port {port} of {self.host}: {e.strerror}") from None
-        return None
 
     async def _serve(self, socks: dict[str, socket.socket]) -> None:
         loop = asyncio.get_running_loop()
