@@ -399,3 +399,23 @@ def test_a_broken_pipe_that_is_not_the_output_is_an_error(monkeypatch, capsys):
     monkeypatch.setitem(HANDLERS, "scenarios", recorder_gone)
     assert main(["scenarios"]) == 2
     assert capsys.readouterr().err == "vilma scenarios: error: [Errno 32] the recording process has gone\n"
+
+
+def test_a_cache_naming_a_module_this_process_cannot_import_is_one_line_with_the_way_out(monkeypatch, capsys):
+    """A script that drove with a controller kept outside vilma leaves numba's cache index naming its module; a later
+    process that cannot import it failed in a traceback from numba's cache (``pickle.loads`` of the index)."""
+    numba_reading = compile("raise ModuleNotFoundError(\"No module named 'my_path'\", name='my_path')",
+                            "/venv/site-packages/numba/core/caching.py", "exec")
+
+    def run(args):
+        exec(numba_reading)
+
+    monkeypatch.setitem(HANDLERS, "scenarios", run)
+    assert main(["scenarios"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vilma scenarios: error: numba's cache of vilma's compiled code holds a version made for a "
+                          "controller of the module 'my_path', which this process cannot import: put that module on")
+    assert err.count("\n") == 1
+    monkeypatch.setitem(HANDLERS, "scenarios", lambda args: __import__("no_such_module_of_a_handler"))
+    with pytest.raises(ModuleNotFoundError):  # not numba's cache: a bug, shown as one
+        main(["scenarios"])

@@ -137,13 +137,17 @@ def test_a_task_off_the_planning_problem_on_a_commonroad_world_is_refused_not_dr
         _yaml(f"world: {{commonroad: {TUTORIAL}}}\ntask: {task}\n", tmp_path)
 
 
-def test_a_speed_set_on_a_commonroad_file_caps_its_default_plan_and_a_kind_set_replaces_it():
+def test_a_speed_set_on_a_commonroad_file_caps_its_default_plan_and_a_kind_set_replaces_it(tmp_path):
     s = load_scenario(TUTORIAL, {"task.speed": "10"})
     assert (s.task.kind, s.task.speed) == ("plan", 10.0) and s.road is not None  # the road, its traffic and goal
     path = s.reference_path()  # the lane's speed capped at 10 m/s, after the start's 22 m/s ramps down to it
     cruise = path.speed[path.s >= (22.0 ** 2 - 10.0 ** 2) / (2 * s.driver.stop_deceleration)]
     assert np.all(cruise <= 10.0) and np.any(cruise == 10.0)
     assert load_scenario(TUTORIAL, {"task.route": "true", "task.speed": "10"}).task.kind == "route"
+    road = tmp_path / "s.yaml"  # a YAML road without a task: its route, capped alike
+    road.write_text(f"world: {{commonroad: {TUTORIAL}}}\n")
+    assert (load_scenario(road, {"task.speed": "10"}).task.kind, load_scenario(road).task.kind) == ("route", "route")
+    assert load_scenario(road, {"task.speed": "10"}).task.speed == 10.0
 
 
 def test_a_gain_set_without_a_type_tunes_the_scenarios_controller(tmp_path):

@@ -290,10 +290,37 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
             return _reader_gone(closed)
         print(f"vilma {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except ModuleNotFoundError as e:
+        if not _in_numba_cache(e):
+            raise
+        print(f"vilma {args.command}: error: {_stale_cache(e.name)}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as e:
         if str(e):  # a run says where it stopped and what it kept
             print(f"vilma {args.command}: {e}", file=sys.stderr)
         return 130
+
+
+def _in_numba_cache(e: BaseException) -> bool:
+    """Whether ``e`` was raised while numba read its cache (an index names the types of every version it holds)."""
+    tb = e.__traceback__
+    while tb is not None:
+        if Path(tb.tb_frame.f_code.co_filename).match("numba/core/caching.py"):
+            return True
+        tb = tb.tb_next
+    return False
+
+
+def _stale_cache(module: str | None) -> str:
+    """What to do when numba's cache of vilma's compiled code names the types of a controller of ``module`` that this
+    process cannot import: a script registered a controller kept outside vilma (its module on its own path) and
+    drove with it, and numba kept that version beside the others."""
+    import vilma
+
+    return (f"numba's cache of vilma's compiled code holds a version made for a controller of the module {module!r}, "
+            f"which this process cannot import: put that module on Python's path (install it, or PYTHONPATH), or "
+            f"delete the cache (the .nbi and .nbc files under {Path(vilma.__file__).parent}, or $NUMBA_CACHE_DIR; "
+            "the next run compiles again)")
 
 
 def _closed_outputs() -> list[int]:

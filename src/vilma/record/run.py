@@ -31,7 +31,7 @@ drive takes (``vilma run course_30kmh_stanley``: 1.5 s here against 2.4 s beside
 faster beside its loop: 3.2 s against 4.0 s). A paced run always records beside its loop, which keeps its pace."""
 
 
-def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, plots: bool = True,
+def record_run(scenario: Scenario, out_dir: Path | str, *, record: bool = True, plots: bool = True,
                realtime: float | None = None, compiled: bool = True, observers: Sequence[RunObserver] = (),
                started: float | None = None) -> RunResult:
     """Run ``scenario`` (:func:`~vilma.scenario.runner.run`) writing its folder ``out_dir`` as it goes: the
@@ -42,6 +42,7 @@ def record_run(scenario: Scenario, out_dir: Path, *, record: bool = True, plots:
         SpecError: the scenario's files cannot be used.
         Interrupted: Ctrl-C; the files so far are kept, the recording finished.
     """
+    out_dir = Path(out_dir)
     mine: list[RunObserver] = []
     if record:
         from vilma.record.run_recorder import RunRecorder  # MCAP and the recording process: only to record

@@ -215,7 +215,7 @@ def load_scenario(path: str | Path, overrides: dict[str, str] | None = None) -> 
     followed)."""
     if Path(path).suffix == ".xml":  # a CommonRoad file: its planning problem planned, with vilma's defaults
         path = Path(path)
-        planned = {} if any(k.split(".")[:2][-1] in TASK_KINDS for k in overrides or {}) else {"task": {"plan": True}}
+        planned = {} if _sets_kind(overrides or {}) else {"task": {"plan": True}}
         return parse_scenario({"world": {"commonroad": path.name}, **planned}, Source(str(path), {}), name=path.stem,
                               file=path, overrides=overrides)
     path = find_scenario(path)
@@ -279,18 +279,25 @@ def _traffic(data: dict, src: Source, road: EgoTask | None) -> str:
     return value
 
 
+def _sets_kind(overrides: dict[str, str]) -> bool:
+    """Whether ``overrides`` say what the task is (:data:`TASK_KINDS`): a default task then gives way to theirs."""
+    return any(k.split(".")[:2][-1] in TASK_KINDS for k in overrides)
+
+
 def _document(data: Any, src: Source, overrides: dict[str, str]) -> tuple[dict, Source]:
     """The scenario's mapping with the ``overrides`` applied, its keys checked."""
     if data is None:
         data = {}
     if not isinstance(data, dict):
         raise src.error((), "a scenario must be a mapping of keys such as task, vehicle, speed_controller")
+    if "task" not in data and _road_keys(data.get("world")) and not _sets_kind(overrides):
+        data = {**data, "task": {"route": True}}  # a CommonRoad world: its route, which --set task.speed caps
     data, src = apply_overrides(data, src, overrides)
     for k in data:
         if k not in TOP_KEYS:
             raise src.error((k,), f"unknown key{_suggest(str(k), TOP_KEYS)}")
     if "task" not in data and _road_keys(data.get("world")):
-        data = {**data, "task": {"route": True}}  # a CommonRoad world: its planning problem is the task
+        data = {**data, "task": {"route": True}}  # (a world set by --set)
     if "task" not in data:
         raise src.error((), "no task: add e.g. 'task: {speed: 10}' or 'task: {follow: path.txt, speed: 5}'")
     return data, src
