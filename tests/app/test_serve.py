@@ -178,3 +178,22 @@ def test_a_warm_up_of_no_such_scenario_is_refused_in_one_line(tmp_path):
     assert out.returncode == 2
     assert out.stderr.startswith("vilma serve: error: --warm-up no_such_scenario: no such file")
     assert out.stderr.count("\n") == 1 and not (tmp_path / "s.sock").exists()
+
+
+def test_a_socket_path_that_holds_a_file_or_is_too_long_is_refused_and_the_file_kept(tmp_path):
+    kept = tmp_path / "notes.txt"
+    kept.write_text("mine")
+    for path, error in ((kept, f"{kept}: exists and is not a socket; give --socket a path of its own"),
+                        (tmp_path / ("x" * 120 + ".sock"), "more than a socket's path may hold (107)")):
+        out = subprocess.run([*VILMA, "serve", "--socket", str(path), "--warm-up", "none"], capture_output=True,
+                             text=True, timeout=60, stdin=subprocess.DEVNULL)
+        assert out.returncode == 2 and out.stderr.startswith("vilma serve: error: ") and error in out.stderr
+        assert out.stderr.count("\n") == 1
+    assert kept.read_text() == "mine"
+
+
+def test_a_client_in_a_folder_deleted_meanwhile_runs_the_command_itself(server, tmp_path):
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    listed = server.client("scenarios", cwd=gone, preexec_fn=lambda: os.rmdir(gone))  # (removed once it is in it)
+    assert listed.returncode == 0 and f"{SCENARIO}: " in listed.stdout and listed.stderr == ""

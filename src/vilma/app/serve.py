@@ -24,6 +24,7 @@ import json
 import os
 import signal
 import socket
+import stat
 import struct
 import sys
 import tempfile
@@ -34,6 +35,8 @@ from pathlib import Path
 
 SERVED = ("run", "demo", "report", "scenarios")
 """The commands a server runs: those that end (not the GUI, servers or bridges)."""
+MAX_SOCKET_PATH = 107
+"""The longest path of a Unix socket on Linux [bytes] (``sun_path`` holds 108 with its final NUL)."""
 MAX_REQUEST = 1 << 20
 """Longest request a server reads [bytes]: the arguments, working directory and environment as one JSON line."""
 STOPS = {signal.SIGINT, signal.SIGTERM}
@@ -101,16 +104,17 @@ def served(argv: list[str]) -> int | None:
     try:
         for fd in (0, 1, 2):
             os.fstat(fd)
+        cwd = os.getcwd()
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         sock.connect(str(path))
-    except OSError:  # no server behind the name (it ended), or a standard stream closed: run here
+    except OSError:  # no server behind the name (it ended), a standard stream closed, no folder: run here
         return None
     if _peer_uid(sock) != os.getuid():  # never hand our terminal and environment to another user's process
         sock.close()
         print(f"vilma: the server at {path} is another user's; running the command here", file=sys.stderr)
         return None
     with sock, sock.makefile("rb") as answers:
-        request = {"argv": argv, "cwd": os.getcwd(), "env": dict(os.environ)}
+        request = {"argv": argv, "cwd": cwd, "env": dict(os.environ)}
         with contextlib.suppress(OSError):  # a server that stops answers before it reads: its answer tells
             socket.send_fds(sock, [json.dumps(request).encode() + b"\n"], [0, 1, 2])
         first = _read(answers)
@@ -131,6 +135,14 @@ def served(argv: list[str]) -> int | None:
               file=sys.stderr)
         return 1
     return int(last["exit"])
+
+
+def _is_socket(path: Path) -> bool:
+    """Whether ``path`` is a socket itself (not a link to one)."""
+    try:
+        return stat.S_ISSOCK(os.lstat(path).st_mode)
+    except OSError:
+        return False
 
 
 def _peer_uid(sock: socket.socket) -> int:
@@ -158,9 +170,18 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
     Raises:
         ValueError: a server listens there already, or its folder is another user's.
     """
-    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-    if path.parent.stat().st_uid != os.getuid():
-        raise ValueError(f"{path.parent} is another user's: give --socket PATH in a folder of yours")
+    if len(os.fsencode(path)) > MAX_SOCKET_PATH:
+        raise ValueError(f"{path}: {len(os.fsencode(path))} bytes, more than a socket's path may hold "
+                         f"({MAX_SOCKET_PATH}); give --socket a shorter one")
+    try:
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        if path.parent.stat().st_uid != os.getuid():
+            raise ValueError(f"{path.parent} is another user's: give --socket PATH in a folder of yours")
+        if (path.exists() or path.is_symlink()) and not _is_socket(path):
+            raise ValueError(f"{path}: exists and is not a socket; give --socket a path of its own")
+    except OSError as e:
+        raise ValueError(f"{path}: cannot make its folder ({e.strerror}); give --socket a path in a folder of yours")\
+            from None
     listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         listener.connect(str(path))
@@ -178,6 +199,9 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
     mask = os.umask(0o177)  # the socket is born private (rw for its user only)
     try:
         listener.bind(str(path))
+    except OSError as e:  # (another server bound it while this one warmed up)
+        raise ValueError(f"cannot listen at {path} ({e.strerror}): another vilma server may have started there; "
+                         "give --socket another path") from None
     finally:
         os.umask(mask)
     listener.listen(16)
@@ -208,7 +232,8 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
         return 0
     finally:
         listener.close()
-        path.unlink(missing_ok=True)
+        if _is_socket(path):  # (not a file put in its place since)
+            path.unlink()
 
 
 def _warm_up(main: Main, scenario: str) -> None:
