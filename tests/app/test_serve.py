@@ -90,7 +90,10 @@ def test_a_served_command_s_error_and_status_reach_its_client(server, tmp_path):
     assert listed.returncode == 0 and f"{SCENARIO}: " in listed.stdout
 
 
-def test_ctrl_c_in_the_client_stops_the_served_run(server, tmp_path):
+@pytest.mark.parametrize(("signum", "status"), [(signal.SIGINT, 130), (signal.SIGTERM, 128 + signal.SIGTERM)])
+def test_a_signal_to_the_client_stops_the_served_run_with_its_status(server, tmp_path, signum, status):
+    """Ctrl-C as in the command's own process (its line, 130); SIGTERM ends it with the status a shell gives a
+    command SIGTERM ended (143), without a word, as the command alone would."""
     env = {**os.environ, "VILMA_SERVE": str(server.socket)}
     with Processes() as processes:
         client = processes.vilma("run", SCENARIO, "--realtime", "1", "--out", "paced", "--no-plots", "--no-record",
@@ -99,10 +102,11 @@ def test_ctrl_c_in_the_client_stops_the_served_run(server, tmp_path):
         deadline = time.monotonic() + 60
         while not list(tmp_path.glob("paced/timeseries.csv*")) and time.monotonic() < deadline:
             time.sleep(0.05)  # the run has started
-        client.send_signal(signal.SIGINT)
+        client.send_signal(signum)
         out, _ = client.communicate(timeout=60)
-    assert client.returncode == 130
-    assert "vilma run: interrupted at t=" in out
+    assert client.returncode == status
+    assert ("vilma run: interrupted at t=" in out) == (signum == signal.SIGINT)
+    assert "without an exit status" not in out
     assert not (tmp_path / "paced" / "metrics.json").exists()  # not a whole run
 
 

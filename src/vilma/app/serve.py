@@ -123,18 +123,22 @@ def served(argv: list[str]) -> int | None:
                   f"(server at {path}); running the command here", file=sys.stderr)
             return None
 
-        def forward(signum: int, _) -> None:  # the command gets Ctrl-C
+        forwarded: list[int] = []
+
+        def forward(signum: int, _) -> None:  # the command gets Ctrl-C, SIGTERM, SIGHUP
+            forwarded.append(signum)
             with contextlib.suppress(ProcessLookupError):
                 os.kill(first["pid"], signum)
 
         for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(signum, forward)
         last = _read(answers)
-    if "exit" not in last:
-        print(f"vilma {name}: the served command ended without an exit status (server at {path})",
-              file=sys.stderr)
-        return 1
-    return int(last["exit"])
+    if "exit" in last:
+        return int(last["exit"])
+    if forwarded:  # the signal ended it: the status a shell gives a command that signal ended
+        return 128 + forwarded[-1]
+    print(f"vilma {name}: the served command ended without an exit status (server at {path})", file=sys.stderr)
+    return 1
 
 
 def _is_socket(path: Path) -> bool:
