@@ -171,6 +171,7 @@ def test_an_unknown_planning_problem_names_the_file_and_the_ids(tmp_path):
 
 @pytest.mark.parametrize(("old", "new", "error"), [
     ("<x>2.25</x>", "<x>nan</x>", "obstacle 42 at time step 0: position is not a finite number"),
+    ("<y>3.49399533049</y>", "<y>inf</y>", "obstacle 42 at time step 1: position is not a finite number"),  # its path
     ("<length>4.5</length>", "<length>inf</length>", "obstacle 42: shape is not a finite number"),
     ("<exact>22.0</exact>", "<exact>nan</exact>", "planningProblem 100's initialState: velocity is not a finite"),
     ("<exact>22.0</exact>", "<exact>-5.0</exact>", "planningProblem 100's initialState: velocity -5.0 m/s"),

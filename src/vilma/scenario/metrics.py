@@ -42,7 +42,8 @@ from vilma.trajectory import Trajectory
 
 WATCHDOG_STOP = "the watchdog stopped the car (the driver sent no command in time)"
 """Why a run whose watchdog tripped did not complete (the runner's and the report's words)."""
-ROAD_KEYS = ("goal_reached", "time_to_goal_s", "traffic", "collisions_checked", "off_road", "min_time_to_collision_s")
+ROAD_SCORE_KEYS = ("goal_reached", "time_to_goal_s", "traffic", "collisions_checked", "off_road",
+                   "min_time_to_collision_s")
 """The keys only a CommonRoad road's run measures (:func:`_road_checks`)."""
 PATH_KEYS = ("end_error_m", "path_progress", "waypoints_skipped", "lateral_error_rms_m", "lateral_error_max_m",
              "lateral_error_p95_m", "heading_error_rms_rad")
@@ -115,7 +116,7 @@ def unmeasured(scenario: Scenario) -> dict[str, str]:
     :func:`scorecard` and the runner (a plan's keys, the 3D plant's collisions) measure depends on these."""
     kind, never = scenario.task.kind, {}
     if scenario.road is None:
-        never |= dict.fromkeys(ROAD_KEYS, "it has no CommonRoad road")
+        never |= dict.fromkeys(ROAD_SCORE_KEYS, "it has no CommonRoad road")
         if scenario.sim.traffic is None or scenario.sim.model == MUJOCO:
             never["min_distance_to_traffic_m"] = "it has no CommonRoad road, nor boxes or cones on flat ground"
     if kind != "plan":

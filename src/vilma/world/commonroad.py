@@ -9,6 +9,7 @@ mass (CommonRoad's reference point is the centre of the car's box).
 
 from __future__ import annotations
 
+import math
 import stat
 import warnings
 from dataclasses import dataclass, field
@@ -358,9 +359,16 @@ def _check_numbers(path: Path, scenario: Scenario, problems: dict[int, PlanningP
         what = f"obstacle {obstacle.obstacle_id}"
         finite(what, "shape", obstacle.obstacle_shape)
         trajectory = getattr(getattr(obstacle, "prediction", None), "trajectory", None)
-        for state in [obstacle.initial_state, *(trajectory.state_list if trajectory is not None else ())]:
-            for name in state.attributes:
-                finite(f"{what} at time step {state.time_step}", name, getattr(state, name))
+        for states in ([obstacle.initial_state], trajectory.state_list if trajectory is not None else []):
+            for name in states[0].attributes if states else ():
+                values = [getattr(s, name) for s in states]
+                if all(isinstance(v, int | float | np.ndarray) for v in values):  # a column at once (a state a step)
+                    ok = np.isfinite(np.asarray(values, float).reshape(len(values), -1)).all(axis=1)
+                    if not ok.all():
+                        finite(f"{what} at time step {states[int(np.argmin(ok))].time_step}", name, math.nan)
+                else:  # uncertain values (shapes): one by one
+                    for state, value in zip(states, values, strict=True):
+                        finite(f"{what} at time step {state.time_step}", name, value)
     for pid, problem in problems.items():
         what, s0 = f"planningProblem {pid}", problem.initial_state
         for name in s0.attributes:
