@@ -3,7 +3,9 @@ bad requests refused while it keeps serving; a changed vilma stops it."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import multiprocessing
 import os
 import queue
 import signal
@@ -113,7 +115,8 @@ def test_a_signal_to_the_client_stops_the_served_run_with_its_status(server, tmp
 def _ask(path: Path, data: bytes, fds: list[int]) -> dict:
     with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
         s.connect(str(path))
-        socket.send_fds(s, [data], fds)
+        with contextlib.suppress(BrokenPipeError):  # (a server that answers before it reads: a busy one)
+            socket.send_fds(s, [data], fds)
         return json.loads(s.makefile("rb").readline())
 
 
@@ -153,19 +156,31 @@ def test_a_second_server_on_the_same_socket_is_refused(server):
 
 
 def test_a_changed_vilma_stops_the_server_and_its_client_runs_here(tmp_path):
-    changed = Path(serve.__file__)
-    before = changed.stat()
-    with Processes() as processes:
-        server = Server(processes, tmp_path / "s.sock", "--warm-up", "none")
-        try:
-            os.utime(changed, ns=(before.st_atime_ns, before.st_mtime_ns + 10**9))
-            listed = server.client("scenarios", cwd=tmp_path)
-        finally:
-            os.utime(changed, ns=(before.st_atime_ns, before.st_mtime_ns))
+    """(On a server of its own whose fingerprint a file gives: touching vilma's files would stop the servers of the
+    tests running beside this one.)"""
+    path, marker = tmp_path / "s.sock", tmp_path / "fingerprint"
+    marker.write_text("before")
+    with forked_server(path, fingerprint=marker.read_text) as server:
+        marker.write_text("after")
+        listed = subprocess.run([*VILMA, "scenarios"], cwd=tmp_path, env={**os.environ, "VILMA_SERVE": str(path)},
+                                capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
         assert listed.returncode == 0 and f"{SCENARIO}: " in listed.stdout  # run by the client itself
         assert "vilma changed on disk since `vilma serve` started: start it again" in listed.stderr
-        assert server.proc.wait(timeout=30) == 0
-    assert not server.socket.exists()
+        server.join(timeout=30)
+        assert server.exitcode == 0
+    assert not path.exists()
+
+
+def test_the_fingerprint_changes_with_a_python_file_not_with_numba_s_caches(tmp_path, monkeypatch):
+    package = tmp_path / "vilma"
+    (package / "sim" / "__pycache__").mkdir(parents=True)
+    (package / "sim" / "frame.py").write_text("x = 1\n")
+    monkeypatch.setattr(serve, "PACKAGE", package)
+    first = serve.fingerprint()
+    (package / "sim" / "__pycache__" / "frame.run_frame-24.py311.nbi").write_bytes(b"index")
+    assert serve.fingerprint() == first
+    os.utime(package / "sim" / "frame.py", ns=(0, 10**9))
+    assert serve.fingerprint() != first
 
 
 def test_a_client_never_hands_its_streams_to_another_user_s_server(server, monkeypatch, capsys):
@@ -201,3 +216,61 @@ def test_a_client_in_a_folder_deleted_meanwhile_runs_the_command_itself(server, 
     gone.mkdir()
     listed = server.client("scenarios", cwd=gone, preexec_fn=lambda: os.rmdir(gone))  # (removed once it is in it)
     assert listed.returncode == 0 and f"{SCENARIO}: " in listed.stdout and listed.stderr == ""
+
+
+def test_a_client_whose_request_is_too_large_runs_the_command_itself(server, monkeypatch, capsys):
+    monkeypatch.setenv("VILMA_SERVE", str(server.socket))
+    monkeypatch.setenv("VILMA_TEST_BIG", "x" * serve.MAX_REQUEST)
+    assert serve.served(["scenarios"]) is None  # run here
+    err = capsys.readouterr().err
+    assert err.startswith("vilma: the arguments and environment (") and err.endswith("running the command here\n")
+
+
+@contextlib.contextmanager
+def forked_server(path: Path, main=lambda argv, started=None: 0, **patches):
+    """``serve.serve`` at ``path`` with ``main`` (no warm-up) in a process forked from this one, with ``serve``'s
+    names in ``patches`` replaced; stopped by SIGTERM at the end (if still running)."""
+
+    def run() -> None:
+        for name, value in patches.items():
+            setattr(serve, name, value)
+        os._exit(serve.serve(path, main, warm_up=None, say=lambda *_: None))
+
+    proc = multiprocessing.get_context("fork").Process(target=run)
+    proc.start()
+    try:
+        while not path.exists() and proc.is_alive():
+            time.sleep(0.01)
+        yield proc
+    finally:
+        proc.terminate()  # SIGTERM: the server stops
+        proc.join(timeout=30)
+
+
+def test_a_server_runs_at_most_max_children_commands_and_then_refuses(tmp_path):
+    path, release = tmp_path / "s.sock", tmp_path / "release"
+
+    def until_released(argv, started=None) -> int:
+        while not release.exists():
+            time.sleep(0.01)
+        return 0
+
+    request = (json.dumps({"argv": ["scenarios"], "cwd": str(tmp_path), "env": {}}) + "\n").encode()
+    with forked_server(path, until_released, MAX_CHILDREN=1) as server, open(os.devnull) as null, \
+            socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as first:
+        streams = [null.fileno()] * 3
+        first.connect(str(path))
+        socket.send_fds(first, [request], streams)
+        answers = first.makefile("rb")
+        assert "pid" in json.loads(answers.readline())  # running, until released
+        assert _ask(path, request, streams) == {"error": "busy: already running 1 commands"}
+        release.touch()
+        assert json.loads(answers.readline()) == {"exit": 0}
+        answer = {}
+        for _ in range(500):  # until the server has reaped the first command
+            answer = _ask(path, request, streams)
+            if "pid" in answer:
+                break
+            time.sleep(0.01)
+        assert "pid" in answer
+    assert server.exitcode == 0

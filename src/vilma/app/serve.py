@@ -37,10 +37,16 @@ SERVED = ("run", "demo", "report", "scenarios")
 """The commands a server runs: those that end (not the GUI, servers or bridges)."""
 MAX_SOCKET_PATH = 107
 """The longest path of a Unix socket on Linux [bytes] (``sun_path`` holds 108 with its final NUL)."""
-MAX_REQUEST = 1 << 20
-"""Longest request a server reads [bytes]: the arguments, working directory and environment as one JSON line."""
+MAX_REQUEST = 8 << 20
+"""Longest request a server reads [bytes]: the arguments, working directory and environment as one JSON line (the
+kernel holds a command's arguments and environment to ``ARG_MAX``, 2 MiB by default; JSON's escapes may double it)."""
+MAX_CHILDREN = 64
+"""Commands a server runs at once; a client beyond them runs its command itself."""
 STOPS = {signal.SIGINT, signal.SIGTERM}
 """The signals that stop a server, and a command."""
+HELD = STOPS | {signal.SIGCHLD}
+"""The signals a server holds over a fork: a stop (the fork's callbacks, logging's, would swallow its
+KeyboardInterrupt), and a child's end until the child is counted."""
 ENV = "VILMA_SERVE"
 """The environment variable that names the socket, or turns serving ``off``."""
 PACKAGE = Path(__file__).resolve().parents[1]
@@ -113,10 +119,15 @@ def served(argv: list[str]) -> int | None:
         sock.close()
         print(f"vilma: the server at {path} is another user's; running the command here", file=sys.stderr)
         return None
+    request = json.dumps({"argv": argv, "cwd": cwd, "env": dict(os.environ)}).encode() + b"\n"
+    if len(request) > MAX_REQUEST:
+        sock.close()
+        print(f"vilma: the arguments and environment ({len(request)} bytes as JSON) are more than the server takes "
+              f"({MAX_REQUEST}); running the command here", file=sys.stderr)
+        return None
     with sock, sock.makefile("rb") as answers:
-        request = {"argv": argv, "cwd": cwd, "env": dict(os.environ)}
         with contextlib.suppress(OSError):  # a server that stops answers before it reads: its answer tells
-            socket.send_fds(sock, [json.dumps(request).encode() + b"\n"], [0, 1, 2])
+            socket.send_fds(sock, [request], [0, 1, 2])
         first = _read(answers)
         if "pid" not in first:
             print(f"vilma: {first.get('stale') or first.get('error') or 'no answer from the server'} "
@@ -209,8 +220,14 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
     finally:
         os.umask(mask)
     listener.listen(16)
-    code = fingerprint()
-    signal.signal(signal.SIGCHLD, signal.SIG_IGN)  # children are reaped by the kernel
+    code, children = fingerprint(), set()
+
+    def reap(*_) -> None:  # the commands that ended, reaped as they end
+        with contextlib.suppress(ChildProcessError):
+            while (pid := os.waitpid(-1, os.WNOHANG)[0]) > 0:
+                children.discard(pid)
+
+    signal.signal(signal.SIGCHLD, reap)
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:  # from the line that says it listens: a client may interrupt it at once
         say(f"vilma serve: running `vilma {', '.join(SERVED)}` of {PACKAGE} for this user at {path} (Ctrl-C ends)")
@@ -223,15 +240,19 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
                     _send(conn, {"stale": "vilma changed on disk since `vilma serve` started: start it again"})
                     say("vilma serve: vilma changed on disk; stopping")
                     return 0
-                signal.pthread_sigmask(signal.SIG_BLOCK, STOPS)  # held over the fork: the fork's callbacks
-                if os.fork() == 0:  # (logging's) would swallow the KeyboardInterrupt of a stop during it
+                if len(children) >= MAX_CHILDREN:
+                    _send(conn, {"error": f"busy: already running {MAX_CHILDREN} commands"})
+                    continue
+                signal.pthread_sigmask(signal.SIG_BLOCK, HELD)
+                if (pid := os.fork()) == 0:
                     code = 1
                     try:
                         listener.close()
                         code = _child(conn, main, say)
                     finally:
                         os._exit(code)
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
+                children.add(pid)
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)
     except KeyboardInterrupt:
         return 0
     finally:
@@ -265,7 +286,7 @@ def _child(conn: socket.socket, main: Main, say) -> int:
     for signum in (signal.SIGCHLD, signal.SIGTERM):
         signal.signal(signum, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)
     try:
         argv, env, fds = _request(conn)
     except (OSError, ValueError) as e:
