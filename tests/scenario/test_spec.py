@@ -16,11 +16,13 @@ from vilma.app.batch import BUNDLED
 from vilma.app.options import zenoh_bus
 from vilma.control.path.vilma_heading import VilmaHeadingParams
 from vilma.control.speed.pi_ff import PiFfParams
+from vilma.plant3d.laser import LaserParams
 from vilma.scenario import SpecError, load_scenario, parse_scenario, to_yaml
 from vilma.scenario.drive_log import MAX_ROWS
 from vilma.scenario.fields import MAX_YAML_VALUES, load_yaml
 from vilma.scenario.spec import Bound
 from vilma.sensors import SensorSuite
+from vilma.sensors.objects import ObjectsParams
 from vilma.trajectory.points import MAX_POINTS
 from vilma.vehicle.params import preset, vilma
 
@@ -129,6 +131,15 @@ def test_a_vehicle_value_set_changes_the_scenarios_preset(tmp_path):
     assert load_scenario(named, {"vehicle.mass": "2000"}).sim.vehicle == dataclasses.replace(preset("bmw_320i"),
                                                                                            mass=2000.0)
     assert load_scenario(default, {"vehicle.mass": "2000"}).sim.vehicle == dataclasses.replace(vilma(), mass=2000.0)
+
+
+def test_a_value_set_in_a_sensor_switched_on_by_true_changes_its_defaults(tmp_path):
+    on = _write(tmp_path, "task: {speed: 5}\nlaser: true\nobjects: true\n")
+    s = load_scenario(on, {"laser.rate_hz": "20", "objects.range": "30"})
+    assert s.sim.laser == LaserParams(rate_hz=20.0) and s.sim.objects == ObjectsParams(range=30.0)
+    off = _write(tmp_path, "task: {speed: 5}\nlaser: false\n", "off.yaml")
+    with pytest.raises(SpecError, match=r"^--set laser\.rate_hz=20: laser is not a mapping"):
+        load_scenario(off, {"laser.rate_hz": "20"})  # (switched off: not switched on by a value set in it)
 
 
 @pytest.mark.parametrize(("text", "message"), [

@@ -24,6 +24,8 @@ from vilma.vehicle.params import PRESETS, ActuatorParams, VehicleParams, preset
 
 ROAD_KEYS = ("commonroad", "planning_problem")
 """The ``world`` keys of a CommonRoad scenario (the others are the 3D plant's)."""
+SWITCHED = ("laser", "objects")
+"""The sections that ``true`` switches on with their defaults (:func:`_optional`)."""
 
 
 def read_sim(data: dict, src: Source, base: Path) -> SimConfig:

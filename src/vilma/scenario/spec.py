@@ -61,7 +61,7 @@ from vilma.scenario.driver_keys import driver_period, read_driver
 from vilma.scenario.fields import Key, Source, SpecError, _suggest, build, convert, get, load_yaml, read_yaml
 from vilma.scenario.plan_keys import read_perception, read_planner
 from vilma.scenario.scorecard import BOOLEAN_KEYS, SCORECARD_KEYS, TIMING_KEYS, Bound, MetricsSpec
-from vilma.scenario.simulation import ROAD_KEYS, read_sim
+from vilma.scenario.simulation import ROAD_KEYS, SWITCHED, read_sim
 from vilma.scenario.task import InitialSpec, TaskSpec
 from vilma.sensors import SensorSuite
 from vilma.sensors.objects import ObjectsParams
@@ -428,8 +428,8 @@ def apply_overrides(data: dict, src: Source, overrides: dict[str, str]) -> tuple
                 nxt = {"type": nxt}  # --set speed_controller.kp=... on a file that names only the type
             if i == 0 and part == "vehicle" and (nxt is None or nxt in PRESETS):
                 nxt = {"preset": nxt or "vilma"}  # --set vehicle.mass=...: the file's preset (or the default's) changed
-            if nxt is None:
-                nxt = {}
+            if nxt is None or (i == 0 and part in SWITCHED and nxt is True):
+                nxt = {}  # (laser: true is the defaults: --set laser.rate_hz=20 changes one of them)
             if not isinstance(nxt, dict):
                 raise SpecError(f"{label}: {'.'.join(parts[:i + 1])} is not a mapping in the scenario")
             node[part] = nxt
