@@ -185,26 +185,7 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
     Raises:
         ValueError: a server listens there already, or its folder is another user's.
     """
-    if len(os.fsencode(path)) > MAX_SOCKET_PATH:
-        raise ValueError(f"{path}: {len(os.fsencode(path))} bytes, more than a socket's path may hold "
-                         f"({MAX_SOCKET_PATH}); give --socket a shorter one")
-    try:
-        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-        if path.parent.stat().st_uid != os.getuid():
-            raise ValueError(f"{path.parent} is another user's: give --socket PATH in a folder of yours")
-        if (path.exists() or path.is_symlink()) and not _is_socket(path):
-            raise ValueError(f"{path}: exists and is not a socket; give --socket a path of its own")
-    except OSError as e:
-        raise ValueError(f"{path}: cannot make its folder ({e.strerror}); give --socket a path in a folder of yours")\
-            from None
-    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    try:
-        listener.connect(str(path))
-    except OSError:
-        path.unlink(missing_ok=True)  # a socket left by a server that ended
-    else:
-        listener.close()
-        raise ValueError(f"a vilma server already listens at {path}")
+    _claim(path)
     if warm_up is not None:
         t0 = time.perf_counter()
         _warm_up(main, warm_up)
@@ -259,6 +240,34 @@ def serve(path: Path, main: Main, warm_up: str | None = "course_30kmh_stanley", 
         listener.close()
         if _is_socket(path):  # (not a file put in its place since)
             path.unlink()
+
+
+def _claim(path: Path) -> None:
+    """Make ``path``'s folder (private), and remove a socket a server that ended left there.
+
+    Raises:
+        ValueError: ``path`` too long for a socket, in another user's folder, not a socket, or a server's.
+    """
+    if len(os.fsencode(path)) > MAX_SOCKET_PATH:
+        raise ValueError(f"{path}: {len(os.fsencode(path))} bytes, more than a socket's path may hold "
+                         f"({MAX_SOCKET_PATH}); give --socket a shorter one")
+    try:
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        if path.parent.stat().st_uid != os.getuid():
+            raise ValueError(f"{path.parent} is another user's: give --socket PATH in a folder of yours")
+        if (path.exists() or path.is_symlink()) and not _is_socket(path):
+            raise ValueError(f"{path}: exists and is not a socket; give --socket a path of its own")
+    except OSError as e:
+        raise ValueError(f"{path}: cannot make its folder ({e.strerror}); give --socket a path in a folder of yours")\
+            from None
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        listener.connect(str(path))
+    except OSError:
+        path.unlink(missing_ok=True)  # a socket left by a server that ended
+    else:
+        listener.close()
+        raise ValueError(f"a vilma server already listens at {path}")
 
 
 def _warm_up(main: Main, scenario: str) -> None:
