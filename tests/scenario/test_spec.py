@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -224,6 +225,15 @@ def test_missing_and_binary_files(tmp_path):
     p.write_bytes(b"\xff\xfe\x00task")
     with pytest.raises(SpecError, match="not a text file"):
         load_scenario(p)
+
+
+def test_a_missing_commonroad_file_is_named_before_the_roads_extra(tmp_path, monkeypatch):
+    """A mistyped .xml name, or a world file that is not there, is "no such file" even without the roads extra
+    (which would otherwise be named as the thing to install)."""
+    monkeypatch.setitem(sys.modules, "commonroad", None)  # as if the roads extra were not installed
+    for scenario in (tmp_path / "nope.xml", _write(tmp_path, "world: {commonroad: nope.xml}\ntask: {route: true}\n")):
+        with pytest.raises(SpecError, match=r"nope\.xml: no such file; check the path$"):
+            load_scenario(scenario)
 
 
 @settings(max_examples=60, deadline=None)

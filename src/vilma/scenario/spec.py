@@ -343,10 +343,12 @@ def _road(data: dict, src: Source, task: TaskSpec, file: Path | None) -> EgoTask
         raise src.error(("task",), f"{what} does not drive a CommonRoad world's planning problem: give task: "
                                    "{route: true} or {plan: true} (a speed caps the lanelets' limits), or remove "
                                    "world.commonroad")
+    xml = beside(file, get(road, src, ("world", "commonroad"), str))
+    if not xml.exists():  # a mistyped name is said as such, not as an extra to install
+        raise SpecError(f"{xml}: no such file; check the path")
     require("roads", "a CommonRoad scenario")
     from vilma.world.commonroad import CommonRoadError, load
 
-    xml = beside(file, get(road, src, ("world", "commonroad"), str))
     pid = get(road, src, ("world", "planning_problem"), int, None)
     try:
         scenario = load(xml)
