@@ -142,7 +142,7 @@ def _program(name: str) -> Callable[[argparse.ArgumentParser], None]:
             q.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
                            help="Zenoh endpoint to connect to (repeatable)")
             q.add_argument("--zenoh-config", metavar="FILE",
-                           help="YAML file with listen, connect (lists of endpoints) and multicast_scouting")
+                           help="YAML file with listen, connect (lists of endpoints), multicast_scouting and extra")
         if name == "drive":
             q.add_argument("--data-dir", type=folder, metavar="DIR", help="follow orders on driver/cmd may name "
                            "trajectory files in DIR (default: none, orders carry their points)")
@@ -202,7 +202,8 @@ def _replay(rl: argparse.ArgumentParser) -> None:
                     help="Zenoh endpoint to listen on (repeatable)")
     rl.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
                     help="Zenoh endpoint to connect to")
-    rl.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
+    rl.add_argument("--zenoh-config", metavar="FILE",
+                    help="YAML file with listen, connect, multicast_scouting and extra")
 
 
 def _ros1_bridge(rb: argparse.ArgumentParser) -> None:
@@ -214,7 +215,8 @@ def _ros1_bridge(rb: argparse.ArgumentParser) -> None:
     rb.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
                     help="bridge the Zenoh bus of a vilma sim at ENDPOINT instead of simulating here")
     rb.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT", help=argparse.SUPPRESS)
-    rb.add_argument("--zenoh-config", metavar="FILE", help="YAML file with listen, connect and multicast_scouting")
+    rb.add_argument("--zenoh-config", metavar="FILE",
+                    help="YAML file with listen, connect, multicast_scouting and extra")
 
 
 def _trajectory(t: argparse.ArgumentParser) -> None:
