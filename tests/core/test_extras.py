@@ -57,3 +57,11 @@ def test_the_core_runs_a_scenario_without_the_extras(tmp_path):
 def test_a_command_that_needs_a_missing_extra_says_which_in_one_line(args, line, tmp_path):
     r = _vilma_without_extras(*args, *(["--out", str(tmp_path / "o")] if args[0] == "run" else []))
     assert r.returncode == 2 and r.stderr.splitlines()[-1] == line and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("command", ["up", "sim"])
+def test_a_program_asked_for_foxglove_without_its_extra_starts_nothing(command):
+    r = _vilma_without_extras(command, "--foxglove", "--duration", "1", *(["--no-morse"] if command == "sim" else []))
+    assert r.returncode == 2 and r.stdout == ""  # (nothing said nor started before the refusal)
+    assert r.stderr == (f"vilma {command}: error: the live Foxglove view needs the 'foxglove' extra (foxglove is not "
+                        "installed): pip install 'vilma[foxglove]'\n")

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from vilma.app import arguments, collector, serve
 from vilma.app.options import scenario_or_default, zenoh_bus
-from vilma.core.extras import MissingExtraError
+from vilma.core.extras import MissingExtraError, require
 
 STARTED = time.perf_counter()
 """When the command began (its imports aside: a few ms): the first run's ``wall_time_s`` counts from here."""
@@ -114,8 +114,6 @@ def _run(args: argparse.Namespace) -> int:
 def _sweep(args: argparse.Namespace) -> int:
     """``vilma sweep SWEEP.yaml``, and ``vilma run ... --workers N | --scheduler ADDRESS``: the runs on Dask."""
     collector.started()  # a long wait on the cluster: the collector as usual
-    from vilma.core.extras import require
-
     require("sweep", f"vilma {args.command} on Dask")
     from vilma.app.sweep import sweep_command
 
@@ -124,8 +122,6 @@ def _sweep(args: argparse.Namespace) -> int:
 
 def _tune(args: argparse.Namespace) -> int:
     """``vilma tune TUNE.yaml``: Optuna's search on Dask."""
-    from vilma.core.extras import require
-
     require("sweep", "vilma tune")
     from vilma.app.tune import tune_command
 
@@ -184,6 +180,7 @@ def _trajectory(args: argparse.Namespace) -> int:
 
 
 def _sim(args: argparse.Namespace) -> int:
+    foxglove = _foxglove_port(args)
     from vilma.app import programs
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 
@@ -197,7 +194,7 @@ def _sim(args: argparse.Namespace) -> int:
         f"connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*")
     with bus:
         return programs.sim_program(scenario, bus, args.speed, args.duration, say, morse,
-                                    record=_record_path(args), foxglove=args.foxglove)
+                                    record=_record_path(args), foxglove=foxglove)
 
 
 def _drive(args: argparse.Namespace) -> int:
@@ -214,13 +211,14 @@ def _drive(args: argparse.Namespace) -> int:
 
 
 def _up(args: argparse.Namespace) -> int:
+    foxglove = _foxglove_port(args)
     from vilma.app import programs
 
     scenario = scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
                                                      "[60, 0]], speed: 8.33}", args.plant)
     say = _say(args)
     say(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)")
-    return programs.up(scenario, args.speed, args.duration, say, _record_path(args), args.foxglove)
+    return programs.up(scenario, args.speed, args.duration, say, _record_path(args), foxglove)
 
 
 def _say(args: argparse.Namespace):
@@ -230,6 +228,13 @@ def _say(args: argparse.Namespace):
 
 def _record_path(args: argparse.Namespace):
     return Path(args.record) if args.record else None
+
+
+def _foxglove_port(args: argparse.Namespace) -> int | None:
+    """``--foxglove``'s port, its extra checked before anything starts."""
+    if args.foxglove is not None:
+        require("foxglove", "the live Foxglove view")
+    return args.foxglove
 
 
 def _gui(args: argparse.Namespace) -> int:
