@@ -2,17 +2,33 @@
 
 from __future__ import annotations
 
+import ast
 import os
 import subprocess
 import sys
+import tomllib
 import zipfile
 from pathlib import Path
 
 import pytest
+from packaging.version import Version
 
 import vilma
 
 ROOT = Path(__file__).resolve().parent.parent
+PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def test_the_version_has_one_source():
+    # pyproject names vilma.__version__ as the version (dynamic), and setuptools reads it without importing vilma
+    # only when it is a plain string literal assigned at the module's top
+    project, setuptools = PYPROJECT["project"], PYPROJECT["tool"]["setuptools"]
+    assert "version" not in project and "version" in project["dynamic"]
+    assert setuptools["dynamic"]["version"] == {"attr": "vilma.__version__"}
+    tree = ast.parse((ROOT / "src/vilma/__init__.py").read_text())
+    (literal,) = [n.value.value for n in tree.body if isinstance(n, ast.Assign) and isinstance(n.value, ast.Constant)
+                  and [t.id for t in n.targets if isinstance(t, ast.Name)] == ["__version__"]]
+    assert literal == vilma.__version__ == str(Version(literal))  # PEP 440, in its normal form
 
 
 def test_python_m_vilma_is_the_command():
