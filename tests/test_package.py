@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import importlib.metadata
 import os
 import subprocess
 import sys
@@ -11,6 +12,8 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from packaging.requirements import Requirement
+from packaging.utils import canonicalize_name
 from packaging.version import Version
 
 import vilma
@@ -34,6 +37,45 @@ def test_the_version_has_one_source():
 def test_python_m_vilma_is_the_command():
     r = subprocess.run([sys.executable, "-m", "vilma", "--version"], capture_output=True, text=True, timeout=120)
     assert (r.returncode, r.stdout) == (0, f"vilma {vilma.__version__}\n")
+
+
+ROS1 = {"rospy", "genpy", "geometry_msgs", "sensor_msgs", "std_msgs"}
+"""Debian's ROS 1 (``vilma ros1-bridge``): not on PyPI, so in no extra; the command says what to install."""
+NOT_FOR_USERS = {"test", "docs", "benchmark"}
+"""Extras for vilma's own tests, site and benchmarks: vilma's code may import nothing only they bring."""
+
+
+def _declared() -> set[str]:
+    """The distributions a user's install of vilma can have: its dependencies and its user extras' (an extra of a
+    dependency counts as the distribution it names, as ``dask[distributed]``: distributed)."""
+    extras = PYPROJECT["project"]["optional-dependencies"]
+    reqs = [Requirement(r) for r in PYPROJECT["project"]["dependencies"]]
+    reqs += [Requirement(r) for name, rs in extras.items() if name not in NOT_FOR_USERS for r in rs]
+    return {canonicalize_name(n) for r in reqs for n in (r.name, *r.extras)} - {"vilma"}
+
+
+def _imported_packages(path: Path) -> set[str]:
+    """The top-level names of the absolute imports in ``path``'s module."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names |= {a.name.partition(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.partition(".")[0])
+    return names
+
+
+def test_every_package_vilma_imports_is_declared():
+    # an import of a package that only arrives with another (a dependency's dependency) or with the test extra
+    # works in the checkout's venv and fails in a user's install
+    dists = importlib.metadata.packages_distributions()  # import name -> the installed distributions holding it
+    declared = _declared()
+    undeclared = {}
+    for path in sorted((ROOT / "src/vilma").rglob("*.py")):
+        for name in _imported_packages(path) - set(sys.stdlib_module_names) - ROS1 - {"vilma"}:
+            if not {canonicalize_name(d) for d in dists.get(name, [name])} & declared:
+                undeclared.setdefault(name, path.relative_to(ROOT).as_posix())
+    assert undeclared == {}
 
 
 def _complete(line: str, tmp_path: Path) -> list[str]:
