@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from packaging.requirements import Requirement
+from packaging.specifiers import SpecifierSet
 from packaging.utils import canonicalize_name
 from packaging.version import Version
 
@@ -37,6 +38,20 @@ def test_the_version_has_one_source():
 def test_python_m_vilma_is_the_command():
     r = subprocess.run([sys.executable, "-m", "vilma", "--version"], capture_output=True, text=True, timeout=120)
     assert (r.returncode, r.stdout) == (0, f"vilma {vilma.__version__}\n")
+
+
+def test_the_classifiers_agree_with_requires_python_the_licence_and_py_typed():
+    project = PYPROJECT["project"]
+    classifiers = project["classifiers"]
+    supported = SpecifierSet(project["requires-python"])
+    pythons = sorted(Version(c.rpartition(" :: ")[2]) for c in classifiers
+                     if c.startswith("Programming Language :: Python :: 3."))
+    assert pythons and all(v in supported for v in pythons)
+    assert [Version(s.version) for s in supported if s.operator == ">="] == [pythons[0]]  # from the oldest on
+    assert not any(s.operator in ("<", "<=") for s in supported)  # a cap makes pip pick an old release, or none
+    # PEP 639: with an SPDX expression in `license`, a License :: classifier is an error for the build tools
+    assert "license" in project and not [c for c in classifiers if c.startswith("License ::")]
+    assert ("Typing :: Typed" in classifiers) == (ROOT / "src/vilma/py.typed").is_file()  # PEP 561's marker
 
 
 ROS1 = {"rospy", "genpy", "geometry_msgs", "sensor_msgs", "std_msgs"}
