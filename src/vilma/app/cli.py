@@ -321,10 +321,11 @@ def _stale_cache(module: str | None) -> str:
     process cannot import: a script registered a controller kept outside vilma (its module on its own path) and
     drove with it, and numba kept that version beside the others."""
     import vilma
+    from vilma.core.caches import numba_cache_of
 
     return (f"numba's cache of vilma's compiled code holds a version made for a controller of the module {module!r}, "
             f"which this process cannot import: put that module on Python's path (install it, or PYTHONPATH), or "
-            f"delete the cache (the .nbi and .nbc files under {Path(vilma.__file__).parent}, or $NUMBA_CACHE_DIR; "
+            f"delete the cache (vilma's .nbi and .nbc files in {numba_cache_of(str(Path(vilma.__file__).parent))}; "
             "the next run compiles again)")
 
 
