@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import ast
+import glob
 import importlib.metadata
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -52,6 +54,51 @@ def test_the_classifiers_agree_with_requires_python_the_licence_and_py_typed():
     # PEP 639: with an SPDX expression in `license`, a License :: classifier is an error for the build tools
     assert "license" in project and not [c for c in classifiers if c.startswith("License ::")]
     assert ("Typing :: Typed" in classifiers) == (ROOT / "src/vilma/py.typed").is_file()  # PEP 561's marker
+
+
+CACHES = {".pyc", ".pyo", ".nbi", ".nbc"}
+"""Python's and numba's compiled files: never shipped (they are made where the package is run)."""
+
+
+def test_every_data_file_of_the_package_is_package_data():
+    # the wheel holds the modules and, of the other files, those pyproject's package-data globs match (globbed in the
+    # package's folder, as setuptools globs them): a file of src/vilma no glob matches is in no install
+    package = ROOT / "src/vilma"
+    data = {p.relative_to(package).as_posix() for p in package.rglob("*") if p.is_file() and p.suffix != ".py"
+            and p.suffix not in CACHES and "__pycache__" not in p.parts}
+    matched = {m for g in PYPROJECT["tool"]["setuptools"]["package-data"]["vilma"]
+               for m in glob.glob(g, root_dir=package)}
+    assert {"py.typed", "scenarios/course_30kmh_stanley.yaml", "scenarios/data/README.md"} <= data
+    assert data - matched == set()
+    assert not [m for m in matched if "__pycache__" in m or os.path.splitext(m)[1] in CACHES]
+
+
+def _manifest() -> dict[str, set[str]]:
+    """MANIFEST.in's commands and their patterns (setuptools' list of the sdist's files beside the package)."""
+    commands: dict[str, set[str]] = {}
+    for line in (ROOT / "MANIFEST.in").read_text().splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            command, *patterns = line.split()
+            commands.setdefault(command, set()).update(patterns)
+    return commands
+
+
+def test_the_sdist_holds_what_the_tests_read_and_no_caches():
+    # the sdist is a source release its tests run from: setuptools puts src/ (the packages), the readme, the licence
+    # files, pyproject and MANIFEST.in in it, MANIFEST.in the rest
+    manifest = _manifest()
+    shipped = {"src", "README.md", "LICENSE", "pyproject.toml", "MANIFEST.in"} | manifest["graft"] | manifest["include"]
+    read = {m.partition("/")[0] for f in (ROOT / "tests").rglob("*.py")
+            for m in re.findall(r'ROOT / "([\w./-]+)"', f.read_text())}
+    assert read and read | {"tests"} <= shipped
+    assert {f"*{c}" for c in CACHES} <= {e for p in manifest["global-exclude"] for e in _expand(p)}
+    assert "**/__pycache__" in manifest["prune"]
+
+
+def _expand(pattern: str) -> set[str]:
+    """A glob's character classes spelt out: ``*.py[co]`` -> ``*.pyc``, ``*.pyo``."""
+    m = re.fullmatch(r"(.*)\[(\w+)\](.*)", pattern)
+    return {m[1] + c + m[3] for c in m[2]} if m else {pattern}
 
 
 ROS1 = {"rospy", "genpy", "geometry_msgs", "sensor_msgs", "std_msgs"}
