@@ -7,6 +7,7 @@ import glob
 import importlib.metadata
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -168,7 +169,12 @@ def test_marked_for_global_completion(path):
 
 @pytest.mark.slow
 def test_the_wheel_ships_the_licences_and_py_typed(tmp_path):
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path), str(ROOT)],
+    # built from a copy: setuptools builds in the source tree (build/, src/vilma.egg-info), and a module deleted
+    # later stayed in build/lib and in every wheel built from that checkout after
+    source = tmp_path / "source"
+    shutil.copytree(ROOT, source, symlinks=True, ignore=shutil.ignore_patterns(
+        ".*", "build", "dist", "runs", "*.egg-info", "__pycache__", *(f"*{c}" for c in CACHES)))
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path), str(source)],
                    check=True, capture_output=True, timeout=600)
     (wheel,) = tmp_path.glob("vilma-*.whl")
     files = set(zipfile.ZipFile(wheel).namelist())
