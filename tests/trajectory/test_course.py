@@ -1,5 +1,8 @@
+import os
+import stat
 import subprocess
 import sys
+import tempfile
 
 import numpy as np
 import pytest
@@ -52,6 +55,17 @@ def test_the_cache_folder_follows_xdg_when_not_set(monkeypatch, tmp_path):
     monkeypatch.delenv("VILMA_CACHE_DIR")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     assert cache_dir() == tmp_path / "vilma"
+
+
+def test_a_user_whose_cache_home_cannot_be_written_keeps_courses_in_a_private_temporary_folder(monkeypatch, tmp_path):
+    (tmp_path / "file").write_text("")
+    monkeypatch.delenv("VILMA_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file" / "cache"))  # (under a file: no one can make it)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    folder = tmp_path / f"vilma-cache-{os.getuid()}"
+    assert cache_dir() == folder and stat.S_IMODE(folder.stat().st_mode) == 0o700
+    assert np.array_equal(course(PAPER_COURSE).xy, spline_course(PAPER_COURSE).xy)
+    assert len(list((folder / "courses").glob("*.npy"))) == 1  # kept for the next run
 
 
 def test_a_course_scenario_loaded_again_in_a_new_process_does_not_import_the_spline_library(cache):

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vilma.core.caches import can_write, private_folder
 from vilma.core.files import atomic_path
 from vilma.trajectory.trajectory import Trajectory
 
@@ -34,9 +35,21 @@ def spline_course(points=PAPER_COURSE, spacing: float = 0.5) -> Trajectory:
 
 def cache_dir() -> Path:
     """Where vilma keeps what it made once [folder]: ``$VILMA_CACHE_DIR``, else ``$XDG_CACHE_HOME/vilma`` (by
-    default ``~/.cache/vilma``)."""
+    default ``~/.cache/vilma``); where that cannot be written (a user without a home, or a read-only one), a folder
+    of this user's alone in the temporary directory (:func:`~vilma.core.caches.private_folder`)."""
     root = os.environ.get("VILMA_CACHE_DIR")
-    return Path(root) if root else Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "vilma"
+    if root:
+        return Path(root)
+    try:
+        folder = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "vilma"
+    except RuntimeError:  # no home at all (a user id without an entry in the password database)
+        folder = None
+    if folder is not None and can_write(str(folder)):
+        return folder
+    try:
+        return Path(private_folder("vilma-cache"))
+    except OSError:
+        return folder or Path(os.devnull)  # (nothing is kept: course() makes the course again each time)
 
 
 def course(points=PAPER_COURSE, spacing: float = 0.5) -> Trajectory:
