@@ -3,6 +3,7 @@ import stat
 import subprocess
 import sys
 import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -66,6 +67,9 @@ def test_a_user_whose_cache_home_cannot_be_written_keeps_courses_in_a_private_te
     assert cache_dir() == folder and stat.S_IMODE(folder.stat().st_mode) == 0o700
     assert np.array_equal(course(PAPER_COURSE).xy, spline_course(PAPER_COURSE).xy)
     assert len(list((folder / "courses").glob("*.npy"))) == 1  # kept for the next run
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setattr(Path, "home", lambda: (_ for _ in ()).throw(RuntimeError("Could not determine home")))
+    assert cache_dir() == folder  # a user id without a home (none in the password database)
 
 
 def test_a_course_scenario_loaded_again_in_a_new_process_does_not_import_the_spline_library(cache):
