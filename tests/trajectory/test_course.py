@@ -58,6 +58,10 @@ def test_the_cache_folder_follows_xdg_when_not_set(monkeypatch, tmp_path):
     assert cache_dir() == tmp_path / "vilma"
 
 
+def _no_home() -> Path:
+    raise RuntimeError("Could not determine home directory.")  # (what Path.home raises then)
+
+
 def test_a_user_whose_cache_home_cannot_be_written_keeps_courses_in_a_private_temporary_folder(monkeypatch, tmp_path):
     (tmp_path / "file").write_text("")
     monkeypatch.delenv("VILMA_CACHE_DIR")
@@ -68,7 +72,7 @@ def test_a_user_whose_cache_home_cannot_be_written_keeps_courses_in_a_private_te
     assert np.array_equal(course(PAPER_COURSE).xy, spline_course(PAPER_COURSE).xy)
     assert len(list((folder / "courses").glob("*.npy"))) == 1  # kept for the next run
     monkeypatch.delenv("XDG_CACHE_HOME")
-    monkeypatch.setattr(Path, "home", lambda: (_ for _ in ()).throw(RuntimeError("Could not determine home")))
+    monkeypatch.setattr(Path, "home", _no_home)
     assert cache_dir() == folder  # a user id without a home (none in the password database)
 
 
