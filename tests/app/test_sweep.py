@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import signal
 import sys
@@ -184,6 +185,25 @@ def test_ctrl_c_keeps_the_finished_runs_and_resume_runs_the_rest(scheduler, tmp_
     table = pd.read_parquet(tmp_path / "out" / sweep.PARQUET)
     assert sorted(table["key"]) == sorted(r.key for r in sweep_plan.read_sweep(tmp_path / "s.yaml"))
     pd.testing.assert_frame_equal(table.set_index("key").loc[kept["key"]].reset_index(), kept)  # kept as they were
+
+
+@pytest.mark.slow
+def test_ctrl_c_in_a_terminal_stops_a_local_cluster_with_one_line(tmp_path, processes):
+    """A terminal's Ctrl-C reaches the process group, the command's local workers too: one line, no worker's
+    traceback."""
+    n = 200
+    (tmp_path / "s.yaml").write_text(f"scenarios: {SHORT}\ngrid: {{duration: 10}}\nseeds: {n}\n")
+    p = processes.vilma("sweep", "s.yaml", "--workers", "1", "--out", "out", cwd=tmp_path, start_new_session=True)
+    for line in p.stdout:
+        if line.startswith(f"[3/{n}]"):
+            os.killpg(p.pid, signal.SIGINT)
+            break
+    rest = p.communicate(timeout=120)[0]
+    assert p.returncode == 130, rest
+    kept = len(pd.read_parquet(tmp_path / "out" / sweep.PARQUET))
+    said = [line for line in rest.splitlines() if not line.startswith("[")]
+    assert said == [f"vilma sweep: interrupted: {kept} of {n} runs kept in out; run it again with --resume for the "
+                    "rest"], rest
 
 
 @pytest.mark.slow

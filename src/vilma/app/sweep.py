@@ -16,6 +16,8 @@ import itertools
 import json
 import logging
 import os
+import signal
+import threading
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -79,7 +81,19 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> Iterato
         return
     with LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                       dashboard_address=":0", silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        client.register_plugin(DeafToCtrlC())
         yield client
+
+
+class DeafToCtrlC(WorkerPlugin):
+    """A local cluster's worker ignores SIGINT. Ctrl-C in a terminal reaches the whole process group, the workers
+    too; the command stops them itself, where each would print its traceback."""
+
+    name = "vilma-deaf-to-ctrl-c"
+
+    def setup(self, worker) -> None:
+        if threading.current_thread() is threading.main_thread():  # (a worker's loop runs in its process's)
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def dask_logs(level: int) -> None:
