@@ -6,6 +6,7 @@ import json
 import logging
 import os
 import re
+import signal
 import subprocess
 import sys
 
@@ -419,3 +420,33 @@ def test_a_cache_naming_a_module_this_process_cannot_import_is_one_line_with_the
     monkeypatch.setitem(HANDLERS, "scenarios", lambda args: __import__("no_such_module_of_a_handler"))
     with pytest.raises(ModuleNotFoundError):  # not numba's cache: a bug, shown as one
         main(["scenarios"])
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
+def test_sigterm_and_sighup_stop_a_command_as_ctrl_c_with_their_status(monkeypatch, signum, capsys):
+    """A job scheduler's SIGTERM and a closed terminal's SIGHUP end a command as Ctrl-C does, with the status a shell
+    gives a command that signal ended; a repeat (``timeout`` signals the command and its group) lets it finish."""
+    finished = []
+
+    def command(args) -> int:
+        try:
+            signal.raise_signal(signum)
+        finally:
+            signal.raise_signal(signum)  # the repeat, while the command writes what it keeps
+            finished.append(True)
+        return 0
+
+    before = signal.getsignal(signum)
+    monkeypatch.setitem(HANDLERS, "scenarios", command)
+    assert main(["scenarios"]) == 128 + signum and finished == [True]
+    assert signal.getsignal(signum) == before  # the handler is the command's only
+    assert capsys.readouterr().err == ""
+
+
+def test_a_sighup_that_nohup_ignores_stays_ignored(monkeypatch):
+    monkeypatch.setitem(HANDLERS, "scenarios", lambda args: signal.raise_signal(signal.SIGHUP) or 0)
+    before = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        assert main(["scenarios"]) == 0
+    finally:
+        signal.signal(signal.SIGHUP, before)

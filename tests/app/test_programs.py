@@ -62,6 +62,22 @@ def test_a_repeated_stop_signal_during_shutdown_does_not_kill_the_program():
     assert {s: signal.getsignal(s) for s in before} == before and not stop.is_set()
 
 
+def test_a_closed_terminal_stops_a_program_unless_nohup_ignores_it():
+    """SIGHUP (the terminal closed) stops a program as Ctrl-C does, its recording finished; ``nohup``'s ignored
+    SIGHUP stays ignored."""
+    before = signal.getsignal(signal.SIGHUP)
+    try:
+        with programs.stop_on_signals() as stop:
+            signal.raise_signal(signal.SIGHUP)
+            assert stop.wait(10)
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+        with programs.stop_on_signals() as stop:
+            signal.raise_signal(signal.SIGHUP)
+        assert not stop.is_set() and signal.getsignal(signal.SIGHUP) == signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, before)
+
+
 def test_a_task_the_driver_refuses_is_one_warning_and_the_drive_goes_on(tmp_path, caplog):
     (tmp_path / "here.yaml").write_text("task: {go_to: [0, 0], speed: 5}\n")  # where the car starts
     lines: list[str] = []

@@ -140,7 +140,9 @@ def test_cli_batch_of_runs_with_one_name_keeps_them_all(tmp_path):
 
 
 @pytest.mark.slow
-def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, processes):
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, processes, signum):
+    """Ctrl-C, a job scheduler's SIGTERM and a closed terminal's SIGHUP: the same files, one line, 128 + the signal."""
     out = tmp_path / "o"
     # 10 minutes of sim time: Ctrl-C comes long before the end, however slowly this test is scheduled
     p = processes.vilma("run", "pi_ff_speed_5", "--set", "duration=600", "--realtime", "4", "--out", str(out),
@@ -149,9 +151,9 @@ def test_ctrl_c_keeps_the_partial_files_and_finishes_the_recording(tmp_path, pro
     deadline = time.monotonic() + 120
     while not (part.exists() and part.stat().st_size > 2000) and p.poll() is None and time.monotonic() < deadline:
         time.sleep(0.05)  # the loop has written a block: it is driving
-    p.send_signal(signal.SIGINT)
+    p.send_signal(signum)
     _, err = p.communicate(timeout=60)
-    assert p.returncode == 130, err
+    assert p.returncode == 128 + signum, err
     assert err.count("\n") == 1 and err.startswith("vilma run: interrupted at t=") and f"partial files in {out}" in err
     assert sorted(f.name for f in out.iterdir()) == ["run.mcap", "timeseries.csv"]  # no scorecard: not a whole run
     rec = read_recording(out / "run.mcap")

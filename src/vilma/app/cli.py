@@ -25,6 +25,10 @@ STARTED = time.perf_counter()
 PIPE_CLOSED = 128 + signal.SIGPIPE
 """The exit status of a command whose output's reader went away (``vilma scenarios | head -1``): 141, as a shell
 reports a command that SIGPIPE ended (``seq 100000 | head -1``)."""
+STOPS = (signal.SIGTERM, signal.SIGHUP)
+"""Signals that stop a command as Ctrl-C does (what it wrote kept as Ctrl-C keeps it, one line), with the status a
+shell gives a command that signal ended: 128 + its number (143 for a job scheduler's or ``timeout``'s SIGTERM, 129
+for the SIGHUP of a terminal that closed)."""
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -286,9 +290,11 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
     logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")
     quiet_or_verbose = logging.ERROR if args.quiet else max(logging.DEBUG, logging.WARNING - 10 * args.verbose)
     logging.getLogger().setLevel(quiet_or_verbose)  # set even when a handler exists (basicConfig would not)
+    stops: list[int] = []
     try:
-        code = HANDLERS[args.command](args)
-        sys.stdout.flush()  # what is still buffered: a closed pipe shows here, not at the exit
+        with contextlib.nullcontext() if args.command == "gui" else _stopped_as_by_ctrl_c(stops):
+            code = HANDLERS[args.command](args)
+            sys.stdout.flush()  # what is still buffered: a closed pipe shows here, not at the exit
         return code
     except (ValueError, OSError, MissingExtraError) as e:
         if isinstance(e, BrokenPipeError) and (closed := _closed_outputs()):
@@ -303,7 +309,30 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
     except KeyboardInterrupt as e:
         if str(e):  # a run says where it stopped and what it kept
             print(f"vilma {args.command}: {e}", file=sys.stderr)
-        return 130
+        return 128 + (stops[0] if stops else signal.SIGINT)
+
+
+@contextlib.contextmanager
+def _stopped_as_by_ctrl_c(stops: list[int]):
+    """While the block runs, a :data:`STOPS` signal raises ``KeyboardInterrupt`` as Ctrl-C would (each signal is added
+    to ``stops``); only the first: a repeat (``timeout`` sends its signal to the command and to its process group)
+    lets the command finish what Ctrl-C's handling writes. A signal this process ignores (``nohup``) or handles
+    itself stays so; the handlers come back after the block."""
+    def stop(signum: int, _) -> None:
+        stops.append(signum)
+        if len(stops) == 1:
+            raise KeyboardInterrupt
+
+    old = {}
+    if threading.current_thread() is threading.main_thread():  # (signal handlers are set there only)
+        for signum in STOPS:
+            if signal.getsignal(signum) == signal.SIG_DFL:
+                old[signum] = signal.signal(signum, stop)
+    try:
+        yield
+    finally:
+        for signum, handler in old.items():
+            signal.signal(signum, handler)
 
 
 def _in_numba_cache(e: BaseException) -> bool:

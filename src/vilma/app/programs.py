@@ -58,9 +58,10 @@ MORSE_OPTIONS = {"host": "--morse-host", "service_port": "--morse-port", "stream
 
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[threading.Event]:
-    """An event set by SIGINT or SIGTERM while the block runs. The previous handlers come back after it, unless one
-    of those signals came: the program is then shutting down, and a repeat must not kill it half way (``timeout``
-    sends its TERM twice, to the program and to its process group), so they keep only setting the event."""
+    """An event set by SIGINT, SIGTERM or SIGHUP (a closed terminal; unless ignored, as ``nohup`` does) while the block
+    runs. The previous handlers come back after it, unless one of those signals came: the program is then shutting
+    down, and a repeat must not kill it half way (``timeout`` sends its TERM twice, to the program and to its process
+    group), so they keep only setting the event."""
     stop = threading.Event()
     signalled = threading.Event()
 
@@ -68,7 +69,8 @@ def stop_on_signals() -> Iterator[threading.Event]:
         signalled.set()
         stop.set()
 
-    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+           if signal.getsignal(s) != signal.SIG_IGN}
     try:
         yield stop
     finally:

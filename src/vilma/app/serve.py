@@ -42,8 +42,8 @@ MAX_REQUEST = 8 << 20
 kernel holds a command's arguments and environment to ``ARG_MAX``, 2 MiB by default; JSON's escapes may double it)."""
 MAX_CHILDREN = 64
 """Commands a server runs at once; a client beyond them runs its command itself."""
-STOPS = {signal.SIGINT, signal.SIGTERM}
-"""The signals that stop a server, and a command."""
+STOPS = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+"""The signals that stop a server (SIGHUP as :func:`vilma.app.cli.main` has it: a closed terminal), and a command."""
 HELD = STOPS | {signal.SIGCHLD}
 """The signals a server holds over a fork: a stop (the fork's callbacks, logging's, would swallow its
 KeyboardInterrupt), and a child's end until the child is counted."""
@@ -292,7 +292,7 @@ def _warm_up(main: Main, scenario: str) -> None:
 
 def _child(conn: socket.socket, main: Main, say) -> int:
     """Take one client's request on ``conn`` and run its command with its streams; its exit status."""
-    for signum in (signal.SIGCHLD, signal.SIGTERM):
+    for signum in (signal.SIGCHLD, signal.SIGTERM, signal.SIGHUP):  # the command's own, as in a process of its own
         signal.signal(signum, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD)
