@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import io
+import re
 import sys
 
+import pytest
 from rich.console import Console
 
 from vilma.app import batch
@@ -75,3 +77,28 @@ def test_in_a_terminal_a_compiling_run_shows_what_numba_compiles_and_drops_the_l
         compiling.finished()
         assert not bar.progress.tasks
     assert batch.COMPILING in console.file.getvalue()
+
+
+def test_cars_interrupted_keep_the_waves_before_whole(monkeypatch, tmp_path):
+    """A fleet interrupted in its second wave: the first wave's cars have their scorecard (a whole run each), the
+    others none, and the line says how many are done."""
+    from vilma.scenario import fleet
+
+    monkeypatch.setattr(fleet, "WAVE", 2)
+    waves = []
+    wave = fleet._wave
+
+    def second_interrupted(cars, loading):
+        waves.append(cars)
+        if len(waves) == 2:
+            raise KeyboardInterrupt
+        return wave(cars, loading)
+
+    monkeypatch.setattr(fleet, "_wave", second_interrupted)
+    jobs = batch.as_cars(batch.plan(["pi_ff_speed_5"], ["duration=1"]), 4)
+    out = tmp_path / "o"
+    said = rf"^interrupted: 2 of 4 cars done, partial files in {re.escape(str(out))}$"
+    with pytest.raises(KeyboardInterrupt, match=said):
+        batch.run_cars(jobs, out, batch.Quiet())
+    dirs = batch.out_dirs(jobs, out)
+    assert [(d / "metrics.json").exists() for d in dirs] == [True, True, False, False]

@@ -110,13 +110,22 @@ def run_cars(jobs: list[Job], out: Path | None, console: Console, overwrite: boo
 
     dirs = claim_dirs(jobs, out, overwrite)
     collector.started()  # (the cars' objects come and go as usual)
+    written = 0
+
+    def wave_done(results: list[RunResult]) -> None:  # each car's scorecard once its wave is done: an interrupt
+        nonlocal written  # keeps the cars of the waves before whole
+        for r in results[written:]:
+            write_metrics(r, dirs[written])
+            written += 1
+        bar.show(task, done=written)
+
     with _Bar(console, True) as bar, install_listener("numba:compile", _Compiling(console, bar)):
         task = bar.add(f"{len(jobs)} cars", len(jobs))
-        results = run_fleet([j.scenario for j in jobs], lambda i, _: (RunFolder(dirs[i], plots=False),),
-                            lambda done: bar.show(task, done=done))
-    for r, d in zip(results, dirs, strict=True):
-        write_metrics(r, d)
-    return results
+        try:
+            return run_fleet([j.scenario for j in jobs], lambda i, _: (RunFolder(dirs[i], plots=False),), wave_done)
+        except KeyboardInterrupt:
+            raise KeyboardInterrupt(f"interrupted: {written} of {len(jobs)} cars done, partial files in "
+                                    f"{out if out is not None else dirs[0].parent}") from None
 
 
 def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: Console,

@@ -42,17 +42,19 @@ without the GIL)."""
 
 def run_fleet(scenarios: Sequence[Scenario],
               observers: Callable[[int, Scenario], Sequence[RunObserver]] = lambda i, s: (),
-              progress: Callable[[int], None] | None = None) -> list[RunResult]:
+              progress: Callable[[list[RunResult]], None] | None = None) -> list[RunResult]:
     """Drive every scenario's car to its end and score it, as :func:`~vilma.scenario.runner.run` would one by one.
 
-    ``observers(i, scenario)`` gives the observers of car ``i`` (its folder, say); ``progress(cars)`` hears how
-    many cars are done after each wave (:data:`WAVE`). Cars of one scenario that differ only in their settings
-    (``seed``, gains, sensors) share its reference path. Each result's ``loop_wall_time_s`` is the car's own
-    share of the loop; ``wall_time_s`` the command's time over the cars.
+    ``observers(i, scenario)`` gives the observers of car ``i`` (its folder, say); ``progress(results)`` hears the
+    results of the cars done so far, in order, after each wave (:data:`WAVE`): their scorecards are final. Cars of
+    one scenario that differ only in their settings (``seed``, gains, sensors) share its reference path. Each
+    result's ``loop_wall_time_s`` is the car's own share of the loop; ``wall_time_s`` the command's time over the
+    cars; ``load_time_s`` its wave's loading of compiled code over the wave's cars.
 
     Raises:
         SpecError: a scenario's files cannot be used.
-        Interrupted: Ctrl-C; the cars' observers were told.
+        KeyboardInterrupt: Ctrl-C; the cars' observers were told (the waves before were whole: ``progress`` heard
+            them).
     """
     started, loading, paths = time.perf_counter(), LoadTimer(), {}
     results: list[RunResult] = []
@@ -60,14 +62,14 @@ def run_fleet(scenarios: Sequence[Scenario],
         for w in range(0, len(scenarios), WAVE):
             wave = scenarios[w:w + WAVE]
             seen = [observers(w + i, s) for i, s in enumerate(wave)]
+            loaded = loading.seconds
             with failing([o for obs in seen for o in obs]):
                 done = _wave([Car(s, _path(paths, s), obs) for s, obs in zip(wave, seen, strict=True)], loading)
-            results += [finish(r, obs, lambda: (time.perf_counter() - started) / len(scenarios), 0.0)
+            share = (loading.seconds - loaded) / len(wave)  # the loading of compiled code in the wave, over its cars
+            results += [finish(r, obs, lambda: (time.perf_counter() - started) / len(scenarios), share)
                         for r, obs in zip(done, seen, strict=True)]
             if progress is not None:
-                progress(len(results))
-    for r in results:  # the loading of compiled code, over the cars
-        r.metrics["load_time_s"] = loading.seconds / len(results)
+                progress(results)
     return results
 
 
