@@ -325,6 +325,28 @@ def test_a_batch_and_the_demo_refuse_a_folder_that_holds_anything(tmp_path, caps
                for d in runs)
 
 
+def test_an_interrupted_batch_with_overwrite_keeps_the_earlier_runs_it_did_not_reach(tmp_path, monkeypatch):
+    """--overwrite clears each run's folder as the run starts: Ctrl-C in the first run of a batch leaves the second's
+    earlier files as they were."""
+    from vilma.app import batch
+
+    out = tmp_path / "b"
+    (tmp_path / "s.yaml").write_text("task: {speed: 5}\n")
+    argv = ["run", str(tmp_path / "s.yaml"), "--set", "duration=0.5,1", "--out", str(out), "-q", "--no-record"]
+    assert main(argv) == 0
+    first, second = (out / f"s-duration_{d}" for d in ("0.5", "1"))
+    earlier = {f.name: f.read_bytes() for f in second.iterdir()}
+    record_run = batch.record_run
+
+    def interrupted_after_it_began(scenario, out_dir, **kw):
+        record_run(scenario, out_dir, **kw)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch, "record_run", interrupted_after_it_began)
+    assert main([*argv, "--overwrite"]) == 130
+    assert {f.name: f.read_bytes() for f in second.iterdir()} == earlier and (first / "metrics.json").exists()
+
+
 def test_an_out_that_cannot_be_made_is_one_line_before_the_run(tmp_path, capsys):
     (tmp_path / "afile").write_text("")
     assert main(["run", "pi_ff_speed_5", "--out", str(tmp_path / "afile" / "sub")]) == 2

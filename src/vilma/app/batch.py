@@ -21,7 +21,7 @@ from vilma.record.run import record_run
 from vilma.scenario.bundled import BUNDLED as BUNDLED  # re-exported: where the demo and the tests find them
 from vilma.scenario.bundled import find_scenario as find_scenario
 from vilma.scenario.fields import SpecError
-from vilma.scenario.folder import RunFolder, claim, folder_name, write_metrics
+from vilma.scenario.folder import RunFolder, claim, clear, folder_name, write_metrics
 from vilma.scenario.result import RunObserver, RunResult
 from vilma.scenario.spec import Scenario, load_scenario
 
@@ -119,10 +119,14 @@ def run_cars(jobs: list[Job], out: Path | None, console: Console, overwrite: boo
             written += 1
         bar.show(task, done=written)
 
+    def folder(i: int, _) -> tuple[RunFolder]:  # as the car's wave starts
+        clear(dirs[i])
+        return (RunFolder(dirs[i], plots=False),)
+
     with _Bar(console, True) as bar, install_listener("numba:compile", _Compiling(console, bar)):
         task = bar.add(f"{len(jobs)} cars", len(jobs))
         try:
-            return run_fleet([j.scenario for j in jobs], lambda i, _: (RunFolder(dirs[i], plots=False),), wave_done)
+            return run_fleet([j.scenario for j in jobs], folder, wave_done)
         except KeyboardInterrupt:
             raise KeyboardInterrupt(f"interrupted: {written} of {len(jobs)} cars done, partial files in "
                                     f"{out if out is not None else dirs[0].parent}") from None
@@ -151,6 +155,7 @@ def run_all(jobs: list[Job], out: Path | None, realtime: float | None, console: 
             name = job.scenario.name + (f" {job.label}" if job.label else "")
             bar.show(task, name)
             t0 = time.perf_counter()
+            clear(out_dir)
             r = record_run(job.scenario, out_dir, record=record, plots=plots, realtime=realtime,
                            observers=observers(job.scenario), started=started)
             results.append(r)
@@ -215,9 +220,13 @@ class _Bar:
 
 def claim_dirs(jobs: Sequence[Job], out: Path | None, overwrite: bool) -> list[Path]:
     """Each run's folder (:func:`out_dirs`), claimed (:func:`~vilma.scenario.folder.claim`) with a batch's ``out``:
-    a batch's folder, as a single run's, must be new or empty unless ``overwrite``."""
+    a batch's folder, as a single run's, must be new or empty unless ``overwrite``. The earlier run's files in each
+    are not removed yet: :func:`~vilma.scenario.folder.clear` as the run starts (an interrupted batch keeps those of
+    the runs it did not reach)."""
     dirs = out_dirs(jobs, out)
-    claim([out, *dirs] if out is not None and dirs != [out] else dirs, overwrite)
+    if out is not None and dirs != [out]:
+        claim([out], overwrite)  # (an earlier single run's files there go now)
+    claim(dirs, overwrite, clear_now=False)
     return dirs
 
 

@@ -53,9 +53,10 @@ def folder_name(text: str) -> str:
     return name or "run"
 
 
-def claim(dirs: Sequence[Path], overwrite: bool) -> None:
+def claim(dirs: Sequence[Path], overwrite: bool, clear_now: bool = True) -> None:
     """Check that each folder can be made and written, and that none holds anything; with ``overwrite``, remove the
-    earlier run's files (:data:`RUN_FILES` and its report), leaving anything else there as it is.
+    earlier run's files (:func:`clear`), unless not ``clear_now`` (a batch clears each run's folder as the run
+    starts: one interrupted keeps the earlier files of the runs it did not reach).
 
     Raises:
         SpecError: a folder (or the one it would be made in) is a file or cannot be written, or a folder holds files
@@ -73,11 +74,18 @@ def claim(dirs: Sequence[Path], overwrite: bool) -> None:
             shown = ", ".join(held[:4]) + (", ..." if len(held) > 4 else "")
             raise SpecError(f"{d}: holds an earlier run or other files ({shown}); give --overwrite to replace the "
                             "run's files, or choose another --out")
-        for name in held:
-            if name in RUN_FILES:
-                (d / name).unlink()
-            elif name == REPORT_DIR and (d / name).is_dir():
-                shutil.rmtree(d / name)
+        if clear_now:
+            clear(d)
+
+
+def clear(d: Path) -> None:
+    """Remove the earlier run's files from the folder ``d`` (:data:`RUN_FILES` and its report), leaving anything else
+    there as it is (nothing if ``d`` does not exist)."""
+    for name in sorted(p.name for p in d.iterdir()) if d.is_dir() else []:
+        if name in RUN_FILES:
+            (d / name).unlink()
+        elif name == REPORT_DIR and (d / name).is_dir():
+            shutil.rmtree(d / name)
 
 
 class RunFolder(RunObserver):
