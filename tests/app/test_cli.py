@@ -472,3 +472,13 @@ def test_a_sighup_that_nohup_ignores_stays_ignored(monkeypatch):
         assert main(["scenarios"]) == 0
     finally:
         signal.signal(signal.SIGHUP, before)
+
+
+@pytest.mark.parametrize("command", ["up", "sim"])
+def test_an_earlier_recording_is_never_replaced(tmp_path, capsys, command):
+    earlier = tmp_path / "earlier.mcap"
+    earlier.write_bytes(b"an earlier recording")
+    assert main([command, "--record", str(earlier), "--duration", "1"]) == 2
+    assert capsys.readouterr().err == (f"vilma {command}: error: --record {earlier}: exists; give a new file (an "
+                                       "earlier recording is never replaced)\n")
+    assert earlier.read_bytes() == b"an earlier recording"

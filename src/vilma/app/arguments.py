@@ -133,7 +133,8 @@ def _program(name: str) -> Callable[[argparse.ArgumentParser], None]:
             q.add_argument("--plant", type=plant, metavar="MODEL", help=PLANT_HELP)
             q.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
             q.add_argument("--duration", type=duration, default=float("inf"), help="stop after this sim time [s]")
-            q.add_argument("--record", metavar="FILE", help="record every topic to this MCAP file (sim time)")
+            q.add_argument("--record", metavar="FILE",
+                           help="record every topic to this new MCAP file (sim time)")
             q.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
                            help="serve every topic live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
         if name != "up":

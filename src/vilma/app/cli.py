@@ -189,6 +189,7 @@ def _sim(args: argparse.Namespace) -> int:
     from vilma.bus.zenoh_bus import DEFAULT_ENDPOINT
 
     scenario = scenario_or_default(args.scenario, plant=args.plant)
+    record = _record_path(args)
     morse = None if args.no_morse else programs.MorseOptions(
         args.morse_host, args.morse_port, args.morse_stream_port,
         tuple(args.allow_commands_from) if args.allow_commands_from else None)
@@ -198,7 +199,7 @@ def _sim(args: argparse.Namespace) -> int:
         f"connects to {', '.join(cfg.connect) or '-'}; topics vilma/vilma/*")
     with bus:
         return programs.sim_program(scenario, bus, args.speed, args.duration, say, morse,
-                                    record=_record_path(args), foxglove=foxglove)
+                                    record=record, foxglove=foxglove)
 
 
 def _drive(args: argparse.Namespace) -> int:
@@ -220,9 +221,10 @@ def _up(args: argparse.Namespace) -> int:
 
     scenario = scenario_or_default(args.scenario, "task: {course: [[0, 0], [100, 0], [100, -30], [50, -20], "
                                                      "[60, 0]], speed: 8.33}", args.plant)
+    record = _record_path(args)
     say = _say(args)
     say(f"vilma up: {scenario.name} in one process on the local bus, {args.speed:g}x real time (Ctrl-C stops)")
-    return programs.up(scenario, args.speed, args.duration, say, _record_path(args), foxglove)
+    return programs.up(scenario, args.speed, args.duration, say, record, foxglove)
 
 
 def _say(args: argparse.Namespace):
@@ -230,8 +232,19 @@ def _say(args: argparse.Namespace):
     return (lambda line: None) if args.quiet else (lambda line: print(line, flush=True))
 
 
-def _record_path(args: argparse.Namespace):
-    return Path(args.record) if args.record else None
+def _record_path(args: argparse.Namespace) -> Path | None:
+    """The file of ``--record``, if given: a new one (an earlier recording is never replaced: the recording would
+    truncate it at once, and a program stopped early would have lost it for a few seconds of drive).
+
+    Raises:
+        ValueError: something is there already.
+    """
+    if not args.record:
+        return None
+    path = Path(args.record)
+    if path.exists() or path.is_symlink():
+        raise ValueError(f"--record {path}: exists; give a new file (an earlier recording is never replaced)")
+    return path
 
 
 def _foxglove_port(args: argparse.Namespace) -> int | None:
