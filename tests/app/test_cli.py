@@ -482,3 +482,13 @@ def test_an_earlier_recording_is_never_replaced(tmp_path, capsys, command):
     assert capsys.readouterr().err == (f"vilma {command}: error: --record {earlier}: exists; give a new file (an "
                                        "earlier recording is never replaced)\n")
     assert earlier.read_bytes() == b"an earlier recording"
+
+
+def test_a_full_disk_is_a_failure_not_a_bad_command(tmp_path, capsys, full_disk):
+    """Exit 1 (the command was right, the write failed), one line naming the file; the earlier file kept."""
+    out = tmp_path / "s.txt"
+    out.write_text("earlier")
+    assert main(["trajectory", "smooth", str(CURVED), str(out), "--overwrite"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "No space left on device" in err and str(out) in err
+    assert out.read_text() == "earlier"

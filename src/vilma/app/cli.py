@@ -25,6 +25,9 @@ STARTED = time.perf_counter()
 PIPE_CLOSED = 128 + signal.SIGPIPE
 """The exit status of a command whose output's reader went away (``vilma scenarios | head -1``): 141, as a shell
 reports a command that SIGPIPE ended (``seq 100000 | head -1``)."""
+FAILED_WRITES = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
+"""A write that failed although the command was right (a full disk, a quota, a file size limit, a failing device):
+exit status 1, a failure, not 2, a mistake in the command line."""
 STOPS = (signal.SIGTERM, signal.SIGHUP)
 """Signals that stop a command as Ctrl-C does (what it wrote kept as Ctrl-C keeps it, one line), with the status a
 shell gives a command that signal ended: 128 + its number (143 for a job scheduler's or ``timeout``'s SIGTERM, 129
@@ -313,7 +316,7 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
         if isinstance(e, BrokenPipeError) and (closed := _closed_outputs()):
             return _reader_gone(closed)
         print(f"vilma {args.command}: error: {e}", file=sys.stderr)
-        return 2
+        return 1 if _failed_write(e) else 2
     except ModuleNotFoundError as e:
         if not _in_numba_cache(e):
             raise
@@ -346,6 +349,16 @@ def _stopped_as_by_ctrl_c(stops: list[int]):
     finally:
         for signum, handler in old.items():
             signal.signal(signum, handler)
+
+
+def _failed_write(e: BaseException | None) -> bool:
+    """Whether ``e``, or the error it was raised while handling (a file's error said in its words), is a write that
+    failed although the command was right (:data:`FAILED_WRITES`)."""
+    while e is not None:
+        if isinstance(e, OSError) and e.errno in FAILED_WRITES:
+            return True
+        e = e.__context__
+    return False
 
 
 def _in_numba_cache(e: BaseException) -> bool:
