@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -428,6 +429,31 @@ def test_after_an_interrupt_the_rows_are_what_the_file_holds(tmp_path):
     rows.settle()
     assert rows.rows == {"k1": done} and rows.file is None
     assert (tmp_path / sweep.ROWS).read_text() == json.dumps(done) + "\n"  # what --resume reads
+
+
+def test_a_full_disk_names_the_rows_file_and_keeps_its_rows(tmp_path):
+    rows = sweep.Rows(tmp_path, resume=False)
+    done = {"key": "k1", "error": None}
+    rows.add(done)
+    real = rows.file
+
+    class Full:  # a file on a full disk: its write stays in its buffer, its flush and close fail
+        def write(self, text):
+            return len(text)
+
+        def flush(self):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def close(self):
+            real.close()
+            self.flush()
+
+    rows.file = Full()
+    with pytest.raises(OSError, match=re.escape(str(tmp_path / sweep.ROWS))) as e:
+        rows.add({"key": "k2", "error": None})
+    assert e.value.errno == errno.ENOSPC and real.closed
+    assert list(rows.table(sweep_plan.plan_runs([SHORT], [], seeds=[0]))["key"]) == []  # no error: the table is made
+    assert sweep.Rows(tmp_path, True).rows == {"k1": done}  # what --resume reads
 
 
 def test_run_keys_name_scenario_values_and_seed():

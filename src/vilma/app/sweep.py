@@ -32,7 +32,7 @@ from rich.table import Table
 from rich.text import Text
 
 from vilma.app.sweep_plan import IDENTITY, SweepRun, plan_sets, read_sweep
-from vilma.core.files import atomic_path
+from vilma.core.files import atomic_path, write_error
 from vilma.record.run import record_run
 from vilma.scenario.fields import SpecError
 from vilma.scenario.report import agg_figure, write_png
@@ -293,8 +293,14 @@ class Rows:
             if self.file is None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
                 self.file = self.path.open("a", encoding="utf-8")
-            self.file.write(json.dumps(row) + "\n")
-            self.file.flush()
+            try:
+                self.file.write(json.dumps(row) + "\n")
+                self.file.flush()
+            except OSError as e:  # a full disk: the rows so far stay (a line cut short is dropped on --resume)
+                with contextlib.suppress(OSError):
+                    self.file.close()
+                self.file = None
+                raise write_error(self.path, e) from None
 
     def settle(self) -> None:
         """After an interrupt: the rows as ``rows.jsonl`` holds them (Ctrl-C may land between a row's line and its
