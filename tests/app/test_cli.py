@@ -492,3 +492,17 @@ def test_a_full_disk_is_a_failure_not_a_bad_command(tmp_path, capsys, full_disk)
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "No space left on device" in err and str(out) in err
     assert out.read_text() == "earlier"
+
+
+def test_ctrl_c_while_a_run_writes_its_files_is_one_line(tmp_path, capsys, monkeypatch):
+    """Ctrl-C after the drive, while its files are written: the line says so and where the partial files are."""
+    from vilma.record import run as recording
+
+    def interrupted(result, out_dir):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(recording, "write_metrics", interrupted)
+    out = tmp_path / "o"
+    assert main(["run", "pi_ff_speed_5", "--set", "duration=1", "--no-record", "--out", str(out)]) == 130
+    assert capsys.readouterr().err == f"vilma run: interrupted while writing the run's files: partial files in {out}\n"
+    assert not (out / "metrics.json").exists()

@@ -41,6 +41,7 @@ def record_run(scenario: Scenario, out_dir: Path | str, *, record: bool = True, 
     Raises:
         SpecError: the scenario's files cannot be used.
         Interrupted: Ctrl-C; the files so far are kept, the recording finished.
+        KeyboardInterrupt: Ctrl-C once the drive was over, while its files were written (the same, no metrics.json).
     """
     out_dir = Path(out_dir)
     mine: list[RunObserver] = []
@@ -50,7 +51,9 @@ def record_run(scenario: Scenario, out_dir: Path | str, *, record: bool = True, 
         mine.append(RunRecorder(out_dir / RUN_FILE, scenario, realtime is None and scenario.duration <= HERE_MAX_S))
     try:
         result = run(scenario, realtime, compiled, [*mine, RunFolder(out_dir, plots), *observers], started)
+        write_metrics(result, out_dir)  # last: a folder with metrics.json holds a whole run
     except Interrupted as e:
         raise Interrupted(e.t, out_dir) from None
-    write_metrics(result, out_dir)  # last: a folder with metrics.json holds a whole run
+    except KeyboardInterrupt:  # once the drive was over
+        raise KeyboardInterrupt(f"interrupted while writing the run's files: partial files in {out_dir}") from None
     return result
