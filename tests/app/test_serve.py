@@ -8,6 +8,7 @@ import json
 import multiprocessing
 import os
 import queue
+import select
 import signal
 import socket
 import subprocess
@@ -273,3 +274,30 @@ def test_a_server_runs_at_most_max_children_commands_and_then_refuses(tmp_path):
             time.sleep(0.01)
         assert "pid" in answer
     assert server.exitcode == 0
+
+
+def test_a_signal_before_the_server_answers_reaches_the_command_once_it_runs(tmp_path):
+    """A SIGTERM between the client's request and the server's answer is held, then sent to the command (it killed
+    the client alone, leaving the command to notice it was gone)."""
+    path, asked, release = tmp_path / "s.sock", tmp_path / "asked", tmp_path / "release"
+    request = serve._request
+
+    def held(conn: socket.socket):
+        select.select([conn], [], [])  # the client has sent its request: its signals are forwarded from then on
+        asked.touch()
+        while not release.exists():
+            time.sleep(0.01)
+        return request(conn)
+
+    def until_stopped(argv, started=None) -> int:
+        time.sleep(60)  # (SIGTERM, the default in a command, ends it)
+        return 0
+
+    with forked_server(path, until_stopped, _request=held), Processes() as processes:
+        client = processes.vilma("scenarios", cwd=tmp_path, env={**os.environ, "VILMA_SERVE": str(path)},
+                                 stdin=subprocess.DEVNULL)
+        while not asked.exists():
+            time.sleep(0.01)
+        client.send_signal(signal.SIGTERM)
+        release.touch()
+        assert client.wait(timeout=60) == 128 + signal.SIGTERM  # (not -SIGTERM: the client ended on its own)

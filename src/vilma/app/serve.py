@@ -125,25 +125,38 @@ def served(argv: list[str]) -> int | None:
         print(f"vilma: the arguments and environment ({len(request)} bytes as JSON) are more than the server takes "
               f"({MAX_REQUEST}); running the command here", file=sys.stderr)
         return None
-    with sock, sock.makefile("rb") as answers:
-        with contextlib.suppress(OSError):  # a server that stops answers before it reads: its answer tells
-            socket.send_fds(sock, [request], [0, 1, 2])
-        first = _read(answers)
-        if "pid" not in first:
-            print(f"vilma: {first.get('stale') or first.get('error') or 'no answer from the server'} "
-                  f"(server at {path}); running the command here", file=sys.stderr)
-            return None
+    forwarded: list[int] = []
+    pid: list[int] = []
 
-        forwarded: list[int] = []
-
-        def forward(signum: int, _) -> None:  # the command gets Ctrl-C, SIGTERM, SIGHUP
-            forwarded.append(signum)
+    def send(signum: int) -> None:
+        for p in pid:
             with contextlib.suppress(ProcessLookupError):
-                os.kill(first["pid"], signum)
+                os.kill(p, signum)
 
-        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            signal.signal(signum, forward)
-        last = _read(answers)
+    def forward(signum: int, _) -> None:  # the command gets Ctrl-C, SIGTERM, SIGHUP (held until its pid is known)
+        forwarded.append(signum)
+        send(signum)
+
+    before = {signum: signal.signal(signum, forward) for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+              if signal.getsignal(signum) != signal.SIG_IGN}  # (nohup's SIGHUP stays ignored)
+    try:
+        with sock, sock.makefile("rb") as answers:
+            with contextlib.suppress(OSError):  # a server that stops answers before it reads: its answer tells
+                socket.send_fds(sock, [request], [0, 1, 2])
+            first = _read(answers)
+            if "pid" not in first:
+                if forwarded:  # stopped before the server answered: nothing ran
+                    return 128 + forwarded[-1]
+                print(f"vilma: {first.get('stale') or first.get('error') or 'no answer from the server'} "
+                      f"(server at {path}); running the command here", file=sys.stderr)
+                return None
+            pid.append(first["pid"])
+            for signum in forwarded:  # (sent before the server answered)
+                send(signum)
+            last = _read(answers)
+    finally:
+        for signum, handler in before.items():  # (the command may run here next)
+            signal.signal(signum, handler)
     if "exit" in last:
         return int(last["exit"])
     if forwarded:  # the signal ended it: the status a shell gives a command that signal ended
