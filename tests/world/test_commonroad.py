@@ -79,6 +79,18 @@ def test_the_route_runs_from_the_initial_position_into_the_goal_region():
     assert np.all(task.path_speed == 22.0)  # no speed sign: the initial speed
 
 
+def test_a_route_to_where_the_road_ends_stops_the_given_reach_before_the_lanelets_end():
+    scenario = load(TUTORIAL)  # a straight road along +x: the route's lanelet has no successor
+    lanelet = scenario.network.lanelets.find_lanelet_by_id(scenario.network.lanelet_at(15.0, 0.0))
+    assert not lanelet.successor
+    end = lanelet.center_vertices[-1]
+    assert np.allclose(scenario.task().path[-1], end)  # nothing to keep clear of: the lanelet's end
+    path = scenario.task(ahead=3.5).path
+    assert np.allclose(path[-1], end - [3.5, 0.0])
+    arc = np.hypot(*np.diff(path, axis=0).T)
+    assert (arc > 0).all() and np.isclose(arc.sum(), np.hypot(*(end - [3.5, 0.0] - path[0])))
+
+
 def test_the_path_speed_is_the_lanelets_sign_capped_by_the_task_speed():
     root = ET.parse(OVER).getroot()
     limit = float(root.find("lanelet/speedLimit").text)  # both lanes have the same

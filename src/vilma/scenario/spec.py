@@ -238,7 +238,9 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     period = driver_period(driver, sim, src)
     top = sim.vehicle.top_speed
     task = _task(data, src, top, file)
-    road = _road(data, src, task, file)
+    metrics = build(MetricsSpec, data.get("metrics"), src, ("metrics",))
+    car = sim.vehicle  # a route to where the road ends stops with the car's front on it, within the end tolerance
+    road = _road(data, src, task, file, car.length / 2 + car.body_offset + metrics.end_tolerance)
     if road is not None and sim.traffic is not None:
         raise src.error(("world",), "boxes and cones on flat ground go without a CommonRoad world: remove them, or "
                                     f"use plant: {MUJOCO}")
@@ -253,7 +255,7 @@ def parse_scenario(data: Any, src: Source, name: str = "scenario", file: Path | 
     return Scenario(
         name=name, description=description, file=file, sim=sim, driver=driver, task=task,
         initial=_initial(data, src, top, road), duration=_duration(data, src, period),
-        metrics=build(MetricsSpec, data.get("metrics"), src, ("metrics",)), expect=_expect(data.get("expect"), src),
+        metrics=metrics, expect=_expect(data.get("expect"), src),
         speed_log=_speed_log(data, src, file), road=road, traffic=_traffic(data, src, road),
         planner=planner, perception=perception)
 
@@ -325,8 +327,9 @@ def _road_keys(world: Any) -> dict:
     return {k: v for k, v in world.items() if k in ROAD_KEYS} if isinstance(world, dict) else {}
 
 
-def _road(data: dict, src: Source, task: TaskSpec, file: Path | None) -> EgoTask | None:
-    """The planning problem's task from ``world.commonroad`` (a file beside ``file``) for a ``route`` task."""
+def _road(data: dict, src: Source, task: TaskSpec, file: Path | None, ahead: float = 0.0) -> EgoTask | None:
+    """The planning problem's task from ``world.commonroad`` (a file beside ``file``) for a ``route`` task; a route
+    to where the road ends stops ``ahead`` [m] before it (:meth:`~vilma.world.commonroad.RoadScenario.task`)."""
     road = _road_keys(data.get("world"))
     routed = task.route or (task.plan is not None and task.course is None and task.follow is None)
     if not road:
@@ -352,7 +355,7 @@ def _road(data: dict, src: Source, task: TaskSpec, file: Path | None) -> EgoTask
     pid = get(road, src, ("world", "planning_problem"), int, None)
     try:
         scenario = load(xml)
-        return scenario.task(pid, task.speed) if routed else None
+        return scenario.task(pid, task.speed, ahead) if routed else None
     except CommonRoadError as e:
         raise SpecError(str(e)) from None
 

@@ -183,9 +183,11 @@ class RoadScenario:
         """How many obstacles (static and dynamic) the file holds."""
         return len(self.scenario.obstacles)
 
-    def task(self, planning_problem: int | None = None, speed: float | None = None) -> EgoTask:
+    def task(self, planning_problem: int | None = None, speed: float | None = None, ahead: float = 0.0) -> EgoTask:
         """The ego's task from the planning problem of that id (None: the file's only one), driving at the
-        lanelets' speed limits capped by ``speed`` [m/s].
+        lanelets' speed limits capped by ``speed`` [m/s]. A path that ends where the road does (a lanelet without
+        successor) ends ``ahead`` [m] before it: how far the car's box reaches ahead of its centre of mass, and the
+        margin it may roll on, so that the car that stops at the path's end stays on the road.
 
         Raises:
             CommonRoadError: no such planning problem, or no route from the initial state to the goal.
@@ -203,9 +205,11 @@ class RoadScenario:
                 raise CommonRoadError(f"{where}: no route on the lanelets from the initial state to the goal; "
                                       "check the goal's lanelets or position")
             ref = ReferencePathPlanner(self.network.lanelets, pp, routes).plan_shortest_reference_path()
-        xy = _extend(np.asarray(ref.reference_path, float), self.network.lanelets, ref.lanelet_ids[-1])
+        xy, dead_end = _extend(np.asarray(ref.reference_path, float), self.network.lanelets, ref.lanelet_ids[-1])
         start = int(np.argmin(np.hypot(*(xy - s0.position).T)))  # the path starts where the car does
         xy = xy[start:]
+        if dead_end and ahead > 0:
+            xy = _shorten(xy, ahead)
         if len(xy) < 2:
             raise CommonRoadError(f"{where}: the route ends at the initial position; check the goal")
         limits = {i: self.network.speed_limit(i) for i in ref.lanelet_ids}
@@ -242,9 +246,21 @@ def _limit(limits: dict[int, float | None], ids: list[int], default: float) -> f
     return min(known) if known else default
 
 
-def _extend(xy: np.ndarray, lanelets: LaneletNetwork, last: int) -> np.ndarray:
+def _shorten(xy: np.ndarray, by: float) -> np.ndarray:
+    """The path ``xy`` (n, 2) [m] without its last ``by`` [m] of arc (its end on the path, interpolated)."""
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    end = arc[-1] - by
+    if end <= 0:
+        return xy[:1]
+    keep = arc < end
+    last = [np.interp(end, arc, xy[:, 0]), np.interp(end, arc, xy[:, 1])]
+    return np.vstack([xy[keep], last])
+
+
+def _extend(xy: np.ndarray, lanelets: LaneletNetwork, last: int) -> tuple[np.ndarray, bool]:
     """The path ``xy`` (n, 2) [m] run on by :data:`EXTENSION_M` along the centre lines of the first successors of
-    the lanelet ``last`` (as far as there are any)."""
+    the lanelet ``last`` (as far as there are any), and whether it ends where the road does (at a lanelet without
+    successor)."""
     seen, more, added = {last}, [xy], 0.0
     lanelet = lanelets.find_lanelet_by_id(last)
     while added < EXTENSION_M and lanelet.successor and lanelet.successor[0] not in seen:
@@ -256,7 +272,7 @@ def _extend(xy: np.ndarray, lanelets: LaneletNetwork, last: int) -> np.ndarray:
         keep = np.cumsum(step) - step < EXTENSION_M - added  # up to the first point at or past the length
         more.append(centre[keep])
         added += float(step[keep].sum())
-    return np.vstack(more)
+    return np.vstack(more), not lanelet.successor
 
 
 def _arrivals(goal: GoalRegion, xy: np.ndarray, time_step: int, dt: float) -> tuple:
