@@ -86,3 +86,16 @@ def test_a_closing_speed_too_small_for_the_gap_is_an_infinite_time_to_collision_
     with np.errstate(all="raise"):  # what numpy would warn of is an error here
         ttc = time_to_collision(np.array([1.0]), np.array([[1.0, 0.0]]), np.array([[-1e-310, 0.0]]))
     assert ttc[0] == math.inf  # 1 m / 1e-310 m/s overflows a double
+
+
+def test_driving_on_past_the_end_of_the_road_is_off_road_when_the_box_leaves_the_lanelets():
+    # the checker's default boundary leaves a lane's end open: a car driving on past the last lanelet never touched it
+    road = load(DATA / "ZAM_Tutorial-1_1_T-1.xml")  # a straight road along +x; its lanelets have no successor
+    task = road.task()
+    outline = shapely.unary_union([lanelet.polygon.shapely_object for lanelet in road.network.lanelets.lanelets])
+    end = max(lanelet.center_vertices[-1, 0] for lanelet in road.network.lanelets.lanelets)
+    x = end - 20.0 + 1.37 * np.arange(30)  # along the lane and on past its end, in steps that never land on it
+    first = next(k for k, xk in enumerate(x) if not outline.contains(_box(xk, task.y, 0.0)))
+    assert 0 < first < len(x) - 1
+    found = check_drive(task, BOX, *_drive(task, x, [task.y] * len(x), np.zeros(len(x))))
+    assert found.off_road_time == pytest.approx(first * task.dt)

@@ -3,9 +3,12 @@ scenario's obstacles (its collision checker built from the scenario) and leaving
 obstacle), for the ego's own box over the drive sampled at the scenario's time steps; besides, the closest
 approach to the traffic and the time to collision.
 
-The road boundary is the checker's default ``obb_rectangles`` (thin boxes along the outline of the lanelets'
-union): the benchmark's own ``solution_checker`` triangulates the outside instead, which needs the non-free
-``triangle`` package. A drive that starts on the road and leaves it crosses the outline, so both agree.
+The road boundary is the checker's ``obb_rectangles`` (thin boxes along the outline of the lanelets' union), closed
+at the lanes' ends (``open_lane_ends=False``: the checker's default leaves the start of a lane without predecessor
+and the end of one without successor open, so a car driving on past the end of the road would never touch it). The
+benchmark's own ``solution_checker`` triangulates the outside instead (the road's ends included), which needs the
+non-free ``triangle`` package. A drive that starts on the road and leaves it, over a side or an end, crosses the
+outline, so both agree.
 """
 
 from __future__ import annotations
@@ -72,7 +75,7 @@ def check_drive(task: EgoTask, box: EgoBox, t: np.ndarray, x: np.ndarray, y: np.
     if boxes and checker.collide(ego):
         hit = tuple(o.obstacle_id for o in task.scenario.obstacles if create_collision_object(o).collide(ego))
         collision_time = _first(boxes, checker.time_slice, task)
-    road = create_road_boundary_obstacle(task.scenario, return_scenario_obstacle=False)
+    road = create_road_boundary_obstacle(task.scenario, return_scenario_obstacle=False, open_lane_ends=False)
     off_road_time = _first(boxes, lambda k: road, task) if boxes and road.collide(ego) else None
     gap, ttc = _approach(task, box, rows, cx, cy, c, s, vx[rows], vy[rows])
     return DriveCheck(hit=hit, collision_time=collision_time, off_road_time=off_road_time, min_distance=gap,
