@@ -51,6 +51,45 @@ def test_first_order_speed_step():
     assert s["speed_steady_state_error_mps"] == pytest.approx(0.0, abs=1e-4)
 
 
+def test_a_step_down_from_a_moving_start_is_measured_on_the_step():
+    """v = 5 + 5 exp(-t / tau) from 10 m/s to a 5 m/s target: 90 % of the 5 m/s step at tau ln 10, no overshoot
+    (it never goes below 5 m/s), inside 2 % of the target (0.1 m/s) from tau ln 50; not a rise at t = 0 with
+    the 100 % overshoot of v.max() / target."""
+    tau = 3.0
+    t = np.arange(0, 40, DT)
+    s = step_response(t, 5.0 + 5.0 * np.exp(-t / tau), 5.0, 0.02, 5.0, start=10.0)
+    assert s["speed_rise_time_90_s"] == pytest.approx(tau * math.log(10), abs=1e-3)
+    assert s["speed_overshoot_pct"] == 0.0
+    assert s["speed_settling_time_2pct_s"] == pytest.approx(tau * math.log(50), abs=DT)
+
+
+def test_a_step_up_from_a_moving_start_overshoots_in_percent_of_the_step():
+    """From 5 to 10 m/s peaking at 10.5 m/s: 0.5 m/s past the target is 10 % of the 5 m/s step."""
+    t = np.arange(0, 20, DT)
+    v = np.minimum(5.0 + t, 10.5 - 0.05 * np.maximum(t - 5.5, 0.0))
+    s = step_response(t, v, 10.0, 0.02, 5.0, start=5.0)
+    assert s["speed_rise_time_90_s"] == pytest.approx(4.5)
+    assert s["speed_overshoot_pct"] == pytest.approx(10.0)
+
+
+def test_a_start_at_the_target_is_no_step():
+    t = np.arange(0, 10, DT)
+    s = step_response(t, np.full_like(t, 5.0), 5.0, 0.02, 5.0, start=5.0)
+    assert "speed_rise_time_90_s" not in s and "speed_overshoot_pct" not in s
+    assert s["speed_settling_time_2pct_s"] == 0.0 and s["speed_steady_state_error_mps"] == 0.0
+
+
+def test_the_scorecard_takes_the_step_from_the_speed_at_the_tasks_start():
+    """A speed task that finds the car at 10 m/s and slows it to 5 m/s in a straight ramp of 1 m/s^2: 90 % of
+    the step is 4.5 m/s down, at 4.5 s; nothing overshoots."""
+    t = np.arange(0, 20, DT)
+    v = np.maximum(10.0 - t, 5.0)
+    log = _log(t, x=np.cumsum(v) * DT, vx=v, target_speed=np.full_like(t, 5.0))
+    m = scorecard(log, Scenario(name="v", task=TaskSpec(speed=5.0)), None, 0.0)
+    assert m["speed_rise_time_90_s"] == pytest.approx(4.5)
+    assert m["speed_overshoot_pct"] == 0.0
+
+
 def test_overshoot_and_a_speed_that_never_settles():
     t = np.arange(0, 20, DT)
     v = 10.0 + 1.0 * np.sin(t)  # +-10 % forever

@@ -4,7 +4,8 @@ Measured on the plant's true motion at every control period (not on what the
 driver believed), against the reference path by projection from the centre of
 mass. Path and speed-tracking errors are counted after ``MetricsSpec.skip``
 seconds. The speed-step keys (rise, overshoot, settling, steady state) apply to
-a ``speed`` task, a constant target from rest, as the paper's Figure 11.
+a ``speed`` task, a constant target from the speed the task found the car at (rest
+in the paper's Figure 11): :func:`step_response`.
 
 ``completed`` says the task was done, judged on the track alone (:func:`completion`):
 a speed task when the run lasted without breaking down; a go-to when the car came
@@ -93,7 +94,10 @@ def scorecard(log: DriveLog, scenario: Scenario, path: Trajectory | None, t_star
     if counted.any():
         out["speed_error_rms_mps"] = _rms(speed[counted] - c("target_speed")[counted])
     if scenario.task.kind == "speed":
-        out.update(step_response(t - t_start, speed, scenario.task.speed, m.settle_band, m.steady_window))
+        task_t = t - t_start
+        begun = np.flatnonzero(task_t >= 0)  # the step starts from the speed the task found the car at
+        out.update(step_response(task_t, speed, scenario.task.speed, m.settle_band, m.steady_window,
+                                 float(speed[begun[0]]) if len(begun) else 0.0))
     if len(t) > 2:
         dt = np.diff(t)
         out["steering_rate_rms_radps"] = _rms(np.diff(c("steer")) / dt)
@@ -304,17 +308,27 @@ def _accelerations(t, yaw, vx, vy) -> tuple[np.ndarray, np.ndarray]:
     return ax * cm + ay * sm, -ax * sm + ay * cm
 
 
-def step_response(t: np.ndarray, v: np.ndarray, target: float, band: float, window: float) -> dict:
-    """Rise time to 90 %, overshoot, settling time into +-``band`` and steady-state error of a speed step."""
+def step_response(t: np.ndarray, v: np.ndarray, target: float, band: float, window: float,
+                  start: float = 0.0) -> dict:
+    """Rise time to 90 %, overshoot, settling time into +-``band`` and steady-state error of a speed step from
+    ``start`` to ``target`` [m/s] at t = 0 [s].
+
+    The rise time is when the speed first covered 90 % of the step (``start + 0.9 (target - start)``), the
+    overshoot how far it went past the target, in % of the step; a start already within the band of the target
+    is no step, and has neither. Settling (into ``band`` x ``target``) and the steady-state error (the mean
+    over the last ``window`` [s]) are the target's alone.
+    """
     after = t >= 0
     t, v = t[after], v[after]
     out = {}
-    reached = np.nonzero(v >= 0.9 * target)[0]
-    if len(reached):
-        i = reached[0]
-        out["speed_rise_time_90_s"] = float(t[i] if i == 0 else
-                                            np.interp(0.9 * target, [v[i - 1], v[i]], [t[i - 1], t[i]]))
-    out["speed_overshoot_pct"] = float(max(0.0, (v.max() / target - 1.0) * 100.0)) if len(v) else None
+    step = target - start
+    if len(v) and abs(step) > band * target:  # forward, along the step: a step down counts as one up
+        u = (v - start) / step  # the fraction of the step covered
+        reached = np.nonzero(u >= 0.9)[0]
+        if len(reached):
+            i = reached[0]
+            out["speed_rise_time_90_s"] = float(t[i] if i == 0 else np.interp(0.9, [u[i - 1], u[i]], [t[i - 1], t[i]]))
+        out["speed_overshoot_pct"] = float(max(0.0, (u.max() - 1.0) * 100.0))
     outside = np.nonzero(np.abs(v - target) > band * target)[0]
     if len(v) and (not len(outside) or outside[-1] < len(v) - 1):
         out["speed_settling_time_2pct_s"] = float(t[outside[-1] + 1]) if len(outside) else float(t[0])
