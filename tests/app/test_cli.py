@@ -223,7 +223,8 @@ def test_verbose_and_quiet_together_are_refused(capsys):
 
 def test_quiet_run_prints_only_what_failed(tmp_path, capsys):
     p = tmp_path / "strict.yaml"
-    p.write_text("task: {speed: 10}\nduration: 5\nexpect: {speed_rise_time_90_s: {max: 1.0}}\n")  # 10 m/s in 5 s: no
+    # 10 m/s in 5 s: no
+    p.write_text("task: {speed: 10}\nduration: 5\nexpect: {completed: false, speed_rise_time_90_s: {max: 1.0}}\n")
     assert main(["run", str(p), "--out", str(tmp_path / "o"), "-q"]) == 1
     out, err = capsys.readouterr()
     assert out == ""
@@ -280,7 +281,8 @@ def test_the_command_ends_with_its_status_after_the_exit_handlers(tmp_path):
     """:func:`~vilma.app.cli.entry` skips the interpreter's teardown after a run: the run's status (1: an expectation
     failed), its whole output through a pipe, its files, and the exit handlers run last."""
     p = tmp_path / "strict.yaml"
-    p.write_text("task: {speed: 10}\nduration: 2\nexpect: {speed_rise_time_90_s: {max: 1.0}}\n")  # 10 m/s in 2 s: no
+    # 10 m/s in 2 s: no
+    p.write_text("task: {speed: 10}\nduration: 2\nexpect: {completed: false, speed_rise_time_90_s: {max: 1.0}}\n")
     code = ("import atexit, sys; atexit.register(print, 'the exit handlers ran')\n"
             f"sys.argv = ['vilma', 'run', {str(p)!r}, '--out', {str(tmp_path / 'o')!r}]\n"
             "from vilma.app.cli import entry; entry()")
@@ -296,7 +298,7 @@ def test_a_scenario_name_never_writes_outside_out(tmp_path):
     victim.mkdir()
     (victim / "metrics.json").write_text("mine")
     p = tmp_path / "n.yaml"
-    p.write_text(f"name: {victim}\ntask: {{speed: 5}}\n")
+    p.write_text(f"name: {victim}\ntask: {{speed: 5}}\ninitial: {{speed: 5}}\n")
     out = tmp_path / "out"
     assert main(["run", str(p), "--set", "duration=0.5,1", "--out", str(out), "-q", "--no-record", "--overwrite"]) == 0
     assert (victim / "metrics.json").read_text() == "mine"

@@ -7,7 +7,7 @@ from vilma.app.cli import main
 
 def test_a_report_never_replaces_a_run_or_an_earlier_report_unasked(tmp_path, capsys):
     s = tmp_path / "s.yaml"
-    s.write_text("task: {speed: 5}\nduration: 1\n")
+    s.write_text("task: {speed: 5}\ninitial: {speed: 5}\nduration: 1\n")
     run = tmp_path / "r1"
     assert main(["run", str(s), "--out", str(run), "-q"]) == 0
     scorecard = (run / "metrics.json").read_bytes()
@@ -29,7 +29,7 @@ def test_a_report_never_replaces_a_run_or_an_earlier_report_unasked(tmp_path, ca
 
 def test_export_and_replay_take_a_run_folder_and_refuse_one_without_a_recording_or_with_an_empty_one(tmp_path, capsys):
     s = tmp_path / "s.yaml"
-    s.write_text("task: {speed: 5}\nduration: 1\n")
+    s.write_text("task: {speed: 5}\ninitial: {speed: 5}\nduration: 1\n")
     run = tmp_path / "r"
     assert main(["run", str(s), "--out", str(run), "-q"]) == 0
     assert main(["export", "rosbag2", str(run), str(tmp_path / "bag")]) == 0  # the folder: its run.mcap

@@ -218,12 +218,27 @@ def test_go_to_needs_only_the_target():
     assert c["incomplete_reason"] == "ended 1 m from the target (tolerance 0.5 m)"
 
 
-def test_a_speed_task_completes_unless_it_breaks_down():
+def test_a_speed_task_completes_at_its_speed_unless_it_breaks_down():
     xy = _drive((0, 0), (10, 0))
     task = Scenario(name="v", task=TaskSpec(speed=5.0))
-    assert completion(task, xy, _at_rest(xy), None)["completed"] is True
-    c = completion(task, xy, _at_rest(xy), None, broke_down="the watchdog stopped the car")
+    at_speed = np.full(len(xy), 5.0)
+    assert completion(task, xy, at_speed, None)["completed"] is True
+    c = completion(task, xy, at_speed, None, broke_down="the watchdog stopped the car")
     assert c == {"completed": False, "incomplete_reason": "the watchdog stopped the car"}
+
+
+def test_a_speed_task_that_ends_off_its_speed_is_incomplete():
+    """Ordered 5 m/s: ending at rest (a car that never moved, or stopped) or at 4.8 m/s (4 % short, outside the
+    2 % band) did not do it; 4.95 m/s (1 %) did."""
+    xy = _drive((0, 0), (10, 0))
+    task = Scenario(name="v", task=TaskSpec(speed=5.0))
+    c = completion(task, xy, _at_rest(xy), None)
+    assert c == {"completed": False, "incomplete_reason": "ended at 0 m/s, not within 2% of the 5 m/s target"}
+    assert completion(task, xy, np.full(len(xy), 4.8), None)["completed"] is False
+    assert completion(task, xy, np.full(len(xy), 4.95), None)["completed"] is True
+    t = np.arange(0, 10, DT)  # the whole scorecard of a car that stood still
+    m = scorecard(_log(t, target_speed=np.full_like(t, 5.0)), task, None, 0.0)
+    assert m["completed"] is False and m["speed_settling_time_2pct_s"] is None
 
 
 def test_a_nan_state_or_a_cut_log_is_incomplete():

@@ -120,7 +120,7 @@ def test_cli_run_sweep_writes_a_folder_per_run(tmp_path, capsys):
 
 def test_cli_run_never_mixes_with_an_earlier_run(tmp_path, capsys):
     p = tmp_path / "step.yaml"
-    p.write_text("task: {speed: 5}\nduration: 2\n")
+    p.write_text("task: {speed: 5}\ninitial: {speed: 5}\nduration: 2\n")
     out = tmp_path / "o"
     assert main(["run", str(p), "--out", str(out), "--plots"]) == 0
     (out / "notes.txt").write_text("mine")
@@ -134,7 +134,7 @@ def test_cli_run_never_mixes_with_an_earlier_run(tmp_path, capsys):
 
 def test_cli_batch_of_runs_with_one_name_keeps_them_all(tmp_path):
     p = tmp_path / "step.yaml"
-    p.write_text("task: {speed: 5}\nduration: 2\n")
+    p.write_text("task: {speed: 5}\ninitial: {speed: 5}\nduration: 2\n")
     assert main(["run", str(p), "--set", "seed=1,1", "--out", str(tmp_path / "o"), "--no-record"]) == 0
     assert sorted(f.name for f in (tmp_path / "o").iterdir()) == ["step-seed_1", "step-seed_1-2"]
 
@@ -184,7 +184,7 @@ def test_cli_run_of_an_unfinished_task_shows_why(tmp_path, capsys):
 
 def test_cli_run_exits_1_when_a_scenario_fails_its_expectations(tmp_path, capsys):
     p = tmp_path / "strict.yaml"
-    p.write_text("task: {speed: 10}\nduration: 5\nexpect: {speed_rise_time_90_s: {max: 1.0}}\n")
+    p.write_text("task: {speed: 10}\nduration: 5\nexpect: {completed: false, speed_rise_time_90_s: {max: 1.0}}\n")
     assert main(["run", str(p), "--out", str(tmp_path / "o")]) == 1
     assert "FAIL strict: speed_rise_time_90_s: None is outside max 1" in capsys.readouterr().out
 

@@ -8,7 +8,8 @@ a ``speed`` task, a constant target from the speed the task found the car at (re
 in the paper's Figure 11): :func:`step_response`.
 
 ``completed`` says the task was done, judged on the track alone (:func:`completion`):
-a speed task when the run lasted without breaking down; a go-to when the car came
+a speed task when the run lasted without breaking down and the car ended it at the target speed (within
+``MetricsSpec.settle_band`` of it, as ``speed_settling_time_2pct_s`` measures); a go-to when the car came
 to rest within ``MetricsSpec.end_tolerance`` of the target; a path when, besides,
 it covered ``MetricsSpec.min_progress`` of the path in order (:func:`coverage`; not a plan, which leaves its
 route to pass); a CommonRoad route when, besides, the car was in the planning problem's goal region (a plan: instead
@@ -213,7 +214,8 @@ def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Traject
                road_failures: Sequence[str] = ()) -> dict:
     """``completed``, ``incomplete_reason``, ``end_error_m``, ``path_progress`` and ``waypoints_skipped`` of a
     drive ``xy`` (n, 2) [m] at longitudinal speed ``vx`` (n,) [m/s] on the task's ``path`` (for a go-to, the
-    line to the target); at rest means below the driver's ``rest_speed``, as the driver and the runner judge.
+    line to the target); at rest means below the driver's ``rest_speed``, as the driver and the runner judge. A
+    speed task is done when it ends at its speed, within ``MetricsSpec.settle_band`` of it.
     ``s`` is the drive's arc length projected on the path, if the caller has it (:func:`coverage`);
     ``goal_reached`` False (a route that missed its goal region) and ``road_failures`` (collisions, leaving the
     road, in words) make it incomplete."""
@@ -222,7 +224,11 @@ def completion(scenario: Scenario, xy: np.ndarray, vx: np.ndarray, path: Traject
     why = [broke_down] if broke_down else []
     if not len(xy):
         why.append("the run has no samples")
-    elif kind != "speed" and path is not None:
+    elif kind == "speed":  # holding the speed: at it, within the settling band, when the run ended
+        target = scenario.task.speed
+        if abs(vx[-1] - target) > m.settle_band * target:
+            why.append(f"ended at {vx[-1]:.3g} m/s, not within {m.settle_band:.0%} of the {target:g} m/s target")
+    elif path is not None:
         end = float(np.hypot(*(xy[-1] - path.xy[-1])))
         out["end_error_m"] = end
         covered, reached = coverage(path, xy, m.path_tolerance, s)

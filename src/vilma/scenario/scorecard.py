@@ -38,7 +38,8 @@ class MetricsSpec:
     skip: float = 2.0
     """Path errors are counted after this much sim time [s]."""
     settle_band: float = 0.02
-    """Settling band of the speed step, a fraction of the target [-]."""
+    """Settling band of the speed step, a fraction of the target [-]; a speed task is complete only if the car
+    ends the run inside it."""
     steady_window: float = 5.0
     """The steady-state speed error is the mean over this last part of the run [s]."""
     end_tolerance: float = 1.0
