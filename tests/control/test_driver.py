@@ -26,6 +26,30 @@ def test_stops_at_the_end_within_1_m_at_rest(speed_controller):
     assert run.speed[-1] < 0.01
 
 
+def test_on_its_final_stop_the_driver_aims_at_the_stop_not_at_the_cruise_speed():
+    """Following 60 m of straight line at 8 m/s: cruising, the target it reports is 8 m/s; once it brakes for the
+    end, at most sqrt(2 a d), the speed from which its stop deceleration a ends at rest on the last point d ahead
+    (never the 8 m/s it no longer aims at), and 0 once arrived."""
+    path = Trajectory.from_points([(float(x), 0.0) for x in range(61)])
+    sim = Simulator(SimConfig())
+    sim.reset(VehicleState())
+    d = Driver(sim.config.vehicle, step=sim.config.step)
+    d.update(sim.advance(d.period_ticks))
+    d.follow(path, 8.0)
+    a, seen = d.params.stop_deceleration, []
+    for _ in range(round(40 / d.period)):
+        cmd = d.update(sim.advance(d.period_ticks))
+        if cmd is not None:
+            sim.command(cmd)
+        seen.append((d.status, bool(d.state.stopping), sim.state.speed))
+    cruising = [st.target_speed for st, stopping, _ in seen if not stopping]
+    stopping = [(st.target_speed, st.remaining) for st, stopping, _ in seen if stopping and not st.arrived]
+    assert cruising and set(cruising) == {8.0}
+    assert stopping and all(v <= math.sqrt(2 * a * max(d_left, 0.0)) + 1e-9 for v, d_left in stopping)
+    assert stopping[0][0] == pytest.approx(seen[len(cruising)][2], abs=0.5)  # the stop starts on the car's speed
+    assert seen[-1][0].arrived and seen[-1][0].target_speed == 0.0
+
+
 def test_set_speed_and_hold_current_speed():
     sim = Simulator(SimConfig())
     d = Driver(sim.config.vehicle, DriverParams(), step=sim.config.step)

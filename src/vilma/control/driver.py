@@ -183,6 +183,20 @@ def target_speed(ds, pa):
 
 
 @njit(cache=True)
+def aimed_speed(dc, ds, pa):
+    """The speed the driver aims at now [m/s], as its status and the drive log tell it: :func:`target_speed`,
+    but on the final stop at most the speed from which the stop deceleration brings the car to rest on the last
+    point, sqrt(2 a d) (the curve the stop begins on, :func:`_track`), and 0 once arrived; 0 in manual mode.
+    (The speed controller is not stepped on the stop: the brakes are, :func:`_final_stop`.)"""
+    if ds.mode == MANUAL or ds.arrived:
+        return 0.0
+    v = target_speed(ds, pa)
+    if ds.stopping:
+        return min(v, math.sqrt(2.0 * dc.stop_deceleration * max(ds.remaining, 0.0)))
+    return v
+
+
+@njit(cache=True)
 def _stops(ds, pa, rest_speed):
     """Whether the path ends in a stop: always, but for a planner's local trajectory, which may end moving (the
     next plan goes on from it)."""
@@ -418,7 +432,7 @@ class Driver:
             index, progress, remaining, cross = int(ds["index"]), ds["progress"], ds["remaining"], ds["cross"]
         else:
             index, progress, remaining, cross = 0, 0.0, 0.0, math.nan
-        target = target_speed(ds, (t.path or _NO_PATH).arrays) if t.mode != DriverMode.MANUAL else 0.0
+        target = aimed_speed(self.consts, ds, (t.path or _NO_PATH).arrays)
         return DriverStatus(self.stamp_ns, t.mode.value, float(target), float(ds["measured"]), index,
                             float(progress), float(remaining), float(cross), bool(ds["arrived"]), t.error)
 

@@ -24,7 +24,7 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
-from vilma.control.driver import MANUAL, Driver, DriverMode, driver_step, target_speed
+from vilma.control.driver import Driver, DriverMode, aimed_speed, driver_step
 from vilma.core.geometry import wrap
 from vilma.core.messages import PoseEstimate
 from vilma.localization import Ekf, TruthEstimator
@@ -103,7 +103,7 @@ def _loop(model, integrator, z, pc, dt, step_ns, tick, periods, out_z, out_dx, o
         r[0] = (tick * step_ns) * 1e-9
         for i in range(9):  # element by element: a slice copy compiles its shape check's message
             r[1 + i] = z[i]
-        r[10] = target_speed(ds, pa) if ds.mode != MANUAL else 0.0
+        r[10] = aimed_speed(dc, ds, pa)
         r[11] = ds.measured
         r[12], r[13], r[14] = (ds.x, ds.y, ds.yaw) if ds.has_pose else (math.nan, math.nan, math.nan)
         if sent:
