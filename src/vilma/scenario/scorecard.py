@@ -36,7 +36,7 @@ class MetricsSpec:
     """How the scorecard is measured."""
 
     skip: float = 2.0
-    """Path errors are counted after this much sim time [s]."""
+    """Path errors and ``speed_error_rms_mps`` are counted after this much sim time from the task's start [s]."""
     settle_band: float = 0.02
     """Settling band of the speed step, a fraction of the target [-]; a speed task is complete only if the car
     ends the run inside it."""
