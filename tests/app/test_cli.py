@@ -311,7 +311,7 @@ def test_a_batch_and_the_demo_refuse_a_folder_that_holds_anything(tmp_path, caps
     out.mkdir()
     (out / "notes.txt").write_text("mine")
     p = tmp_path / "s.yaml"
-    p.write_text("task: {speed: 5}\n")
+    p.write_text("task: {speed: 5}\ninitial: {speed: 5}\n")  # (at its speed from the start: a whole task)
     batch = ["run", str(p), "--set", "duration=0.5,1", "--out", str(out), "-q", "--no-record"]
     for args in (batch, ["demo", "--out", str(out), "-q"]):
         assert main(args) == 2
@@ -333,7 +333,7 @@ def test_an_interrupted_batch_with_overwrite_keeps_the_earlier_runs_it_did_not_r
     from vilma.app import batch
 
     out = tmp_path / "b"
-    (tmp_path / "s.yaml").write_text("task: {speed: 5}\n")
+    (tmp_path / "s.yaml").write_text("task: {speed: 5}\ninitial: {speed: 5}\n")
     argv = ["run", str(tmp_path / "s.yaml"), "--set", "duration=0.5,1", "--out", str(out), "-q", "--no-record"]
     assert main(argv) == 0
     first, second = (out / f"s-duration_{d}" for d in ("0.5", "1"))
