@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -103,6 +105,20 @@ def test_the_summary_is_what_the_mcap_library_reads(tmp_path):
     back = read_recording(tmp_path / "a.mcap")
     assert back.messages("cmd") == [m.ActuatorCommand(stamp_ns=7, steer=0.25, drive=100.0, autonomous=True)]
 
+
+
+def test_the_footer_holds_the_summary_crc_the_mcap_specification_defines(tmp_path):
+    rec = Recorder(tmp_path / "a.mcap")
+    rec.add_readings({"pose": _pose_readings(50)})
+    rec.add_metadata("scorecard", {"distance_m": 12.5})
+    rec.close()
+    data = (tmp_path / "a.mcap").read_bytes()
+    # The file ends with the Footer (opcode 0x02, length 20, summary start, summary offset start, summary CRC) and
+    # the magic; the CRC is CRC-32 of every byte from the summary's start up to the CRC field (spec, Footer).
+    footer = data[-8 - 29:-8]
+    opcode, length, summary_start, offsets_start, crc = struct.unpack("<BQQQI", footer)
+    assert (opcode, length) == (0x02, 20) and 0 < summary_start < offsets_start
+    assert crc == zlib.crc32(data[summary_start:-8 - 4]) != 0
 
 def test_null_floats_come_back_as_nan_or_the_infinite_default(tmp_path):
     rec = Recorder(tmp_path / "a.mcap")

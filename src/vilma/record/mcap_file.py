@@ -301,8 +301,12 @@ class McapFile:
         offsets_at = start + b.count
         for g in groups:
             g.write(b)
-        Footer(summary_start=start, summary_offset_start=offsets_at, summary_crc=0).write(b)
-        self._write(b.end() + MAGIC)
+        summary = b.end()
+        # The summary CRC covers the summary and summary offset sections and the footer up to the CRC itself
+        # (MCAP specification, Footer), as the mcap package's own writer computes it.
+        crc = zlib.crc32(struct.pack("<BQQQ", Opcode.FOOTER, 20, start, offsets_at), zlib.crc32(summary))
+        Footer(summary_start=start, summary_offset_start=offsets_at, summary_crc=crc).write(b)
+        self._write(summary + b.end() + MAGIC)
         try:
             self._file.close()
         except OSError as e:
