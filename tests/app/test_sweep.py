@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import math
 import os
 import re
 import signal
+import socket
 import sys
 import threading
 
@@ -348,6 +350,64 @@ def test_an_unreachable_scheduler_is_one_line_and_exit_2(tmp_path, capsys, monke
     err = capsys.readouterr().err
     assert f"--scheduler {address}: no Dask scheduler answers there within {sweep.CONNECT_TIMEOUT:g} s" in err
     assert err.count("\n") == 1 and not (tmp_path / "sweeps").exists()
+
+
+@pytest.fixture
+def listener():
+    """A plain TCP listener on 127.0.0.1 that is no Dask server: ``listener(reply)`` starts one whose connections
+    read what comes and get ``reply`` (``None``: nothing, the connection held open); yields its address."""
+    started = []
+
+    def start(reply: bytes | None) -> str:
+        server = socket.create_server(("127.0.0.1", 0))
+        held: list[socket.socket] = []
+
+        def serve() -> None:
+            with contextlib.suppress(OSError):  # (the server closed at the end)
+                while True:
+                    conn, _ = server.accept()
+                    held.append(conn)
+                    if reply is not None:
+                        conn.recv(1024)
+                        conn.sendall(reply)
+
+        threading.Thread(target=serve, daemon=True).start()
+        started.append((server, held))
+        return f"tcp://127.0.0.1:{server.getsockname()[1]}"
+
+    yield start
+    for server, held in started:
+        server.close()
+        for conn in held:
+            conn.close()
+
+
+@pytest.mark.parametrize(("reply", "message"), [
+    (None, "no Dask scheduler answers there within 0.5 s"),
+    (b"HTTP/1.0 400 Bad Request\r\nContent-Length: 0\r\n\r\n" * 8,
+     "not a Dask scheduler's address (what answers there does not speak Dask's protocol)"),
+])
+def test_a_port_that_is_no_dask_scheduler_is_one_line_and_exit_2_in_time(reply, message, listener, tmp_path,
+                                                                          capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sweep, "CONNECT_TIMEOUT", 0.5)
+    address = listener(reply)
+    done: list[int] = []  # (Dask's client alone waits for ever on a listener that never answers)
+    t = threading.Thread(target=lambda: done.append(main(["run", SHORT, "--set", "duration=3", "--scheduler",
+                                                          address])), daemon=True)
+    t.start()
+    t.join(120)
+    assert done == [2]
+    err = capsys.readouterr().err
+    assert f"--scheduler {address}: {message}" in err and err.count("\n") == 1 and not (tmp_path / "sweeps").exists()
+
+
+@pytest.mark.slow
+def test_a_workers_address_is_no_schedulers(scheduler, capsys):
+    with Client(scheduler) as client:
+        address = next(iter(client.scheduler_info()["workers"]))
+    assert main(["run", SHORT, "--set", "duration=3", "--scheduler", address]) == 2
+    assert "a Dask Worker answers there, not a scheduler" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("address", ["tcp://127.0.0.1:99999", "http://x", "garbage"])

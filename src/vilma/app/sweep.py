@@ -10,6 +10,8 @@ Dask reschedules after a lost worker is kept once.
 from __future__ import annotations
 
 import argparse
+import asyncio
+import concurrent.futures
 import contextlib
 import dataclasses
 import itertools
@@ -25,6 +27,8 @@ from typing import Any
 
 import pandas as pd
 from distributed import Client, LocalCluster, as_completed, get_worker
+from distributed.comm import connect as connect_comm
+from distributed.comm import parse_address
 from distributed.diagnostics.plugin import WorkerPlugin
 from rich.console import Console
 from rich.progress import BarColumn, Progress, ProgressColumn, TaskProgressColumn, TextColumn, TimeRemainingColumn
@@ -70,6 +74,7 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> Iterato
     """
     if scheduler is not None:
         try:
+            hello(scheduler, CONNECT_TIMEOUT)
             client = Client(scheduler, timeout=CONNECT_TIMEOUT)
         except (OSError, ValueError, TypeError) as e:
             why = (f"no Dask scheduler answers there within {CONNECT_TIMEOUT:g} s; start one with `dask scheduler` "
@@ -83,6 +88,38 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> Iterato
                       dashboard_address=":0", silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         client.register_plugin(DeafToCtrlC())
         yield client
+
+
+def hello(address: str, timeout: float) -> None:
+    """Ask the server at ``address`` who it is, Dask's handshake and one request within ``timeout`` [s] in all: the
+    Dask client's own start waits for ever on a port whose listener accepts and never answers.
+
+    Raises:
+        OSError: nothing answers in time, or what answers is no Dask scheduler (a worker, another server).
+        ValueError, TypeError: ``address`` is no Dask address.
+    """
+    async def ask() -> object:
+        comm = await connect_comm(address, timeout=timeout)
+        try:
+            await comm.write({"op": "identity"})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    async def within() -> object:
+        return await asyncio.wait_for(ask(), timeout)
+
+    parse_address(address)  # (ValueError)
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:  # a loop of its own: the caller's may run one already
+        try:
+            who = pool.submit(asyncio.run, within()).result()
+        except OSError as e:  # refused, closed, timed out
+            raise OSError(f"no answer ({type(e).__name__})") from None
+        except Exception:  # what it sent is no Dask message (read as a frame of exabytes, or no msgpack)
+            raise ValueError("what answers there does not speak Dask's protocol") from None
+    kind = who.get("type") if isinstance(who, dict) else None
+    if kind != "Scheduler":
+        raise ValueError(f"a Dask {kind} answers there, not a scheduler" if kind else "no Dask server answers there")
 
 
 class DeafToCtrlC(WorkerPlugin):
