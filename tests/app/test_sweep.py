@@ -20,6 +20,7 @@ from distributed import Client
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+import vilma
 from tests.conftest import Processes, free_port
 from vilma.app import sweep, sweep_plan
 from vilma.app.cli import main
@@ -264,6 +265,55 @@ def test_workers_without_vilma_are_one_line_and_exit_2(tmp_path, processes, caps
     err = capsys.readouterr().err
     assert "vilma run: error: the Dask workers cannot load vilma (" in err and "install the same vilma[sweep]" in err
     assert err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
+BLOCK_ROADS = """import sys
+class Block:  # commonroad-io not installed, as far as this worker knows
+    def find_spec(self, name, path=None, target=None):
+        if name.partition(".")[0] in ("commonroad", "commonroad_route_planner", "commonroad_dc"):
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+sys.meta_path.insert(0, Block())
+from distributed.cli.dask_worker import main
+main()
+"""
+"""A ``dask worker`` without the roads extra."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("other", ["version", "roads"])
+def test_a_worker_of_another_vilma_or_without_an_extra_is_one_line_and_exit_2(other, tmp_path, processes, capsys):
+    here = tmp_path / "worker"
+    here.mkdir()
+    if other == "version":  # this vilma's modules, under another version (the worker's folder comes first)
+        (here / "vilma").mkdir()
+        (here / "vilma" / "__init__.py").write_text(f"__path__.append({str(vilma.__path__[0])!r})\n"
+                                                    "__version__ = 'another'\n")
+        worker = (*DASK, "worker")
+    else:
+        (here / "no_roads.py").write_text(BLOCK_ROADS)
+        worker = (sys.executable, str(here / "no_roads.py"))
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    processes.start(*DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")
+    processes.start(*worker, address, "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1", "--no-dashboard",
+                    cwd=here)
+    with Client(address, timeout=60) as client:
+        client.wait_for_workers(1, timeout=120)
+        (worker_address,) = client.scheduler_info()["workers"]
+    scenario = "commonroad_tutorial" if other == "roads" else SHORT
+    assert main(["run", scenario, "--set", "duration=3", "--scheduler", address, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    expected = (f"the Dask worker {worker_address} runs vilma another, this is vilma {vilma.__version__}; install "
+                "the same vilma[sweep] on every worker" if other == "version" else
+                f"the Dask worker {worker_address} lacks the roads extra these scenarios need: "
+                "pip install 'vilma[sweep,roads]' there")
+    assert expected in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
+def test_the_extras_a_worker_needs_are_those_of_the_scenarios():
+    assert sweep.needs([load_scenario(SHORT)]) == ()
+    assert sweep.needs([load_scenario(SHORT), load_scenario("commonroad_tutorial")]) == ("roads",)
+    assert sweep.needs([load_scenario(SHORT, {"plant": "mujoco"})]) == ("3d",)
 
 
 @pytest.mark.slow

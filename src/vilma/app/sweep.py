@@ -21,7 +21,7 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +35,9 @@ from rich.progress import BarColumn, Progress, ProgressColumn, TaskProgressColum
 from rich.table import Table
 from rich.text import Text
 
+import vilma
 from vilma.app.sweep_plan import IDENTITY, SweepRun, plan_sets, read_sweep
+from vilma.core.extras import EXTRAS
 from vilma.core.files import atomic_path, write_error
 from vilma.record.run import record_run
 from vilma.scenario.fields import SpecError
@@ -43,6 +45,7 @@ from vilma.scenario.report import agg_figure, write_png
 from vilma.scenario.runner import run
 from vilma.scenario.scorecard import SCORECARD_KEYS
 from vilma.scenario.spec import Scenario
+from vilma.sim.config import MUJOCO
 
 CONNECT_TIMEOUT = 5.0
 """How long to wait for a scheduler to answer [s]."""
@@ -155,15 +158,53 @@ class Warm(WorkerPlugin):
             run(dataclasses.replace(s, duration=min(s.duration, 1.0), expect={}))
 
 
-def warm(client: Client, scenario: Scenario) -> None:
-    """Have every worker compile vilma's code once (:class:`Warm`), on ``scenario``.
+def needs(scenarios: Iterable[Scenario]) -> tuple[str, ...]:
+    """The extras (:data:`~vilma.core.extras.EXTRAS`) a worker needs beyond ``sweep`` to run ``scenarios``: ``roads``
+    for a CommonRoad road, ``3d`` for the MuJoCo plant."""
+    out = set()
+    for s in scenarios:
+        if s.road is not None:
+            out.add("roads")
+        if s.sim.model == MUJOCO:
+            out.add("3d")
+    return tuple(sorted(out))
+
+
+def warm(client: Client, scenario: Scenario, extras: Sequence[str] = ()) -> None:
+    """Check that every worker runs this vilma with ``extras``, then have each compile vilma's code once
+    (:class:`Warm`), on ``scenario``.
 
     Raises:
-        OSError: the workers cannot load vilma (the plugin does not unpickle there).
+        OSError: a worker cannot load vilma, runs another version of it or lacks one of ``extras``.
     """
+    modules = {extra: EXTRAS[extra] for extra in extras}
+
+    def facts() -> tuple[str, list[str]]:  # (defined here: sent by value, not as a name the worker's vilma defines)
+        import importlib
+
+        import vilma
+
+        missing = []
+        for extra, names in modules.items():
+            try:
+                for name in names:
+                    importlib.import_module(name)
+            except ImportError:
+                missing.append(extra)
+        return vilma.__version__, missing
+
     try:
+        for address, (version, missing) in sorted(client.run(facts).items()):
+            if version != vilma.__version__:
+                raise OSError(f"the Dask worker {address} runs vilma {version}, this is vilma {vilma.__version__}; "
+                              "install the same vilma[sweep] on every worker")
+            if missing:
+                raise OSError(f"the Dask worker {address} lacks the {' and '.join(missing)} extra these scenarios "
+                              f"need: pip install 'vilma[sweep,{','.join(missing)}]' there")
         client.register_plugin(Warm(scenario))
-    except Exception as e:  # a worker without vilma, or another version of it
+    except OSError:
+        raise
+    except Exception as e:  # a worker without vilma
         raise OSError(f"the Dask workers cannot load vilma ({e}); install the same vilma[sweep] on every "
                       "worker") from None
 
@@ -254,7 +295,7 @@ def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: s
     """Run ``todo`` on the cluster in chunks (:func:`chunk_size`), :data:`IN_FLIGHT` runs at a time, each row into
     ``rows`` as its chunk comes."""
     with connect(workers, scheduler) as client, _progress(console) as bar:
-        warm(client, todo[0].scenario)
+        warm(client, todo[0].scenario, needs(r.scenario for r in todo))
         size = chunk_size(len(todo), len(client.scheduler_info()["workers"]))
         waiting = (todo[i:i + size] for i in range(0, len(todo), size))
         task = bar.add_task("sweep", total=len(todo), failed=0)

@@ -32,7 +32,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from vilma.app.sweep import PNG_DPI, connect, dask_logs, run_remote, warm, write_table
+from vilma.app.sweep import PNG_DPI, connect, dask_logs, needs, run_remote, warm, write_table
 from vilma.app.sweep_plan import _finite, _scenarios
 from vilma.core.files import atomic_path
 from vilma.scenario.fields import Source, SpecError, _suggest, read_yaml
@@ -268,7 +268,8 @@ def tune(plan: str | Path | TunePlan, out: str | Path | None = None, *, workers:
     rows: list[dict] = []
     try:
         with connect(workers, scheduler) as client:
-            warm(client, load_scenario(plan.scenarios[0]))
+            scenarios = [load_scenario(label) for label in plan.scenarios]
+            warm(client, scenarios[0], needs(scenarios))
             batch = max(1, len(client.scheduler_info()["workers"]))
             while len(rows) < plan.trials:
                 trials = [study.ask() for _ in range(min(batch, plan.trials - len(rows)))]
