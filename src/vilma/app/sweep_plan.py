@@ -104,10 +104,25 @@ def read_sweep(path: str | Path, yes: bool = False) -> list[SweepRun]:
     grid = _grid(data.get("grid") or {}, src)
     samples = _samples(data.get("samples"), src)
     seeds = _seeds(data.get("seeds"), src)
+    if seeds is not None and any(k == "seed" for k, _ in grid):
+        raise src.error(("seeds",), "seed is in the grid too; give the seeds in one place")
     try:
         return plan_runs(scenarios, grid, samples, seeds, yes)
-    except SpecError as e:  # a scenario that does not load with some values: which sweep asked for it
-        raise SpecError(f"{path}: {e}") from None
+    except SpecError as e:  # a scenario that does not load with some values: where the sweep asked for them
+        raise SpecError(f"{_asked(str(e), src, grid, samples)}: {e}") from None
+
+
+def _asked(error: str, src: Source, grid: Sequence[tuple[str, Sequence[str]]],
+           samples: Sequence[Sequence[tuple[str, str]]]) -> str:
+    """``file:line`` of the grid value or the sampled key whose ``--set`` ``error`` names, else the file."""
+    for k, values in grid:
+        for i, v in enumerate(values):
+            if error.startswith(f"--set {k}={v}: "):
+                return src.where(("grid", k, i))
+    for k, _ in samples[0]:
+        if error.startswith(f"--set {k}="):
+            return src.where(("samples", "values", k))
+    return src.name
 
 
 def plan_runs(scenarios: Sequence[str], grid: Sequence[tuple[str, Sequence[str]]],
