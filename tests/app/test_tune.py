@@ -124,6 +124,28 @@ def test_a_tune_on_a_real_scheduler_and_worker(tmp_path):
     assert (tmp_path / "out" / tune.BEST).exists()
 
 
+@pytest.mark.slow
+def test_a_lost_scheduler_keeps_the_finished_trials_and_exits_2(tmp_path, processes):
+    port = free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    lost = processes.start(*DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")
+    processes.start(*DASK, "worker", address, "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1",
+                    "--no-dashboard")
+    _file(tmp_path, GAINS + f"trials: {tune.MAX_TRIALS}\n")
+    p = processes.vilma("tune", "t.yaml", "--scheduler", address, "--out", "out", cwd=tmp_path)
+    for line in p.stdout:
+        if line.startswith(f"[3/{tune.MAX_TRIALS}]"):
+            lost.kill()
+            break
+    rest = p.communicate(timeout=120)[0]
+    assert p.returncode == 2, rest
+    kept = pd.read_csv(tmp_path / "out" / tune.CSV)
+    assert 3 <= len(kept) < tune.MAX_TRIALS and kept["error"].isna().all()
+    (error,) = [line for line in rest.splitlines() if not line.startswith("[")]
+    assert error == (f"vilma tune: error: lost the Dask scheduler ({address}): {len(kept)} of {tune.MAX_TRIALS} "
+                     "trials kept in out")
+
+
 @pytest.mark.parametrize(("text", "message"), [
     (GAINS + "trails: 3\n", "t.yaml:8: trails: unknown key; did you mean 'trials'?"),
     (GAINS.replace("uniform: [0.3, 3]", "uniform: [3, 0.3]"),

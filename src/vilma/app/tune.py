@@ -28,6 +28,7 @@ from typing import Any
 
 import pandas as pd
 from distributed import wait
+from distributed.client import FuturesCancelledError
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
@@ -307,7 +308,10 @@ def _evaluate(client, plan: TunePlan, trials: Sequence) -> list[dict]:
             jobs.append((trial, values, str(e)))
             continue
         jobs.append((trial, values, [client.submit(run_remote, s, pure=False) for s in scenarios]))
-    wait([f for *_, fs in jobs if isinstance(fs, list) for f in fs])
+    try:
+        wait([f for *_, fs in jobs if isinstance(fs, list) for f in fs])
+    except FuturesCancelledError:  # (Dask cancels every future of a client that lost its scheduler)
+        raise ConnectionError(f"lost the Dask scheduler ({client.scheduler.address})") from None
     rows = []
     for trial, values, futures in jobs:
         if isinstance(futures, str):
