@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-from distributed import Client, LocalCluster, as_completed, get_worker
+from distributed import Client, LocalCluster, Security, as_completed, get_worker
 from distributed.comm import connect as connect_comm
 from distributed.comm import parse_address
 from distributed.diagnostics.plugin import WorkerPlugin
@@ -102,7 +102,7 @@ def hello(address: str, timeout: float) -> None:
         ValueError, TypeError: ``address`` is no Dask address.
     """
     async def ask() -> object:
-        comm = await connect_comm(address, timeout=timeout)
+        comm = await connect_comm(address, timeout=timeout, **Security().get_connection_args("client"))  # (as Client)
         try:
             await comm.write({"op": "identity"})
             return await comm.read()
