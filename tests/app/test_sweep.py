@@ -107,6 +107,34 @@ def test_a_chunked_sweep_is_each_run_alone_in_order(scheduler, monkeypatch):
 
 
 @pytest.mark.slow
+def test_two_sweeps_on_one_scheduler_get_each_their_own_runs(scheduler, tmp_path, monkeypatch):
+    monkeypatch.setattr(sweep, "chunk_size", lambda runs, workers: 2)  # chunks that start alike and end apart:
+    # (5, seed 2) with (10, seed 0) in one sweep, with (11, seed 0) in the other; the same at 15 (two such chunks:
+    # the first sweep holds at least one of them when it stops at its first row)
+    reached, release = threading.Event(), threading.Event()
+    add = sweep.Rows.add
+
+    def add_and_hold(self, row):
+        add(self, row)
+        if self.path is not None:  # the first sweep (the one with a folder) keeps its tasks on the scheduler
+            reached.set()
+            assert release.wait(120)
+
+    monkeypatch.setattr(sweep.Rows, "add", add_and_hold)
+    first = threading.Thread(target=sweep.sweep, args=(_runs(speeds=(5, 10, 15, 20)), tmp_path), kwargs={
+        "scheduler": scheduler, "plots": False})
+    first.start()
+    try:
+        assert reached.wait(120)
+        table = sweep.sweep(_runs(speeds=(5, 11, 15, 21)), scheduler=scheduler)
+    finally:
+        release.set()
+        first.join(120)
+    assert table["error"].isna().all()
+    _same_as_alone(table)
+
+
+@pytest.mark.slow
 def test_a_killed_worker_loses_no_run_and_repeats_none(scheduler, tmp_path, monkeypatch, processes):
     victim = _worker(processes, scheduler, "victim")
     reached, killed = threading.Event(), threading.Event()

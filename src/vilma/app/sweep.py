@@ -21,6 +21,7 @@ import os
 import signal
 import threading
 import time
+import uuid
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -305,8 +306,10 @@ def _execute(todo: list[SweepRun], rows: Rows, workers: int | None, scheduler: s
             for chunk in itertools.islice(waiting, n):
                 jobs = [(r.scenario, str(Path(keep_files) / r.key) if keep_files is not None else None)
                         for r in chunk]
-                f = client.submit(run_chunk, jobs, key=f"vilma-run-{len(chunk)}-{chunk[0].key}", pure=False,
-                                  retries=0)
+                # a key of this submission's own: a task of the same key (another client's sweep on the scheduler,
+                # a chunk that starts with the same run) would be taken for this one, its results for these runs
+                f = client.submit(run_chunk, jobs, key=f"vilma-run-{len(chunk)}-{chunk[0].key}-{uuid.uuid4().hex}",
+                                  pure=False, retries=0)
                 by_key[f.key] = chunk
                 done.add(f)
 
