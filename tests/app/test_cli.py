@@ -422,7 +422,7 @@ def test_a_broken_pipe_that_is_not_the_output_is_an_error(monkeypatch, capsys):
         raise BrokenPipeError(32, "the recording process has gone")
 
     monkeypatch.setitem(HANDLERS, "scenarios", recorder_gone)
-    assert main(["scenarios"]) == 2
+    assert main(["scenarios"]) == 1  # a peer gone: a failure, not a mistake in the command
     assert capsys.readouterr().err == "vilma scenarios: error: [Errno 32] the recording process has gone\n"
 
 

@@ -316,7 +316,7 @@ def main(argv: list[str] | None = None, started: float | None = None) -> int:
         if isinstance(e, BrokenPipeError) and (closed := _closed_outputs()):
             return _reader_gone(closed)
         print(f"vilma {args.command}: error: {e}", file=sys.stderr)
-        return 1 if _failed_write(e) else 2
+        return 1 if _failed(e) else 2
     except ModuleNotFoundError as e:
         if not _in_numba_cache(e):
             raise
@@ -351,11 +351,12 @@ def _stopped_as_by_ctrl_c(stops: list[int]):
             signal.signal(signum, handler)
 
 
-def _failed_write(e: BaseException | None) -> bool:
-    """Whether ``e``, or the error it was raised while handling (a file's error said in its words), is a write that
-    failed although the command was right (:data:`FAILED_WRITES`)."""
+def _failed(e: BaseException | None) -> bool:
+    """Whether ``e``, or the error it was raised while handling (a file's error said in its words), is a failure
+    although the command was right: a write that failed (:data:`FAILED_WRITES`), or a peer lost on the way (a
+    ``ConnectionError``: a Dask scheduler gone in the middle of a sweep)."""
     while e is not None:
-        if isinstance(e, OSError) and e.errno in FAILED_WRITES:
+        if isinstance(e, ConnectionError) or (isinstance(e, OSError) and e.errno in FAILED_WRITES):
             return True
         e = e.__context__
     return False
