@@ -351,12 +351,14 @@ def _stopped_as_by_ctrl_c(stops: list[int]):
             signal.signal(signum, handler)
 
 
-def _failed(e: BaseException | None) -> bool:
-    """Whether ``e``, or the error it was raised while handling (a file's error said in its words), is a failure
-    although the command was right: a write that failed (:data:`FAILED_WRITES`), or a peer lost on the way (a
-    ``ConnectionError``: a Dask scheduler gone in the middle of a sweep)."""
+def _failed(e: BaseException) -> bool:
+    """Whether ``e`` is a failure although the command was right: a peer lost on the way (a ``ConnectionError``: a
+    Dask scheduler gone in the middle of a sweep), or a write that failed (:data:`FAILED_WRITES`), said by ``e`` or
+    by the error it was raised while handling (a file's error said in its words)."""
+    if isinstance(e, ConnectionError):
+        return True
     while e is not None:
-        if isinstance(e, ConnectionError) or (isinstance(e, OSError) and e.errno in FAILED_WRITES):
+        if isinstance(e, OSError) and e.errno in FAILED_WRITES:
             return True
         e = e.__context__
     return False
