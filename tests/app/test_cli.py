@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import json
 import logging
 import os
@@ -9,6 +10,7 @@ import re
 import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -508,3 +510,22 @@ def test_ctrl_c_while_a_run_writes_its_files_is_one_line(tmp_path, capsys, monke
     assert main(["run", "pi_ff_speed_5", "--set", "duration=1", "--no-record", "--out", str(out)]) == 130
     assert capsys.readouterr().err == f"vilma run: interrupted while writing the run's files: partial files in {out}\n"
     assert not (out / "metrics.json").exists()
+
+
+@pytest.mark.parametrize(("signum", "status"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_stop_that_lands_in_llvmlite_s_code_is_sent_again_not_dropped(monkeypatch, capsys, signum, status):
+    """A callback from C (llvmlite's object cache, numba compiling) prints an exception raised in it and drops it: a
+    Ctrl-C or SIGTERM there was lost, and the command ran on."""
+    callback = {"__name__": "llvmlite.binding.executionengine", "signal": signal, "signum": signum}
+    exec("def compare(a, b):\n    signal.raise_signal(signum)\n    return 0\n", callback)  # (as llvmlite's code)
+    order = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p)(callback["compare"])
+
+    def compiling(args):
+        ctypes.CDLL(None).qsort((ctypes.c_int * 2)(), 2, ctypes.sizeof(ctypes.c_int), order)  # C calls back
+        for _ in range(200):  # (the signal sent again a moment later interrupts this wait)
+            time.sleep(0.01)
+        return 0
+
+    monkeypatch.setitem(HANDLERS, "scenarios", compiling)
+    assert main(["scenarios"]) == status
+    assert capsys.readouterr().err == ""

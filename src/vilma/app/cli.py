@@ -333,22 +333,38 @@ def _stopped_as_by_ctrl_c(stops: list[int]):
     """While the block runs, a :data:`STOPS` signal raises ``KeyboardInterrupt`` as Ctrl-C would (each signal is added
     to ``stops``); only the first: a repeat (``timeout`` sends its signal to the command and to its process group)
     lets the command finish what Ctrl-C's handling writes. A signal this process ignores (``nohup``) or handles
-    itself stays so; the handlers come back after the block."""
-    def stop(signum: int, _) -> None:
+    itself stays so; the handlers come back after the block. Ctrl-C (SIGINT) raises as Python's own handler does. A
+    signal that lands in llvmlite's code (numba compiling or loading), where a callback from C would print the
+    ``KeyboardInterrupt`` and drop it, is sent again a moment later (:func:`_in_llvmlite`)."""
+    def stop(signum: int, frame) -> None:
+        if _in_llvmlite(frame):
+            threading.Timer(0.05, os.kill, (os.getpid(), signum)).start()
+            return
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
         stops.append(signum)
         if len(stops) == 1:
             raise KeyboardInterrupt
 
     old = {}
     if threading.current_thread() is threading.main_thread():  # (signal handlers are set there only)
-        for signum in STOPS:
-            if signal.getsignal(signum) == signal.SIG_DFL:
+        for signum, python_s in ((signal.SIGINT, signal.default_int_handler), *((s, signal.SIG_DFL) for s in STOPS)):
+            if signal.getsignal(signum) == python_s:
                 old[signum] = signal.signal(signum, stop)
     try:
         yield
     finally:
         for signum, handler in old.items():
             signal.signal(signum, handler)
+
+
+def _in_llvmlite(frame) -> bool:
+    """Whether the Python frame ``frame`` runs in llvmlite's code, or is called from it."""
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").startswith("llvmlite."):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _failed(e: BaseException) -> bool:
