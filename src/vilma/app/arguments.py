@@ -138,12 +138,7 @@ def _program(name: str) -> Callable[[argparse.ArgumentParser], None]:
             q.add_argument("--foxglove", nargs="?", type=port, const=8765, default=None, metavar="PORT",
                            help="serve every topic live to Foxglove on ws://127.0.0.1:PORT (default 8765)")
         if name != "up":
-            q.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT",
-                           help="Zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
-            q.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
-                           help="Zenoh endpoint to connect to (repeatable)")
-            q.add_argument("--zenoh-config", metavar="FILE",
-                           help="YAML file with listen, connect (lists of endpoints), multicast_scouting and extra")
+            _zenoh_options(q)
         if name == "drive":
             q.add_argument("--data-dir", type=folder, metavar="DIR", help="follow orders on driver/cmd may name "
                            "trajectory files in DIR (default: none, orders carry their points)")
@@ -195,16 +190,21 @@ def _export(ex: argparse.ArgumentParser) -> None:
     ex.add_argument("out", metavar="OUTDIR", help="the bag's folder (must not exist)")
 
 
+def _zenoh_options(p: argparse.ArgumentParser) -> None:
+    """``--listen``, ``--connect`` and ``--zenoh-config``: how a program joins the others on Zenoh."""
+    p.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT",
+                   help="Zenoh endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
+    p.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
+                   help="Zenoh endpoint to connect to (repeatable)")
+    p.add_argument("--zenoh-config", metavar="FILE",
+                   help="YAML file with listen, connect (lists of endpoints), multicast_scouting and extra")
+
+
 def _replay(rl: argparse.ArgumentParser) -> None:
     rl.add_argument("recording", metavar="RUN.mcap")
     rl.add_argument("--speed", type=positive, default=1.0, metavar="K", help="K times real time (default 1)")
     rl.add_argument("--start", type=sim_time, default=0.0, metavar="S", help="start at sim time S [s]")
-    rl.add_argument("--listen", action="append", type=listen_endpoint, metavar="ENDPOINT",
-                    help="Zenoh endpoint to listen on (repeatable)")
-    rl.add_argument("--connect", action="append", type=connect_endpoint, metavar="ENDPOINT",
-                    help="Zenoh endpoint to connect to")
-    rl.add_argument("--zenoh-config", metavar="FILE",
-                    help="YAML file with listen, connect, multicast_scouting and extra")
+    _zenoh_options(rl)
 
 
 def _ros1_bridge(rb: argparse.ArgumentParser) -> None:

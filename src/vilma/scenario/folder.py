@@ -81,11 +81,11 @@ def claim(dirs: Sequence[Path], overwrite: bool, clear_now: bool = True) -> None
 def clear(d: Path) -> None:
     """Remove the earlier run's files from the folder ``d`` (:data:`RUN_FILES` and its report), leaving anything else
     there as it is (nothing if ``d`` does not exist)."""
-    for name in sorted(p.name for p in d.iterdir()) if d.is_dir() else []:
-        if name in RUN_FILES:
-            (d / name).unlink()
-        elif name == REPORT_DIR and (d / name).is_dir():
-            shutil.rmtree(d / name)
+    for p in d.iterdir() if d.is_dir() else ():
+        if p.name in RUN_FILES:
+            p.unlink()
+        elif p.name == REPORT_DIR and p.is_dir():
+            shutil.rmtree(p)
 
 
 class RunFolder(RunObserver):
