@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import logging
 import math
 import os
 import re
@@ -236,6 +237,27 @@ def test_ctrl_c_in_a_terminal_stops_a_local_cluster_with_one_line(tmp_path, proc
     said = [line for line in rest.splitlines() if not line.startswith("[")]
     assert said == [f"vilma sweep: interrupted: {kept} of {n} runs kept in out; run it again with --resume for the "
                     "rest"], rest
+
+
+@pytest.mark.slow
+def test_a_local_clusters_workers_log_at_the_commands_level_and_ignore_ctrl_c():
+    """A worker's process sets its loggers from Dask's configuration: without the command's level it printed a failed
+    heartbeat's traceback after Ctrl-C, when the scheduler closed first."""
+    def state() -> tuple[int, object]:  # a local function, sent by value: the worker must not import the tests'
+        worker = logging.getLogger("distributed.worker")  # conftest, which sets SIGINT's handler
+        return worker.getEffectiveLevel(), signal.getsignal(signal.SIGINT)
+
+    loggers = [logging.getLogger(name) for name in list(logging.root.manager.loggerDict)
+               if name.partition(".")[0] in ("distributed", "tornado")]
+    before = [logger.level for logger in loggers]
+    try:
+        sweep.dask_logs(logging.CRITICAL)
+        with sweep.connect(workers=1) as client:
+            states = client.run(state)
+    finally:
+        for logger, level in zip(loggers, before, strict=True):
+            logger.setLevel(level)
+    assert list(states.values()) == [(logging.CRITICAL, signal.SIG_IGN)]
 
 
 @pytest.mark.slow

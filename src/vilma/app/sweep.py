@@ -90,7 +90,7 @@ def connect(workers: int | None = None, scheduler: str | None = None) -> Iterato
         return
     with LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                       dashboard_address=":0", silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
-        client.register_plugin(DeafToCtrlC())
+        client.register_plugin(LocalWorker(logging.getLogger("distributed").getEffectiveLevel()))
         yield client
 
 
@@ -126,13 +126,21 @@ def hello(address: str, timeout: float) -> None:
         raise ValueError(f"a Dask {kind} answers there, not a scheduler" if kind else "no Dask server answers there")
 
 
-class DeafToCtrlC(WorkerPlugin):
-    """A local cluster's worker ignores SIGINT. Ctrl-C in a terminal reaches the whole process group, the workers
-    too; the command stops them itself, where each would print its traceback."""
+class LocalWorker(WorkerPlugin):
+    """A local cluster's worker ignores SIGINT and logs at ``level``, the command's own Dask loggers' level.
 
-    name = "vilma-deaf-to-ctrl-c"
+    Ctrl-C in a terminal reaches the whole process group, the workers too: the command stops them itself, where
+    each would print its traceback. A worker's process sets its loggers from Dask's configuration, not from the
+    command's: it printed a failed heartbeat's traceback when the scheduler closed first.
+    """
+
+    name = "vilma-local-worker"
+
+    def __init__(self, level: int) -> None:
+        self.level = level
 
     def setup(self, worker) -> None:
+        dask_logs(self.level)
         if threading.current_thread() is threading.main_thread():  # (a worker's loop runs in its process's)
             signal.signal(signal.SIGINT, signal.SIG_IGN)
 
