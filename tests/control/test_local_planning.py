@@ -7,8 +7,9 @@ import pytest
 
 from vilma.control.driver import Driver
 from vilma.control.local_planning import LocalPlanning, default_planner
+from vilma.core.messages import PoseEstimate
 from vilma.perception import Track
-from vilma.trajectory import Trajectory
+from vilma.trajectory import Arrival, Trajectory
 from vilma.vehicle.params import vilma
 from vilma.world.lanes import Lanes
 
@@ -44,3 +45,16 @@ def test_tracks_moving_on_a_known_lane_are_predicted_along_each_way_on_and_the_o
     np.testing.assert_allclose(predicted[0, -1, :3], [25.0, 0.0, 0.0], atol=1e-9)
     np.testing.assert_allclose(predicted[1, -1, :3], [20.0, s - 10.0, math.pi / 2], atol=1e-9)
     np.testing.assert_allclose(predicted[2, -1, :2], [5.0 + 0.5 * params.horizon, 0.0])  # straight on
+
+
+def test_the_goal_regions_window_is_dropped_once_the_car_is_in_it():
+    # a CommonRoad goal is reached once: a window left to aim at would keep pulling the car into it (or hold it
+    # there) while what is left is the stop at the route's end
+    path = Trajectory(np.column_stack([np.arange(0.0, 200.0), np.zeros(200)]), np.full(200, 10.0))
+    window = Arrival((40.0, 60.0), (3.0, 5.0))
+    driver = Driver(CAR, step=0.01)
+    local = LocalPlanning(default_planner(CAR), "truth", None, path, driver, arrivals=(window,))
+    for t, x, left in ((2.0, 30.0, (window,)), (4.0, 50.0, ())):
+        driver.estimator.estimate = PoseEstimate(round(t * 1e9), x, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 0.0)
+        local.cycle(t)
+        assert local.arrivals == left

@@ -161,6 +161,35 @@ def test_it_stops_at_the_goal_without_passing_it():
     assert last.mode == "stop" and last.frenet[0, 0] == pytest.approx(80.0, abs=0.05) and last.speed[0] < 1e-3
 
 
+def test_a_goal_far_ahead_is_stopped_on_braking_no_harder_than_comfortably_and_never_faster():
+    # 22 m/s with the goal 184 m ahead: a stop at the mean 22^2 / (2 x 184) = 1.3 m/s^2 is there. Stops that hold
+    # the speed to brake later cost less time; chosen each cycle they left no comfortable stop, and the car passed
+    # the goal (the road's end on a CommonRoad route) by 5 m
+    params = dataclasses.replace(P, target_speed=22.0)
+    plans = _drive(FrenetState(0.0, 22.0, 0.0, 0.0), 25.0, params=params, goal=184.0)
+    _assert_within_limits(plans)
+    driven = round(params.replan_period / params.dt)  # the samples of each plan the car follows
+    assert max(p.speed[:driven].max() for _, p in plans) <= 22.0 + 1e-9
+    assert min(p.accel[:driven].min() for _, p in plans) >= -CAR.actuators.stop_deceleration
+    assert max(p.frenet[:, 0].max() for _, p in plans) <= 184.0 + 1e-6
+    last = plans[-1][1]
+    assert last.frenet[0, 0] == pytest.approx(184.0, abs=0.05) and last.speed[0] < 1e-3
+
+
+def test_with_no_feasible_stop_before_the_goal_it_brakes_as_hard_as_the_goal_needs():
+    # 6 m/s with 3 m left: the mean 6^2 / (2 x 3) = 6 m/s^2 needs a stop polynomial peaking at 9, beyond the car's 8;
+    # the comfortable stop would pass the goal by 3 m, where a road may end
+    v, left = 6.0, 3.0
+    p = plan(FrenetState(100.0, v, 0.0, 0.0), STRAIGHT, NONE, P, goal=100.0 + left)
+    assert (p.candidates.status == Status.INFEASIBLE).all()
+    assert p.mode == "fallback" and "goal's stop at 6 m/s^2" in p.reason, p.reason
+    assert p.frenet[-1, 0] == pytest.approx(100.0 + left) and p.speed[-1] == pytest.approx(0.0)
+    # out of the car's reach: its emergency deceleration, as short as it stops
+    p = plan(FrenetState(100.0, 12.0, 0.0, 0.0), STRAIGHT, NONE, P, goal=100.0 + left)
+    decel = CAR.actuators.max_decel
+    assert p.frenet[-1, 0] == pytest.approx(100.0 + 12.0**2 / (2 * decel)) and f"at {decel:g} m/s^2" in p.reason
+
+
 def test_when_every_candidate_collides_it_stops_within_the_braking_distance_it_has():
     # a 30 m truck crossing the road 13 m ahead: no candidate is free (its hardest slow-down, at 90 % of the
     # car's deceleration at its peak, stops in 11.25 m), the comfortable stop too

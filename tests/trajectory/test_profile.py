@@ -85,3 +85,12 @@ def test_a_window_passed_too_fast_at_the_limits_is_met_below_its_speed_bound():
     s = np.interp([8.0, 8.1, 8.2], t, path.s)
     assert np.all((s > 20) & (s < 180))
     assert np.all(np.interp(s, path.s, path.speed) <= 12.0)
+
+
+def test_an_arrival_holds_a_car_inside_each_of_its_intervals_and_offsets_alone():
+    # offsets from -1 to 1 m at s = 10 m widening to -3 to 3 m at s = 30 m: +-2 m at s = 20 m
+    w = Arrival((10.0, 30.0), (1.0, 2.0), (4.0, 6.0), np.array([[10.0, 30.0], [-1.0, -3.0], [1.0, 3.0]]))
+    assert w.holds(20.0, 1.5, 5.0, 2.0) and w.holds(10.0, 1.0, 4.0, -1.0) and w.holds(30.0, 2.0, 6.0, 3.0)
+    for outside in ((9.9, 1.5, 5.0, 0.0), (20.0, 2.1, 5.0, 0.0), (20.0, 1.5, 6.1, 0.0), (20.0, 1.5, 5.0, 2.1)):
+        assert not w.holds(*outside)
+    assert Arrival((10.0, 30.0), (1.0, 2.0)).holds(20.0, 1.5, -50.0, 99.0)  # any speed and offset

@@ -153,6 +153,8 @@ class LocalPlanning:
         params = self._targeting(self._speed_ahead(est.x, est.y))
         state, keep = self._start(est, t, params)
         self.predicted_tracks, self.predicted = self._predict(params)
+        if any(w.holds(state.s, t, state.s_dot, state.d) for w in self.arrivals):
+            self.arrivals = ()  # the goal is reached (once): what is left is the stop at the route's end
         ahead = tuple(dataclasses.replace(w, t=(w.t[0] - t, w.t[1] - t)) for w in self.arrivals if w.t[1] >= t)
         result = plan(state, self.frame, self.predicted, params, goal=self.goal, keep=keep, road=self.road,
                       arrivals=ahead)

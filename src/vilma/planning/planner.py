@@ -35,6 +35,9 @@ from vilma.trajectory import Arrival, Trajectory
 SLOWDOWN_HORIZONS = 100
 """The steady slow-down to a target is planned over at most this many horizons: longer, it keeps the speed over
 the horizon all but exactly (and its polynomial would overflow)."""
+RUSHED_SPEED = 1e-6
+"""How much faster [m/s] than its steady slow-down a stop that brakes harder than comfortably is planned before it
+comes after those no faster (:func:`_sample`): the steady one itself, to rounding, is not."""
 
 
 class Status(IntEnum):
@@ -180,7 +183,9 @@ def _binds(target: _Target, state: FrenetState, p: PlannerParams) -> bool:
 
 
 def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
-    """Longitudinal polynomials (n, 6), their durations (n,) and costs (n,)."""
+    """Longitudinal polynomials (n, 6), their durations (n,) and costs (n,); and for a stop, which of them is the
+    steady slow-down to the target itself (else None)."""
+    steady = None
     if target is None:
         T = np.repeat(np.asarray(p.speed_durations), len(p.speed_offsets))
         want = np.tile(p.target_speed + np.asarray(p.speed_offsets), len(p.speed_durations))
@@ -204,13 +209,31 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         dev = np.tile(np.asarray(p.position_offsets), len(durations))
         v0, v1, b = state.s_dot, target.speed, p.vehicle.actuators.stop_deceleration
         end = target.s + v1 * T + dev
-        if v0 > v1:  # an end the car reaches only braking harder than comfortably moves on to where it does
+        if v0 > v1 and target.mode != "stop":  # an end behind a lead the car reaches only braking harder than
+            # comfortably moves on to where it does (the lead moves on too); a stop's end stays: the road may end there
             end = np.maximum(end, state.s + (v0 * v0 - v1 * v1) / (2.0 * b) + v1 * np.maximum(T - (v0 - v1) / b, 0))
         coeffs, jerk = to_rest(state.s, state.s_dot, state.s_ddot, end, np.full(len(T), v1), T)
         miss = p.position_weight * (end - target.s - v1 * T) ** 2
         if target.mode == "follow":  # the speed given up behind a slower lead, so that passing it competes
             miss = miss + p.speed_weight * max(p.target_speed - v1, 0.0) ** 2
-    return coeffs, T, p.jerk_weight * jerk + p.time_weight * T + miss
+        if target.mode == "stop" and len(durations) > len(p.position_durations):  # the steady slow-down (the last
+            steady = len(T) - len(p.position_offsets) + int(np.argmax(p.position_offsets))  # duration) to the target
+    return coeffs, T, p.jerk_weight * jerk + p.time_weight * T + miss, steady
+
+
+def _hardest_braking(coeffs: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """The hardest deceleration [m/s^2] (n,) of polynomials ``coeffs`` (n, 6) over their durations ``T`` (n,) [s]
+    (negative if they never brake): of their acceleration, a cubic in time, the least at its ends and where its
+    derivative, the jerk, is zero."""
+    c2, c3, c4, c5 = (coeffs[:, k] for k in range(2, 6))
+    a, b, c = 60.0 * c5, 24.0 * c4, 6.0 * c3  # the jerk a t^2 + b t + c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = np.sqrt(b * b - 4.0 * a * c)  # NaN: no real root
+        times = np.stack([np.zeros_like(T), T, (-b - root) / (2.0 * a), (-b + root) / (2.0 * a), -c / b])
+    # (the quadratic's roots, or the line's when a = 0; a point that is neither only adds a value the least bounds)
+    times = np.where(np.isfinite(times) & (times >= 0.0) & (times <= T), times, 0.0)
+    accel = 2.0 * c2 + (6.0 * c3 + (12.0 * c4 + 20.0 * c5 * times) * times) * times
+    return -accel.min(axis=0)
 
 
 def _lateral(state: FrenetState, offsets: list[float], p: PlannerParams, keep: tuple[float, float] | None):
@@ -293,7 +316,7 @@ def plan(state: FrenetState, reference: FrenetFrame, objects, params: PlannerPar
     found, candidates = _search(state, reference, objects, params, goal, keep, road, arrivals)
     if found is not None:
         return found
-    stop, collides = _fallback(state, reference, objects, params, candidates)
+    stop, collides = _fallback(state, reference, objects, params, candidates, goal)
     if collides and params.evasive_grip > 0:
         evasive = params.evasive
         found, _ = _search(state, reference, objects, evasive, goal, keep, road, arrivals)
@@ -322,24 +345,33 @@ def _sample(state: FrenetState, lanes: dict[_Target | None, list[float]], p: Pla
             keep: tuple[float, float] | None, arrivals: tuple[Arrival, ...]) -> _Sampled:
     """Each target's lateral motions (to its end offsets ``lanes[target]``) with its longitudinal ones, in the order
     :func:`plan` prefers them: the lateral motion to keep (while it leads away from the reference), then those in
-    a goal region's window, then the cheapest (the first of equals)."""
-    parts, groups = [], []  # each target's (lat, lon, ci, cj, cost, kept, arrive, lateral); its first candidate
+    a goal region's window, then a stop's that brake no harder than comfortably, then its others no faster than its
+    steady slow-down, then the cheapest (the first of equals). A stop faster than the steady one at some time holds
+    the speed, or speeds up, to brake harder later: cheaper by the time it saves, it was chosen again each cycle
+    and kept the car fast until no comfortable stop was left, then past the road's end."""
+    parts, groups = [], []  # each target's (lat, lon, ci, cj, cost, kept, arrive, braking, lateral); its first one
     n_lat = n_lon = n = 0
     for target, offsets in lanes.items():
         lat_m, lat_cost, ends = _lateral(state, offsets, p, keep)
-        coeffs, T, lon_cost = _longitudinal(state, target, p)
+        coeffs, T, lon_cost, steady = _longitudinal(state, target, p)
         lon_m = evaluate(coeffs, T, p.times)[:3]
         i, j = np.divmod(np.arange(len(lat_cost) * len(lon_cost)), len(lon_cost))
         cost = (p.lateral_weight * lat_cost[:, None] + p.longitudinal_weight * lon_cost[None, :]).ravel()
         # the motion to keep is the last lateral one (_lateral appends it)
         kept = i == len(lat_cost) - 1 if keep is not None and keep[0] in offsets else np.zeros(len(i), bool)
         arrive = _arriving(lat_m, lon_m, arrivals, p.times).ravel() if arrivals else None
-        parts.append((lat_m, lon_m, n_lat + i, n_lon + j, cost, kept, arrive, ends))
+        braking = np.zeros(len(i), np.int8)
+        if steady is not None:  # a stop's rank: braking no harder than comfortably, else no faster than steady
+            v, harsh = lon_m[1], _hardest_braking(coeffs, T) > p.vehicle.actuators.stop_deceleration
+            braking = (harsh * (1 + ((v - v[steady]).max(axis=1) > RUSHED_SPEED))).astype(np.int8)[j]
+        parts.append((lat_m, lon_m, n_lat + i, n_lon + j, cost, kept, arrive, braking, ends))
         groups.append((n, target))
         n_lat, n_lon, n = n_lat + len(lat_cost), n_lon + len(lon_cost), n + len(i)
-    lat, lon, ci, cj, cost, kept, arrive, lateral = zip(*parts, strict=True)
-    cost = _joined(cost)
+    lat, lon, ci, cj, cost, kept, arrive, braking, lateral = zip(*parts, strict=True)
+    cost, braking = _joined(cost), _joined(braking)
     keys = [cost, ~np.isnan(cost)]  # (argmin's order: a NaN before any number)
+    if braking.any():
+        keys.append(braking)
     if arrivals:
         keys.append(~_joined(arrive))
     if keep is not None and abs(keep[0]) > abs(state.d):
@@ -400,10 +432,11 @@ def _arriving(lat_m: np.ndarray, lon_m: np.ndarray, arrivals: tuple[Arrival, ...
 
 
 def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p: PlannerParams,
-              candidates: Candidates) -> tuple[Plan, bool]:
-    """The safe stop: along the reference at the comfortable deceleration (the car's controlled stop), or its
-    emergency deceleration when the comfortable stop collides; the lane offset settles where it is. And whether
-    it still collides."""
+              candidates: Candidates, goal: float | None = None) -> tuple[Plan, bool]:
+    """The safe stop: along the reference at the comfortable deceleration (the car's controlled stop), harder where
+    that would pass the ``goal`` [m] (the road may end there: on it, up to the emergency deceleration), or at the
+    emergency deceleration when the stop collides; the lane offset settles where it is. And whether it still
+    collides."""
     infeasible = int((candidates.status == Status.INFEASIBLE).sum())
     why = f"no free candidate: {infeasible} infeasible, {len(candidates.status) - infeasible} colliding"
     settle = min(p.lateral_durations)
@@ -418,11 +451,13 @@ def _fallback(state: FrenetState, reference: FrenetFrame, objects: np.ndarray, p
                                    True))
 
     decel, name = p.vehicle.actuators.stop_deceleration, "comfortable"
+    if goal is not None and goal > state.s and v0 * v0 > 2.0 * decel * (goal - state.s):
+        decel, name = min(v0 * v0 / (2.0 * (goal - state.s)), p.vehicle.actuators.max_decel), "goal's"
     lon_m, out, status = stop(decel)
     if status[0] == Status.COLLIDING:
         decel, name = p.vehicle.actuators.max_decel, "emergency"
         lon_m, out, status = stop(decel)
-    reason = f"{why}; {name} stop at {decel:g} m/s^2 within {v0 * v0 / (2 * decel):.1f} m"
+    reason = f"{why}; {name} stop at {decel:.3g} m/s^2 within {v0 * v0 / (2 * decel):.1f} m"
     if status[0] == Status.COLLIDING:
         reason += ", which still collides"
     frenet = np.column_stack([lon_m[0, 0], lon_m[1, 0], lon_m[2, 0], lat[0, 0], lat[1, 0], lat[2, 0]])

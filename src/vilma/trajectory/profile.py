@@ -48,6 +48,14 @@ class Arrival:
     offsets [m] (left positive) from ``lo`` to ``hi`` (the next rows) inside it, interpolated between them; no
     column: any offset."""
 
+    def holds(self, s: float, t: float, v: float, d: float) -> bool:
+        """Whether a car at arc length ``s`` [m], time ``t`` [s], speed ``v`` [m/s] and offset ``d`` [m] is in it."""
+        inside = (self.s[0] <= s <= self.s[1] and self.t[0] <= t <= self.t[1] and self.v[0] <= v <= self.v[1])
+        if not inside or not self.d.shape[1]:
+            return inside
+        arc, lo, hi = self.d
+        return bool(np.interp(s, arc, lo) <= d <= np.interp(s, arc, hi))
+
 
 def arrival_profile(path: Trajectory, v0: float, accel: float, decel: float,
                     windows: tuple[Arrival, ...]) -> Trajectory | None:
