@@ -27,9 +27,11 @@ from vilma.app.batch import BUNDLED
 from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
 from vilma.core.messages import Image, PointCloud, SimStatus
+from vilma.plant3d.camera import CameraParams
 from vilma.record.reader import read_recording
 from vilma.record.recorder import BusRecorder, Recorder
 from vilma.record.run_recorder import RunRecorder
+from vilma.record.sensor_frames import decode_frame
 from vilma.record.world_cdr import CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, LASER_SCAN, POINT_CLOUD2
 from vilma.scenario import load_scenario
 from vilma.scenario.drive_log import DriveLog
@@ -84,6 +86,44 @@ def test_a_bus_recording_reads_back_images_and_scans(tmp_path):
                                                                                        "plumb_bob")
     assert np.allclose(info.k, [f_px, 0, 79.5, 0, f_px, 59.5, 0, 0, 1]) and list(info.d) == [0.0] * 5
     assert np.allclose(info.p, [f_px, 0, 79.5, 0, 0, f_px, 59.5, 0, 0, 0, 1, 0])
+
+
+def test_the_world_sensors_mounts_are_static_transforms_from_the_car_at_sim_start(tmp_path):
+    """One ``foxglove_msgs/msg/FrameTransform`` a sensor on ``tf_static`` at log time 0, as Foxglove reads it."""
+    write_world_recording(tmp_path / "w.mcap")
+    camera, laser = WORLD_SENSORS
+    with (tmp_path / "w.mcap").open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        ch = next(c for c in summary.channels.values() if c.topic == "vilma/vilma/tf_static")
+        schema = summary.schemas[ch.schema_id]
+        assert (schema.name, schema.encoding, ch.message_encoding) == ("foxglove_msgs/msg/FrameTransform", "ros2msg",
+                                                                       "cdr")
+        tf = next(c for c in summary.channels.values() if c.topic == "vilma/vilma/tf")
+        assert tf.schema_id == ch.schema_id  # the same schema as the car's frame in the map
+        got = [(m.log_time, m.publish_time, msg) for _, _, m, msg in reader.iter_decoded_messages(
+            topics=["vilma/vilma/tf_static"])]
+    assert [(lt, pt, t.timestamp.sec, t.timestamp.nanosec) for lt, pt, t in got] == [(0, 0, 0, 0)] * 2
+    frames = {t.child_frame_id: t for _, _, t in got}
+    assert set(frames) == {camera.name, laser.name} and {t.parent_frame_id for t in frames.values()} == {"vilma"}
+    for sensor in WORLD_SENSORS:
+        t = frames[sensor.name].translation
+        assert (t.x, t.y, t.z) == sensor.position
+    q = frames[laser.name].rotation  # yaw 0: the car's axes
+    assert (q.x, q.y, q.z, q.w) == (0.0, 0.0, 0.0, 1.0)
+    q = frames[camera.name].rotation  # pitch and yaw 0: the optical frame's z forward, x right, y down
+    assert np.allclose((q.x, q.y, q.z, q.w), (-0.5, 0.5, -0.5, 0.5))
+
+    back = read_recording(tmp_path / "w.mcap")  # read as before: tf_static is no world topic nor a bus one
+    assert back.count("tf_static") == 2 and sorted(back.world_topics) == sorted(WORLD_TOPICS)
+
+
+def test_a_recording_without_world_sensors_has_no_static_transforms(tmp_path):
+    Recorder(tmp_path / "a.mcap").close()
+    Recorder(tmp_path / "b.mcap", car="front", world_sensors=(CameraParams(name="front"),)).close()
+    for name in ("a", "b"):  # none, and a camera named as the car (its frame is the car's own)
+        with (tmp_path / f"{name}.mcap").open("rb") as f:
+            assert not [c.topic for c in make_reader(f).get_summary().channels.values() if "tf_static" in c.topic]
 
 
 def test_a_recording_of_foxglove_json_images_and_scans_still_reads():
@@ -156,6 +196,8 @@ def test_a_run_records_the_captures_it_is_handed(tmp_path):
     back = read_recording(tmp_path / "run.mcap")
     assert back.messages("laser") == [wall_scan(PERIOD_NS)] and back.schemas["laser"] == LASER_SCAN
     assert back.messages("camera/front_left/depth") == [depth]
+    frames = [decode_frame(p)[1] for p in back.payloads("tf_static")]  # written by the recorder's process
+    assert [(f.parent, f.child) for f in frames] == [("vilma", s.name) for s in scenario.sim.world_sensors]
 
 
 def test_a_recording_in_a_with_block_is_finished_even_when_the_block_raises(tmp_path):

@@ -12,11 +12,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
+from rosbags.interfaces import QosDurability, QosReliability
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore
 
 from tests.conftest import free_port
-from tests.record.world_messages import FOXGLOVE_FILE, PERIOD_NS, depth_image, wall_scan, write_world_recording
+from tests.record.world_messages import (
+    FOXGLOVE_FILE,
+    PERIOD_NS,
+    WORLD_SENSORS,
+    depth_image,
+    wall_scan,
+    write_world_recording,
+)
 from vilma.app import programs
 from vilma.app.batch import BUNDLED
 from vilma.app.cli import main
@@ -269,6 +278,7 @@ def test_rosbag2_export_reads_back_with_values_and_timestamps(finished_run, tmp_
     assert [m.twist.twist.linear.x for _, m, _ in bag["/odom"]] == odo.field("speed").tolist()
     assert [m.transforms[0].child_frame_id for _, m, _ in bag["/tf"]] == ["vilma"] * len(pose)
     assert np.array_equal([m.data for _, m, _ in bag["/drive_log"]], rec.drive_log(), equal_nan=True)
+    assert "/tf_static" not in bag  # a run without cameras or laser: no sensor frames
 
 
 def test_export_refuses_an_existing_folder(finished_run, tmp_path):
@@ -306,6 +316,33 @@ def test_world_sensors_export_as_ros2_images_scans_and_point_clouds(tmp_path):
     want = [msg for n, msg in sent if n == "laser"]
     assert [m.ranges.tobytes() for _, m, _ in bag["/laser"]] == [c.ranges for c in want]
     assert [m.data.tobytes() for _, m, _ in bag["/laser/points"]] == [c.points for c in want]
+
+
+def test_the_sensor_mounts_export_as_one_latched_tf_static_message(tmp_path):
+    """``/tf_static``: a ``tf2_msgs/msg/TFMessage`` at stamp 0 with a transform a sensor, offered transient local
+    (durability 1 in ``metadata.yaml``), as ``ros2 bag`` records tf2's static broadcaster."""
+    write_world_recording(tmp_path / "w.mcap")
+    assert export_rosbag2(tmp_path / "w.mcap", tmp_path / "bag")["/tf_static"] == 1
+    [(stamp, msg, kind)] = _bag(tmp_path / "bag")["/tf_static"]
+    assert (stamp, kind) == (0, "tf2_msgs/msg/TFMessage")
+    camera, laser = WORLD_SENSORS
+    assert [(t.header.frame_id, t.child_frame_id, t.header.stamp.sec, t.header.stamp.nanosec)
+            for t in msg.transforms] == [("vilma", camera.name, 0, 0), ("vilma", laser.name, 0, 0)]
+    for t, sensor in zip(msg.transforms, WORLD_SENSORS, strict=True):
+        v = t.transform.translation
+        assert (v.x, v.y, v.z) == sensor.position
+    q = msg.transforms[0].transform.rotation
+    assert np.allclose((q.x, q.y, q.z, q.w), (-0.5, 0.5, -0.5, 0.5))  # pitch, yaw 0: the optical frame
+    with Reader(tmp_path / "bag") as reader:
+        [qos] = next(c for c in reader.connections if c.topic == "/tf_static").ext.offered_qos_profiles
+        assert (qos.durability, qos.reliability) == (QosDurability.TRANSIENT_LOCAL, QosReliability.RELIABLE)
+        others = [c.ext.offered_qos_profiles for c in reader.connections if c.topic != "/tf_static"]
+        assert others == [[]] * len(others)
+    meta = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    [info] = [t["topic_metadata"] for t in meta["topics_with_message_count"]
+              if t["topic_metadata"]["name"] == "/tf_static"]
+    [profile] = yaml.safe_load(info["offered_qos_profiles"])  # a YAML text in bag version 8
+    assert (profile["durability"], profile["reliability"]) == (1, 1)  # rmw's transient local, reliable
 
 
 def test_a_foxglove_json_recording_exports_its_images_and_point_clouds(tmp_path):

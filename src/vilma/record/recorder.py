@@ -5,7 +5,8 @@
 A recording that cannot go on (unwritable path, full disk) says so in one line
 through ``on_error`` and then drops what comes: the drive goes on. Camera images and
 laser scans go in as :mod:`vilma.record.world_cdr` lays them out; a malformed one is
-dropped with a one-line warning (the first of each topic).
+dropped with a one-line warning (the first of each topic). The world sensors' mounts go in first, on
+``tf_static`` at sim time 0 (:mod:`vilma.record.sensor_frames`).
 :class:`BusRecorder` subscribes to every topic of a car on a bus, and to the world
 sensors' topics it is given.
 """
@@ -37,7 +38,17 @@ from vilma.record.road_scene import (
     TrafficFrames,
     road_scene,
 )
-from vilma.record.schemas import DRIVE_LOG, channels, encode_struct, numeric_layouts, struct_schema
+from vilma.record.schemas import (
+    DRIVE_LOG,
+    FRAME_TRANSFORM,
+    FRAME_TRANSFORM_SCHEMA,
+    TF_STATIC,
+    channels,
+    encode_struct,
+    numeric_layouts,
+    struct_schema,
+)
+from vilma.record.sensor_frames import encode_frame, sensor_frames
 from vilma.record.world_cdr import SCHEMAS, WorldChannels, WorldSensorParams, sensor_topics, world_channels
 from vilma.record.world_schemas import (
     WorldMessageError,
@@ -67,7 +78,7 @@ class Recorder(Closeable):
     ``jpeg_quality`` (1..95) records colour camera images as JPEG; None (the default) records them raw, exact
     (about as small once the chunks are compressed, for vilma's flat-shaded renders: :mod:`vilma.record.world_cdr`).
     ``world_sensors``: the parameters of the cameras and laser whose messages will come (a camera's give its
-    ``camera_info``, a laser's its scans' angles and limits).
+    ``camera_info``, a laser's its scans' angles and limits; their mounts are written on ``tf_static`` at once).
     """
 
     def __init__(self, path: Path, car: str = "vilma", source: str = "vilma", policy: ChunkPolicy = ChunkPolicy(),
@@ -89,6 +100,10 @@ class Recorder(Closeable):
             self._file = McapFile(self.path, policy, profile="")
             self._file.add_metadata("vilma", {"car": car, "source": source, "time": "sim time, ns since the start",
                                               "frames": "ENU map; yaw counter-clockwise from east"})
+            frames = sensor_frames(world_sensors, car)
+            for k, frame in enumerate(frames, 1):
+                self._file.write(self._channel(self._file, TF_STATIC), 0, encode_frame(frame),
+                                 close_chunk=k == len(frames))
         except RecordError as e:
             self._stop(e)
 
@@ -123,6 +138,8 @@ class Recorder(Closeable):
             elif name in self._world_types:
                 kind = self._world_types[name]
                 cid = f.add_channel(key, kind, SCHEMAS[kind], encoding="cdr")
+            elif name == TF_STATIC:
+                cid = f.add_channel(key, FRAME_TRANSFORM, FRAME_TRANSFORM_SCHEMA, encoding="cdr")
             elif name in SCENE_TOPICS or name in PLANNING_SCENES:
                 cid = f.add_channel(key, SCENE_UPDATE, SCENE_SCHEMA)
             else:

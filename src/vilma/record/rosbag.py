@@ -18,6 +18,10 @@ topic           type                             content
                                                  autonomous 0/1]``; the layout's label names the
                                                  longitudinal mode (``drive[force|accel|power]``)
 ``/tf``         tf2_msgs/msg/TFMessage           ``map`` -> ``<car>`` from the pose
+``/tf_static``  tf2_msgs/msg/TFMessage           ``<car>`` -> each world sensor's frame, its mount
+                                                 (:mod:`vilma.record.sensor_frames`): one message,
+                                                 stamp 0, offered QoS :data:`LATCHED` (durability
+                                                 transient local, as ``ros2 bag`` records it)
 ``/drive_log``  std_msgs/msg/Float64MultiArray   the runner's row (labels: the DriveLog columns)
 ``/objects``    visualization_msgs/msg/          the objects sensor's list, frame ``map``: a
                 MarkerArray                      ``DELETEALL``, then an object a ``CUBE`` (ns
@@ -58,12 +62,15 @@ import math
 from pathlib import Path
 
 import numpy as np
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
-from vilma.record.reader import Recording, read_recording
+from vilma.record.reader import Recording, RecordingError, read_recording
+from vilma.record.schemas import FRAME_TRANSFORM, TF_STATIC
+from vilma.record.sensor_frames import SensorFrame, decode_frame
 from vilma.record.world_cdr import COMPRESSED_IMAGE as ROS_COMPRESSED_IMAGE
 from vilma.record.world_cdr import SCHEMAS
 from vilma.record.world_schemas import COMPRESSED_IMAGE, compressed_image
@@ -73,6 +80,11 @@ STORE = Stores.ROS2_HUMBLE
 """The message definitions written (ROS 2 Humble's)."""
 OBJECT_HEIGHT = 1.5
 """Height of an object's cube [m] (the objects sensor gives a footprint)."""
+_NEVER = QosTime(2147483647, 4294967295)  # rmw's infinite duration
+LATCHED = (Qos(QosHistory.UNKNOWN, 0, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, _NEVER, _NEVER,
+               QosLiveliness.AUTOMATIC, _NEVER, avoid_ros_namespace_conventions=False),)
+"""The offered QoS of ``/tf_static``: reliable, transient local (a late subscriber gets the message), as ``ros2 bag``
+records tf2's static broadcaster's (history and depth are not seen in discovery: unknown, 0)."""
 
 
 class _Types:
@@ -184,6 +196,26 @@ def _tf(T: _Types, p: m.Pose, car: str):
     return t["tf2_msgs/msg/TFMessage"](transforms=[ts])
 
 
+def _tf_static(T: _Types, stamp_ns: int, frames: list[SensorFrame]):
+    t = T.t
+    return t["tf2_msgs/msg/TFMessage"](transforms=[t["geometry_msgs/msg/TransformStamped"](
+        header=T.header(stamp_ns, f.parent), child_frame_id=f.child, transform=t["geometry_msgs/msg/Transform"](
+            translation=T.Vec(x=f.translation[0], y=f.translation[1], z=f.translation[2]),
+            rotation=T.Quat(x=f.rotation[0], y=f.rotation[1], z=f.rotation[2], w=f.rotation[3])))
+        for f in frames])
+
+
+def _sensor_frames(rec: Recording) -> tuple[int, list[SensorFrame]]:
+    """The first stamp [ns] and the frames of the recording's ``tf_static`` (none: a recording made before it)."""
+    if rec.schemas.get(TF_STATIC) != FRAME_TRANSFORM:
+        return 0, []
+    try:
+        decoded = [decode_frame(p) for p in rec.payloads(TF_STATIC)]
+    except ValueError as e:
+        raise RecordingError(f"{rec.path}: topic {TF_STATIC}: {e}") from None
+    return min((st for st, _ in decoded), default=0), [f for _, f in decoded]
+
+
 def _image(T: _Types, i: m.Image):
     return T.t["sensor_msgs/msg/Image"](header=T.header(i.stamp_ns, i.frame_id), height=i.height, width=i.width,
                                         encoding=i.encoding, is_bigendian=0, step=i.step,
@@ -250,11 +282,11 @@ def export_rosbag2(recording: Recording | Path, out_dir: Path) -> dict[str, int]
     T = _Types()
     counts: dict[str, int] = {}
     with Writer(out_dir, version=8, storage_plugin=StoragePlugin.MCAP) as w:
-        def put(ros_topic: str, ros_type: str, items) -> None:
+        def put(ros_topic: str, ros_type: str, items, qos: tuple[Qos, ...] = ()) -> None:
             conn = None
             for stamp, msg in items:
                 if conn is None:
-                    conn = w.add_connection(ros_topic, ros_type, typestore=T.store)
+                    conn = w.add_connection(ros_topic, ros_type, typestore=T.store, offered_qos_profiles=qos)
                 w.write(conn, stamp, msg if isinstance(msg, bytes) else T.store.serialize_cdr(msg, ros_type))
                 counts[ros_topic] = counts.get(ros_topic, 0) + 1
 
@@ -264,6 +296,9 @@ def export_rosbag2(recording: Recording | Path, out_dir: Path) -> dict[str, int]
         if rec.count("pose"):
             put("/tf", "tf2_msgs/msg/TFMessage",
                 ((p.stamp_ns, _tf(T, p, rec.car)) for p in rec.messages("pose")))
+        stamp, frames = _sensor_frames(rec)
+        if frames:
+            put("/tf_static", "tf2_msgs/msg/TFMessage", [(stamp, _tf_static(T, stamp, frames))], LATCHED)
         world = set(rec.world_topics)
         for name in rec.topics:
             if name in world or rec.schemas[name] in SCHEMAS:  # with those beside them (camera_info...)

@@ -13,6 +13,8 @@ topic              type                             content
 ``pose``           geometry_msgs/msg/PoseStamped    frame ``map``; quaternion from roll, pitch, yaw
 ``pose/euler``     geometry_msgs/msg/Vector3Stamped roll, pitch, yaw [rad] as they are (x, y, z)
 ``tf``             foxglove_msgs/msg/FrameTransform ``map`` -> ``<car>``, from the pose
+``tf_static``      foxglove_msgs/msg/FrameTransform ``<car>`` -> each world sensor's frame (its name), stamp 0:
+                                                    the mounts (:mod:`vilma.record.sensor_frames`)
 ``velocity``       geometry_msgs/msg/TwistStamped   frame ``<car>``: body velocity [m/s], body rates [rad/s]
 ``velocity/world`` geometry_msgs/msg/Vector3Stamped frame ``map``: world-frame velocity [m/s]
 ``gps``            sensor_msgs/msg/NavSatFix        latitude, longitude [deg], altitude [m]; frame ``gps``
@@ -69,8 +71,9 @@ _UNITS = {
 }
 DRIVE_LOG = "drive_log"
 """The runner's topic: one :data:`~vilma.scenario.drive_log.COLUMNS` row a control period (true plant + driver)."""
-TF = "tf"
-"""The car's frame in the map (``foxglove_msgs/msg/FrameTransform``), derived from ``pose``."""
+TF, TF_STATIC = "tf", "tf_static"
+"""The car's frame in the map, derived from ``pose``; the world sensors' frames on the car, from their mounts
+(:mod:`vilma.record.sensor_frames`): both ``foxglove_msgs/msg/FrameTransform``."""
 OBJECTS_SCENE, PLAN_SCENE = "perception/objects/scene", "planning/plan/scene"
 """The tracks and the plans drawn as Foxglove scene primitives (:mod:`vilma.record.plan_scene`)."""
 COMPANIONS = {"pose": ("pose/euler", TF), "velocity": ("velocity/world",), "gps": ("gps/enu",),
@@ -194,13 +197,16 @@ def _position_quaternion(v: np.ndarray) -> np.ndarray:
     return np.concatenate([v[..., :3], _quaternions(v[..., 3], v[..., 4], v[..., 5])], axis=-1)
 
 
-def _tf_layout(car: str) -> Layout:
-    definition = ("builtin_interfaces/Time timestamp\nstring parent_frame_id\nstring child_frame_id\n"
-                  "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation")
-    payload, slots = CdrBody().time().string("map").string(car).float64(7).payload()
+FRAME_TRANSFORM = "foxglove_msgs/msg/FrameTransform"
+FRAME_TRANSFORM_SCHEMA = ros2msg("builtin_interfaces/Time timestamp\nstring parent_frame_id\n"
+                                 "string child_frame_id\ngeometry_msgs/Vector3 translation\n"
+                                 "geometry_msgs/Quaternion rotation", _TIME, _VECTOR3, _QUATERNION)
+"""The ``ros2msg`` schema of :data:`TF` and :data:`TF_STATIC`."""
 
-    return Layout("foxglove_msgs/msg/FrameTransform", ros2msg(definition, _TIME, _VECTOR3, _QUATERNION),
-                  payload, slots, (None,) * 7, floats=_position_quaternion)
+
+def _tf_layout(car: str) -> Layout:
+    payload, slots = CdrBody().time().string("map").string(car).float64(7).payload()
+    return Layout(FRAME_TRANSFORM, FRAME_TRANSFORM_SCHEMA, payload, slots, (None,) * 7, floats=_position_quaternion)
 
 
 def _pose_layout() -> Layout:
