@@ -12,12 +12,21 @@ import pytest
 from websockets.sync.client import connect
 
 from tests.record.ros2 import ros2_decoder
-from tests.record.world_messages import PERIOD_NS, WORLD_TOPICS, depth_image, red_square, wall_scan, world_at
+from tests.record.world_messages import (
+    PERIOD_NS,
+    WORLD_SENSORS,
+    WORLD_TOPICS,
+    depth_image,
+    red_square,
+    wall_scan,
+    world_at,
+)
 from vilma.bus.local import LocalBus
 from vilma.bus.topics import topic
 from vilma.core import messages as m
 from vilma.core.geometry import quaternion_from_euler
 from vilma.record.live import FoxgloveLive
+from vilma.record.sensor_frames import sensor_frame
 
 
 @pytest.fixture
@@ -146,6 +155,57 @@ def test_world_sensors_are_served_in_foxglove_schemas():
     assert jpeg["format"] == "jpeg" and base64.b64decode(jpeg["data"])[:2] == b"\xff\xd8"
     assert base64.b64decode(depth["data"]) == depth_image(width=160, height=120).data and depth["encoding"] == "32FC1"
     assert base64.b64decode(laser["data"]) == wall_scan().points and laser["point_stride"] == 12
+
+
+def _static_frames(port: int) -> tuple[list[int], list[object]]:
+    """Log times [ns] and messages a new client gets on ``tf_static`` within a second of subscribing to it."""
+    with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
+        channels: dict = {}
+        while "vilma/vilma/tf_static" not in channels:
+            channels.update({c["topic"]: c for c in _json_until(ws, "advertise")["channels"]})
+        ch = channels["vilma/vilma/tf_static"]
+        decode = ros2_decoder(ch["schemaName"], ch["schema"])
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 5, "channelId": ch["id"]}]}))
+        times, got = [], []
+        try:
+            while True:
+                frame = ws.recv(timeout=1)
+                if isinstance(frame, bytes) and frame[0] == 0x01 and struct.unpack_from("<I", frame, 1)[0] == 5:
+                    times.append(struct.unpack_from("<Q", frame, 5)[0])
+                    got.append(decode(frame[13:]))
+        except TimeoutError:
+            return times, got
+
+
+def test_each_client_subscribing_to_tf_static_gets_the_sensors_mounts():
+    bus = LocalBus()
+    server = FoxgloveLive(bus, port=0, world_topics=WORLD_TOPICS, world_sensors=WORLD_SENSORS)
+    try:
+        first = _static_frames(server.port)
+        bus.publish(topic("sim/status"), m.SimStatus(stamp_ns=3_000_000_000))
+        second = _static_frames(server.port)  # a later client, after the sim time went on
+    finally:
+        server.close()
+    for (times, got), now in ((first, 0), (second, 3_000_000_000)):
+        assert times == [now] * len(WORLD_SENSORS)  # logged at the latest sim time, stamped at its start
+        assert [(t.timestamp.sec, t.timestamp.nanosec, t.parent_frame_id, t.child_frame_id) for t in got] == [
+            (0, 0, "vilma", s.name) for s in WORLD_SENSORS]
+        assert [(t.translation.x, t.translation.y, t.translation.z) for t in got] == [
+            s.position for s in WORLD_SENSORS]
+        assert [(t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w) for t in got] == [
+            sensor_frame(s, "vilma").rotation for s in WORLD_SENSORS]  # as recorded (test_sensor_frames.py)
+
+
+def test_a_live_server_without_world_sensors_has_no_tf_static():
+    server = FoxgloveLive(LocalBus(), port=0, world_topics=WORLD_TOPICS)
+    try:
+        with connect(f"ws://127.0.0.1:{server.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"]) as ws:
+            channels: dict = {}
+            while "vilma/vilma/laser" not in channels:
+                channels.update({c["topic"]: c for c in _json_until(ws, "advertise")["channels"]})
+            assert "vilma/vilma/tf_static" not in channels
+    finally:
+        server.close()
 
 
 def test_a_live_server_in_a_with_block_stops_listening_even_when_the_block_raises():

@@ -112,7 +112,8 @@ def _taps(bus: Bus, record: Path | None, foxglove: int | None, source: str, repo
             recorder.add_attachment("scenario.yaml", "application/yaml", to_yaml(scenario).encode())
             tick = stack.enter_context(BusRecorder(bus, recorder, world_topics=world_topics, road=road)).recorder.tick
         if foxglove is not None:
-            live = stack.enter_context(FoxgloveLive(bus, port=foxglove, world_topics=world_topics, road=road))
+            live = stack.enter_context(FoxgloveLive(bus, port=foxglove, world_topics=world_topics, road=road,
+                                                        world_sensors=scenario.sim.world_sensors))
             report(f"Foxglove: open connection ws://127.0.0.1:{live.port}")
         yield tick
 

@@ -6,7 +6,9 @@ sensors in CDR as standard ROS 2 types where one fits (``geometry_msgs/msg/PoseS
 beside them (``vilma/<car>/tf`` as ``foxglove_msgs/msg/FrameTransform``...), orders and
 statuses as JSON ``vilma.<Type>``; the world sensors'
 topics it is given as :mod:`vilma.record.world_schemas` lays them out (colour images JPEG,
-depth ``foxglove.RawImage``, the laser ``foxglove.PointCloud``). Each
+depth ``foxglove.RawImage``, the laser ``foxglove.PointCloud``), and, given the world sensors' parameters,
+their mounts on ``vilma/<car>/tf_static`` (:mod:`vilma.record.sensor_frames`), sent again to each client that
+subscribes to it (a latched topic: they never change, so they are never published otherwise). Each
 message's log time is its sim time, and the server broadcasts the sim time of
 each ``sim/status`` (Foxglove's clock follows the simulation). Open Foxglove,
 "Open connection", ``ws://127.0.0.1:8765``.
@@ -27,7 +29,17 @@ from vilma.core.net import is_loopback
 from vilma.record.plan_scene import PLANNING_SCENES
 from vilma.record.recorder import LIVE_TOPICS, json_messages, msgspec_row
 from vilma.record.road_scene import SCENE_SCHEMA, SCENE_TOPICS, SCENE_UPDATE, SceneFeed
-from vilma.record.schemas import COMPANIONS, channels, numeric_layouts, struct_schema
+from vilma.record.schemas import (
+    COMPANIONS,
+    FRAME_TRANSFORM,
+    FRAME_TRANSFORM_SCHEMA,
+    TF_STATIC,
+    channels,
+    numeric_layouts,
+    struct_schema,
+)
+from vilma.record.sensor_frames import encode_frame, sensor_frames
+from vilma.record.world_cdr import WorldSensorParams
 from vilma.record.world_schemas import (
     JPEG_QUALITY,
     WorldMessageError,
@@ -49,7 +61,8 @@ class FoxgloveLive(Closeable):
     """Serves car ``car``'s topics on ``bus`` to Foxglove at ``host``:``port`` (0: a free port) until :meth:`close`,
     and the world sensors' ``world_topics`` (colour images as JPEG of ``jpeg_quality``, None: raw); with a
     ``road`` (:class:`~vilma.world.road_view.RoadView`), its road and traffic as scene primitives
-    (:mod:`vilma.record.road_scene`) on the sim time of ``sim/status``.
+    (:mod:`vilma.record.road_scene`) on the sim time of ``sim/status``; with ``world_sensors`` (the cameras' and
+    laser's parameters), their mounts on ``tf_static`` to each client that subscribes to it.
 
     Raises:
         ValueError: a world topic that is not a camera or laser topic, or a bad JPEG quality.
@@ -57,24 +70,28 @@ class FoxgloveLive(Closeable):
 
     def __init__(self, bus: Bus, car: str = "vilma", host: str = "127.0.0.1", port: int = DEFAULT_PORT,
                  world_topics: tuple[str, ...] = (), jpeg_quality: int | None = JPEG_QUALITY,
-                 road: RoadView | None = None) -> None:
+                 road: RoadView | None = None, world_sensors: tuple[WorldSensorParams, ...] = ()) -> None:
         require("foxglove", "the live Foxglove view")
         import foxglove
         from foxglove.websocket import Capability
 
         self._world = {name: world_layout(name, jpeg_quality) for name in check_world_topics(world_topics)}
+        self._frames = [encode_frame(f) for f in sensor_frames(world_sensors, car)]
+        self._now = 0  # the latest sim time [ns]
         if not is_loopback(host):
             log.warning("Foxglove server on %s, beyond this machine: anyone who reaches it sees the car", host)
         self._fox = foxglove
         self.car = car
         self._context = foxglove.Context()
-        self.server = foxglove.start_server(name=f"vilma ({car})", host=host, port=port, context=self._context,
-                                            capabilities=[Capability.Time])
         self._layouts = numeric_layouts(car)
         self._channels: dict[str, object] = {}
         self.dropped: dict[str, int] = {}
         """Malformed world-sensor messages dropped, by topic."""
-        for name in (*LIVE_TOPICS, *(c for cs in COMPANIONS.values() for c in cs), *self._world):
+        self.server = foxglove.start_server(name=f"vilma ({car})", host=host, port=port, context=self._context,
+                                            capabilities=[Capability.Time],
+                                            server_listener=_latch(self._send_frames) if self._frames else None)
+        for name in (*LIVE_TOPICS, *(c for cs in COMPANIONS.values() for c in cs), *self._world,
+                     *((TF_STATIC,) if self._frames else ())):
             self._channel(name)  # advertised from the start: a client sees every channel at once
         self.show_road(road)
         self._subs = [bus.subscribe(topic(name, car), self._taker(name)) for name in (*LIVE_TOPICS, *self._world)]
@@ -95,9 +112,10 @@ class FoxgloveLive(Closeable):
         if ch is None:
             lay = self._layouts.get(name) or self._world.get(name)
             schema_name, schema = ((lay.schema_name, lay.schema) if lay is not None
+                                   else (FRAME_TRANSFORM, FRAME_TRANSFORM_SCHEMA) if name == TF_STATIC
                                    else (SCENE_UPDATE, SCENE_SCHEMA) if name in SCENE_TOPICS or name in PLANNING_SCENES
                                    else (f"vilma.{TOPICS[name].__name__}", struct_schema(TOPICS[name])))
-            cdr = name in self._layouts
+            cdr = name in self._layouts or name == TF_STATIC
             ch = self._fox.Channel(f"vilma/{self.car}/{name}", message_encoding="cdr" if cdr else "json",
                                    context=self._context, schema=self._fox.Schema(
                                        name=schema_name, encoding="ros2msg" if cdr else "jsonschema", data=schema))
@@ -128,14 +146,34 @@ class FoxgloveLive(Closeable):
                 for c, data in json_messages(name, msg):
                     self._channel(c).log(data, log_time=msg.stamp_ns)
                 if name == "sim/status":
+                    self._now = msg.stamp_ns
                     self.server.broadcast_time(msg.stamp_ns)
                     if self._scene is not None:
                         for scene, data in self._scene.due(msg.stamp_ns):
                             self._channel(scene).log(data, log_time=msg.stamp_ns)
         return take
 
+    def _send_frames(self, topic_name: str) -> None:
+        """The sensors' mounts (stamped 0, logged at the latest sim time), if ``topic_name`` is ``tf_static``'s:
+        a client has just subscribed to it (the others subscribed get them again, which changes nothing)."""
+        if topic_name == f"vilma/{self.car}/{TF_STATIC}":
+            ch = self._channel(TF_STATIC)
+            for data in self._frames:
+                ch.log(data, log_time=self._now)
+
     def close(self) -> None:
         """Stop listening to the bus and stop the server; closing again does nothing."""
         for s in self._subs:
             s.close()
         self.server.stop()
+
+
+def _latch(on_subscribe: Callable[[str], None]):
+    """A foxglove-sdk server listener calling ``on_subscribe`` with the topic each time a client subscribes to a
+    channel (after the subscription holds: what it logs then reaches that client)."""
+    from foxglove.websocket import ServerListener
+
+    class Latch(ServerListener):
+        def on_subscribe(self, client, channel) -> None:
+            on_subscribe(channel.topic)
+    return Latch()
