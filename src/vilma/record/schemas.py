@@ -13,8 +13,8 @@ topic              type                             content
 ``pose``           geometry_msgs/msg/PoseStamped    frame ``map``; quaternion from roll, pitch, yaw
 ``pose/euler``     geometry_msgs/msg/Vector3Stamped roll, pitch, yaw [rad] as they are (x, y, z)
 ``tf``             foxglove_msgs/msg/FrameTransform ``map`` -> ``<car>``, from the pose
-``tf_static``      foxglove_msgs/msg/FrameTransform ``<car>`` -> each world sensor's frame (its name), stamp 0:
-                                                    the mounts (:mod:`vilma.record.sensor_frames`)
+``tf_static``      foxglove_msgs/msg/FrameTransform ``<car>`` -> each camera's and laser's frame (its name):
+                                                    its mount, stamp 0 (:mod:`vilma.record.sensor_frames`)
 ``velocity``       geometry_msgs/msg/TwistStamped   frame ``<car>``: body velocity [m/s], body rates [rad/s]
 ``velocity/world`` geometry_msgs/msg/Vector3Stamped frame ``map``: world-frame velocity [m/s]
 ``gps``            sensor_msgs/msg/NavSatFix        latitude, longitude [deg], altitude [m]; frame ``gps``

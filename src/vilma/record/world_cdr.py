@@ -1,6 +1,7 @@
 """How a recording writes the 3D plant's world sensors: camera images and laser scans as ROS 2 messages (CDR),
 with the topics a ROS camera and laser driver publish beside them. The header stamp is sim time, the frame the
-sensor's name:
+sensor's name (placed on the car by ``tf_static``, :mod:`vilma.record.sensor_frames`; a camera's is the ROS optical
+frame, z forward, x right, y down, the image's first row its top):
 
 ============================= =============================== ===================================================
 topic                         type                            content
