@@ -189,6 +189,7 @@ def test_with_no_feasible_stop_before_the_goal_it_brakes_as_hard_as_the_goal_nee
     decel = CAR.actuators.max_decel
     assert p.frenet[-1, 0] == pytest.approx(100.0 + 12.0**2 / (2 * decel)) and f"at {decel:g} m/s^2" in p.reason
 
+
 @pytest.mark.parametrize(("v", "left"), [(15.0, 0.5), (3.0, 0.1), (20.0, 0.9)])
 def test_a_goal_nearer_than_a_step_of_the_stop_is_not_reached_within_one_step(v, left):
     # the steady slow-down to a goal `left` ahead lasts 2 left / v, less than a step (0.1 s): its polynomial went from
@@ -200,7 +201,6 @@ def test_a_goal_nearer_than_a_step_of_the_stop_is_not_reached_within_one_step(v,
     assert p.mode == "fallback" and f"goal's stop at {decel:g} m/s^2" in p.reason, p.reason
     assert (np.diff(p.speed) / P.dt >= -decel - 1e-9).all()
     assert p.frenet[-1, 0] == pytest.approx(100.0 + v * v / (2.0 * decel))
-
 
 
 def test_when_every_candidate_collides_it_stops_within_the_braking_distance_it_has():
