@@ -12,6 +12,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from tests.record.world_messages import (
     FOXGLOVE_FILE,
+    LAYERED,
     PERIOD_NS,
     SQUARE,
     WORLD_SENSORS,
@@ -21,6 +22,8 @@ from tests.record.world_messages import (
     wall_rays,
     wall_scan,
     world_at,
+    write_layered_recording,
+    write_old_layered_recording,
     write_world_recording,
 )
 from vilma.app.batch import BUNDLED
@@ -198,6 +201,30 @@ def test_a_run_records_the_captures_it_is_handed(tmp_path):
     assert back.messages("camera/front_left/depth") == [depth]
     frames = [decode_frame(p)[1] for p in back.payloads("tf_static")]  # written by the recorder's process
     assert [(f.parent, f.child) for f in frames] == [("vilma", s.name) for s in scenario.sim.world_sensors]
+
+
+def test_a_multi_layer_laser_is_recorded_as_one_organized_point_cloud2(tmp_path):
+    """On ``laser`` alone (no ``laser/points``), read back bit for bit by vilma, and by Foxglove's decoder as
+    a cloud of a row a layer with a ring field."""
+    sent = write_layered_recording(tmp_path / "l.mcap")
+    back = read_recording(tmp_path / "l.mcap")
+    assert back.world_topics == ["laser"] and back.schemas["laser"] == POINT_CLOUD2
+    assert "laser/points" not in back.schemas
+    assert back.messages("laser") == sent
+    with (tmp_path / "l.mcap").open("rb") as f:
+        clouds = [msg for _, ch, _, msg in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages()
+                  if ch.topic == "vilma/vilma/laser"]
+    assert [(c.height, c.width, [f.name for f in c.fields]) for c in clouds] == [
+        (len(LAYERED.layers), len(LAYERED.bearings), ["x", "y", "z", "range", "ring"])] * len(sent)
+
+
+def test_a_multi_layer_laser_scan_recorded_before_still_reads_back(tmp_path):
+    """A LaserScan of all layers' ranges one after another with the hits on ``laser/points``, as vilma wrote a
+    multi-layer laser before its organized clouds."""
+    sent = write_old_layered_recording(tmp_path / "old.mcap")
+    back = read_recording(tmp_path / "old.mcap")
+    assert back.world_topics == ["laser"] and back.schemas["laser"] == LASER_SCAN
+    assert back.messages("laser") == sent
 
 
 def test_a_recording_in_a_with_block_is_finished_even_when_the_block_raises(tmp_path):

@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from tests.record import legacy
-from tests.record.world_messages import PERIOD_NS, WORLD_TOPICS, write_world_recording
+from tests.record.world_messages import (
+    PERIOD_NS,
+    WORLD_TOPICS,
+    write_layered_recording,
+    write_old_layered_recording,
+    write_world_recording,
+)
 from vilma.app import programs
 from vilma.app.batch import BUNDLED
 from vilma.bus.base import BoundedQueue
@@ -113,6 +119,17 @@ def test_replay_republishes_camera_images_and_laser_scans(tmp_path):
     for name, q in queues.items():
         assert q.drain() == [msg for n, msg in sent if n == name]
     assert player.published == 3 * 25 + len(sent)  # and the poses, velocities and actuator states
+
+
+@pytest.mark.parametrize("write", [write_layered_recording, write_old_layered_recording])
+def test_replay_republishes_a_multi_layer_laser_as_recorded_now_and_before(tmp_path, write):
+    sent = write(tmp_path / "l.mcap")
+    bus = LocalBus()
+    scans = BoundedQueue(bus, topic("laser"), maxsize=100)
+    player = Replayer(tmp_path / "l.mcap", bus, speed=50.0).start()
+    assert player.wait(timeout=30)
+    player.close()
+    assert scans.drain() == sent and player.published == len(sent)
 
 
 def test_a_corrupt_image_is_skipped_with_a_warning(tmp_path, caplog):

@@ -20,10 +20,13 @@ from rosbags.typesys import get_typestore
 from tests.conftest import free_port
 from tests.record.world_messages import (
     FOXGLOVE_FILE,
+    LAYERED,
     PERIOD_NS,
     WORLD_SENSORS,
     depth_image,
     wall_scan,
+    write_layered_recording,
+    write_old_layered_recording,
     write_world_recording,
 )
 from vilma.app import programs
@@ -316,6 +319,30 @@ def test_world_sensors_export_as_ros2_images_scans_and_point_clouds(tmp_path):
     want = [msg for n, msg in sent if n == "laser"]
     assert [m.ranges.tobytes() for _, m, _ in bag["/laser"]] == [c.ranges for c in want]
     assert [m.data.tobytes() for _, m, _ in bag["/laser/points"]] == [c.points for c in want]
+
+
+def test_a_multi_layer_laser_exports_its_organized_point_cloud2_as_recorded(tmp_path):
+    """``/laser`` the recorded PointCloud2's bytes (a row a layer), no ``/laser/points``; and a LaserScan
+    recorded before, with its points, as it was."""
+    sent = write_layered_recording(tmp_path / "l.mcap")
+    rec = read_recording(tmp_path / "l.mcap")
+    counts = export_rosbag2(rec, tmp_path / "bag")
+    assert counts == {"/tf_static": 1, "/laser": len(sent)}
+    with Reader(tmp_path / "bag") as reader:
+        raw = [(c.topic, c.msgtype, stamp, bytes(data)) for c, stamp, data in reader.messages()
+               if c.topic == "/laser"]
+    assert raw == [("/laser", "sensor_msgs/msg/PointCloud2", s.stamp_ns, p)
+                   for s, p in zip(sent, rec.payloads("laser"), strict=True)]
+    clouds = [m for _, m, _ in _bag(tmp_path / "bag")["/laser"]]
+    assert {(c.height, c.width) for c in clouds} == {(len(LAYERED.layers), len(LAYERED.bearings))}
+    assert world_counts(rec) == {"laser": len(sent)}
+
+    old = write_old_layered_recording(tmp_path / "old.mcap")
+    counts = export_rosbag2(tmp_path / "old.mcap", tmp_path / "old_bag")
+    assert counts == {"/laser": len(old), "/laser/points": len(old)}
+    bag = _bag(tmp_path / "old_bag")
+    assert [m.ranges.tobytes() for _, m, _ in bag["/laser"]] == [c.ranges for c in old]
+    assert [m.data.tobytes() for _, m, _ in bag["/laser/points"]] == [c.points for c in old]
 
 
 def test_the_sensor_mounts_export_as_one_latched_tf_static_message(tmp_path):

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from rosbags.typesys import Stores, get_typestore
 
 from tests.record.ros2 import ros2_decoder
-from tests.record.world_messages import GREY, depth_image, red_square, wall_rays, wall_scan
+from tests.record.world_messages import GREY, LAYERED, depth_image, layered_scan, red_square, wall_rays, wall_scan
 from vilma.core.messages import Image, PointCloud
 from vilma.plant3d.camera import CameraParams
 from vilma.plant3d.laser import LaserParams
@@ -100,12 +100,64 @@ def test_a_scan_is_a_laser_scan_and_its_hits_a_point_cloud2():
     assert decode_world(LASER_SCAN, s_payload, p_payload) == scan
 
 
-def test_a_multi_layer_scan_holds_its_layers_one_after_another():
-    laser = LaserParams(fov=90.0, resolution=45.0, layers=(-10.0, 0.0, 10.0))
-    ranges = np.full(9, np.inf, "<f4")
-    scan = PointCloud(1, "laser", b"", ranges.tobytes())
-    (s_payload, s), (p_payload, _) = _written("laser", scan, laser).values()
-    assert len(s.ranges) == 9 and s.angle_increment == np.float32(math.radians(45))
+def _cloud_dtype(g) -> np.dtype:
+    """The points of PointCloud2 ``g`` as a numpy record, from its own fields (PointField datatypes: 4 uint16,
+    7 float32), ``point_step`` bytes each."""
+    kinds = {4: "<u2", 7: "<f4"}
+    return np.dtype({"names": [f.name for f in g.fields], "formats": [kinds[f.datatype] for f in g.fields],
+                     "offsets": [f.offset for f in g.fields], "itemsize": g.point_step})
+
+
+def test_a_multi_layer_scan_is_one_organized_point_cloud2_read_back_bit_for_bit():
+    """A row a layer, a column a bearing (scan order: by layer, then by bearing); x, y, z the hit or NaN, range
+    the recorded float32 (inf: no hit), ring the layer's index; no LaserScan, no ``laser/points``."""
+    scan = layered_scan(stamp_ns=3_000_000_007)
+    layers, bearings = len(LAYERED.layers), len(LAYERED.bearings)
+    out = _written("laser", scan, LAYERED)
+    assert list(out) == ["laser"]
+    payload, _ = out["laser"]  # mcap_ros2 decodes it from the recorded schema
+    assert _is_humble(payload, POINT_CLOUD2)
+    g = _STORE.deserialize_cdr(payload, POINT_CLOUD2)
+    assert (_stamp(g), g.header.frame_id, g.height, g.width) == (3_000_000_007, "laser", layers, bearings)
+    assert [(f.name, f.offset, f.datatype, f.count) for f in g.fields] == [
+        ("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1), ("range", 12, 7, 1), ("ring", 16, 4, 1)]
+    assert (g.point_step, g.row_step, g.is_bigendian, g.is_dense) == (20, 20 * bearings, False, False)
+    assert len(g.data) == g.row_step * g.height
+    cloud = np.frombuffer(g.data.tobytes(), _cloud_dtype(g)).reshape(g.height, g.width)
+    assert np.array_equal(cloud["ring"], np.repeat(np.arange(layers), bearings).reshape(layers, bearings))
+    assert cloud["range"].tobytes() == scan.ranges
+    ranges = np.frombuffer(scan.ranges, "<f4").reshape(layers, bearings)
+    hit = np.isfinite(ranges)
+    assert 0 < hit.sum() < hit.size and not hit[-1].any()  # hits and misses, a layer that sees nothing
+    xyz = np.stack([cloud[k] for k in "xyz"], axis=-1)
+    assert np.isnan(xyz[~hit]).all()
+    assert xyz[hit].astype("<f4").tobytes() == scan.points  # the hits' own bytes, in scan order
+    assert np.allclose(xyz[hit], LAYERED.directions()[hit.reshape(-1)] * ranges[hit][:, None])
+    assert decode_world(POINT_CLOUD2, payload) == scan
+
+
+def test_a_one_layer_laser_is_still_a_laser_scan_with_its_points_beside():
+    assert world_channels("laser", LASER).topics == (("laser", LASER_SCAN), ("laser/points", POINT_CLOUD2))
+    assert world_channels("laser", LAYERED).topics == (("laser", POINT_CLOUD2),)
+
+
+def test_a_multi_layer_laser_scan_as_recorded_before_still_decodes():
+    """All layers' ranges one after another in a LaserScan with the hits beside (serialised by rosbags)."""
+    scan = layered_scan(stamp_ns=11)
+    header = _STORE.types["std_msgs/msg/Header"](
+        stamp=_STORE.types["builtin_interfaces/msg/Time"](sec=0, nanosec=11), frame_id="laser")
+    b = LAYERED.bearings
+    old = _STORE.types[LASER_SCAN](header=header, angle_min=b[0], angle_max=b[-1], angle_increment=math.radians(15),
+                                   time_increment=0.0, scan_time=0.1, range_min=0.1, range_max=30.0,
+                                   ranges=np.frombuffer(scan.ranges, "<f4"), intensities=np.zeros(0, np.float32))
+    field = _STORE.types["sensor_msgs/msg/PointField"]
+    n = len(scan.points) // 12
+    points = _STORE.types[POINT_CLOUD2](
+        header=header, height=1, width=n, is_bigendian=False, point_step=12, row_step=12 * n, is_dense=True,
+        fields=[field(name=k, offset=4 * j, datatype=7, count=1) for j, k in enumerate("xyz")],
+        data=np.frombuffer(scan.points, np.uint8))
+    s_payload, p_payload = (bytes(_STORE.serialize_cdr(old, LASER_SCAN)),
+                            bytes(_STORE.serialize_cdr(points, POINT_CLOUD2)))
     assert decode_world(LASER_SCAN, s_payload, p_payload) == scan
 
 
@@ -147,3 +199,19 @@ def test_scans_read_back_exactly_bit_for_bit(ranges, data):
     scan = PointCloud(5, "laser", data.draw(st.binary(min_size=hits, max_size=hits)), r.tobytes())
     payloads = world_channels("laser", LaserParams(fov=10.0)).encode(scan)
     assert decode_world(LASER_SCAN, *payloads) == scan
+
+
+@settings(max_examples=60, deadline=None)
+@given(ranges=st.lists(st.sampled_from([np.inf, np.nan, 0.1, 30.0]) | st.floats(0.125, 30, width=32), min_size=21,
+                       max_size=21), data=st.data())
+def test_multi_layer_scans_read_back_exactly_bit_for_bit(ranges, data):
+    """Any float32 bits in the hits (NaN payloads too), a NaN range a miss: the bytes are carried; and a payload
+    cut short is one clear error."""
+    r = np.array(ranges, "<f4")
+    hits = 12 * int(np.isfinite(r).sum())
+    scan = PointCloud(5, "laser", data.draw(st.binary(min_size=hits, max_size=hits)), r.tobytes())
+    (payload,) = world_channels("laser", LAYERED).encode(scan)
+    assert decode_world(POINT_CLOUD2, payload) == scan
+    for cut in (data.draw(st.integers(0, len(payload) - 1)), len(payload) - 1):
+        with pytest.raises(ValueError, match=r"^a sensor_msgs/msg/PointCloud2 message does not decode: [^\n]+$"):
+            decode_world(POINT_CLOUD2, payload[:cut])

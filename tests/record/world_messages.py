@@ -65,6 +65,24 @@ def wall_scan(stamp_ns: int = 100_000_000, n: int = 181) -> PointCloud:
     return PointCloud(stamp_ns, "laser", points.tobytes(), ranges.tobytes())
 
 
+LAYERED = LaserParams(fov=90.0, resolution=15.0, layers=(-10.0, 0.0, 10.0))
+"""A laser of three layers of seven rays each: 21 rays a scan."""
+
+
+def layered_scan(stamp_ns: int = 100_000_000, laser: LaserParams = LAYERED) -> PointCloud:
+    """A scan of ``laser`` facing a wall :data:`WALL` m ahead, hit by the rays within 40 deg of the axis in every
+    layer but the last (which sees nothing): ranges along :meth:`~LaserParams.directions` (inf: no hit), the hits
+    as the 3D plant makes them (float32 of the ray times the float32 range), in scan order."""
+    rays = laser.directions()
+    bearing = np.tile(laser.bearings, len(laser.layers))
+    last = np.repeat(np.arange(len(laser.layers)) == len(laser.layers) - 1, len(laser.bearings))
+    seen = (np.abs(bearing) < math.radians(40)) & ~last
+    ranges = np.where(seen, WALL / np.where(seen, rays[:, 0], 1.0), np.inf).astype("<f4")
+    hit = np.isfinite(ranges)
+    points = (rays[hit] * ranges[hit, None]).astype("<f4")
+    return PointCloud(stamp_ns, laser.name, points.tobytes(), ranges.tobytes())
+
+
 FOXGLOVE_FILE = Path(__file__).parent / "data" / "foxglove_world.mcap"
 """Two captures a world topic in Foxglove's JSON schemas, as vilma wrote them before the ROS 2 types (see
 data/README.md)."""
@@ -102,4 +120,57 @@ def write_world_recording(path, n: int = 5, **recorder) -> list[tuple[str, Image
     for name, msg in sent:
         rec.add_message(name, msg)
     rec.close()
+    return sent
+
+
+def write_layered_recording(path, n: int = 3) -> list[PointCloud]:
+    """A recording at ``path`` of ``n`` :func:`layered_scan` of :data:`LAYERED` a :data:`PERIOD_NS`; returns them."""
+    from vilma.record.recorder import Recorder
+
+    sent = [layered_scan(k * PERIOD_NS) for k in range(1, n + 1)]
+    with Recorder(path, world_sensors=(LAYERED,)) as rec:
+        for scan in sent:
+            rec.add_message("laser", scan)
+    return sent
+
+
+def write_old_layered_recording(path, n: int = 2) -> list[PointCloud]:
+    """A recording at ``path`` as vilma wrote a multi-layer laser before its organized point clouds: ``n``
+    :func:`layered_scan` of :data:`LAYERED` as a LaserScan of all layers' ranges one after another (one layer's
+    angles) and the hits on ``laser/points``, serialised by ``rosbags`` and written by the ``mcap`` library."""
+    from mcap.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from vilma.record.world_cdr import LASER_SCAN, POINT_CLOUD2, SCHEMAS
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    t = store.types
+    sent = [layered_scan(k * PERIOD_NS) for k in range(1, n + 1)]
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start(profile="ros2", library="tests")
+        w.add_metadata("vilma", {"car": "vilma"})
+        channels = {}
+        for topic, kind in (("laser", LASER_SCAN), ("laser/points", POINT_CLOUD2)):
+            sid = w.register_schema(kind, "ros2msg", SCHEMAS[kind])
+            channels[topic] = w.register_channel(f"vilma/vilma/{topic}", "cdr", sid)
+        b = LAYERED.bearings
+        for c in sent:
+            sec, nanosec = divmod(c.stamp_ns, 10**9)
+            header = t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
+                                              frame_id=c.frame_id)
+            scan = t[LASER_SCAN](header=header, angle_min=b[0], angle_max=b[-1],
+                                 angle_increment=math.radians(LAYERED.resolution), time_increment=0.0,
+                                 scan_time=1 / LAYERED.rate_hz, range_min=LAYERED.min_range,
+                                 range_max=LAYERED.max_range, ranges=np.frombuffer(c.ranges, "<f4"),
+                                 intensities=np.zeros(0, np.float32))
+            field = t["sensor_msgs/msg/PointField"]
+            hits = len(c.points) // 12
+            cloud = t[POINT_CLOUD2](header=header, height=1, width=hits, fields=[
+                field(name=k, offset=4 * j, datatype=field.FLOAT32, count=1) for j, k in enumerate("xyz")],
+                is_bigendian=False, point_step=12, row_step=12 * hits, data=np.frombuffer(c.points, np.uint8),
+                is_dense=True)
+            for topic, msg, kind in (("laser", scan, LASER_SCAN), ("laser/points", cloud, POINT_CLOUD2)):
+                w.add_message(channels[topic], c.stamp_ns, bytes(store.serialize_cdr(msg, kind)), c.stamp_ns)
+        w.finish()
     return sent

@@ -7,8 +7,9 @@ was there. A reset of the simulator starts its clock again from 0: each message
 gets the epoch it was stamped in (:class:`Epochs`), and a topic comes back in
 epoch order, then stamp order. Camera images and laser scans come back as
 :class:`~vilma.core.messages.Image` and :class:`~vilma.core.messages.PointCloud`
-(a JPEG image as its decoded pixels: see :mod:`vilma.record.world_cdr`), from ROS 2 types or, in older
-recordings, Foxglove's JSON ones.
+(a JPEG image as its decoded pixels: see :mod:`vilma.record.world_cdr`), from ROS 2 types (a laser scan from a
+LaserScan and its points beside, or from a multi-layer laser's PointCloud2) or, in older recordings, Foxglove's
+JSON ones.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from vilma.bus.topics import SENSOR_TOPICS, TOPICS
 from vilma.core import messages as m
 from vilma.record.mcap_file import MAGIC
 from vilma.record.schemas import DRIVE_LOG, Layout, channels, decode_fields, numeric_layouts, vilma_layouts
-from vilma.record.world_cdr import WORLD_SCHEMAS, decode_world, points_of
+from vilma.record.world_cdr import decode_world, is_world, points_of
 from vilma.scenario.drive_log import COLUMNS
 from vilma.sensors import Readings
 
@@ -65,7 +66,7 @@ class Recording:
     @property
     def world_topics(self) -> list[str]:
         """Topics of camera images and laser scans with at least one message."""
-        return [t for t in self.topics if self.schemas.get(t) in WORLD_SCHEMAS and t not in TOPICS]
+        return [t for t in self.topics if is_world(t, self.schemas.get(t, "")) and t not in TOPICS]
 
     def count(self, name: str) -> int:
         """Messages on topic ``name``."""
@@ -121,7 +122,7 @@ class Recording:
         """Topic ``name`` as vilma messages, in epoch then stamp order."""
         if name in SENSOR_TOPICS:
             return self.readings(name).messages()
-        if name not in TOPICS and self.schemas.get(name) in WORLD_SCHEMAS:
+        if name not in TOPICS and is_world(name, self.schemas.get(name, "")):
             st, payloads = self.world_payloads(name)
             return [decode_world(self.schemas[name], *payloads[i])
                     for i in self._order(name, np.asarray(st, np.int64)).tolist()]

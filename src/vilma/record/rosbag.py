@@ -45,8 +45,12 @@ and the world sensors' topics, under ROS ``image_transport`` names, as recorded
 ``/camera/<name>``                 sensor_msgs/msg/Image           a raw-recorded colour image (``rgb8``)
 ``/camera/<name>/camera_info``     sensor_msgs/msg/CameraInfo      the camera's intrinsics
 ``/camera/<name>/depth``           sensor_msgs/msg/Image           depth ``32FC1`` [m], little-endian
-``/laser``                         sensor_msgs/msg/LaserScan       the ranges a ray
-``/laser/points``                  sensor_msgs/msg/PointCloud2     the hits: one row of ``x, y, z`` float32 [m]
+``/laser``                         sensor_msgs/msg/LaserScan       a laser of one layer: the ranges a ray
+``/laser/points``                  sensor_msgs/msg/PointCloud2     beside it, the hits: one row of ``x, y, z``
+                                                                   float32 [m]
+``/laser``                         sensor_msgs/msg/PointCloud2     a laser of several layers, organized: a
+                                                                   row a layer (``x, y, z``, NaN: no hit;
+                                                                   ``range``, inf: no hit; ``ring``), alone
 ================================== =============================== ==========================================
 
 A recording made before these types (Foxglove's JSON schemas) gives the same topics but camera info and

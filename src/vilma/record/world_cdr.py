@@ -13,11 +13,19 @@ topic                         type                            content
                                                               and size, principal point at the image centre,
                                                               ``plumb_bob`` D all zero (MuJoCo has no distortion)
 ``camera/<name>/depth``       sensor_msgs/msg/Image           ``32FC1`` [m], exact
-``laser``                     sensor_msgs/msg/LaserScan       ranges float32 a ray (inf: no hit), intensities
-                                                              none; the angles and limits of the recorder's
-                                                              laser (a multi-layer laser's layers one after
-                                                              another)
-``laser/points``              sensor_msgs/msg/PointCloud2     the hits: one row of ``x, y, z`` float32 [m]
+``laser``                     sensor_msgs/msg/LaserScan       a laser of one layer: ranges float32 a ray (inf:
+                                                              no hit), intensities none; the angles and limits
+                                                              of the recorder's laser
+``laser/points``              sensor_msgs/msg/PointCloud2     beside that LaserScan, the hits: one row of
+                                                              ``x, y, z`` float32 [m]
+``laser``                     sensor_msgs/msg/PointCloud2     a laser of several layers, organized (as the ROS
+                                                              drivers of multi-layer lidars publish): a row a
+                                                              layer, a column a bearing, in scan order; fields
+                                                              ``x, y, z`` float32 [m] (NaN: no hit), ``range``
+                                                              float32 [m] (inf: no hit), ``ring`` uint16 (the
+                                                              layer's index in ``LaserParams.layers``), 2 bytes
+                                                              of padding (:data:`POINT_STEP`); no
+                                                              ``laser/points`` beside
 ============================= =============================== ===================================================
 
 Why raw colour by default: the bytes read back exactly, and MuJoCo's flat-shaded renders are large areas of one
@@ -27,9 +35,14 @@ and shifts colours by a few levels);
 the 60 s ``course_3d_obstacles`` run (320x240 stereo with depth at 10 Hz, the laser) is 80.0 MB with raw colour,
 79.2 MB with JPEG (the depth maps are most of it). A textured or noisy world compresses less: give
 ``jpeg_quality`` then. Depth maps are always raw (a depth map must not be smeared). Why two laser
-topics: a LaserScan holds the ranges but not vilma's hit points (float32 from the float64 ray directions, not
-recomputable bit for bit), which only a point cloud carries. Recordings made before these types wrote
-Foxglove's JSON schemas (:mod:`vilma.record.world_schemas`); :func:`decode_world` reads both.
+topics for one layer: a LaserScan holds the ranges but not vilma's hit points (float32 from the float64 ray
+directions, not recomputable bit for bit), which only a point cloud carries. Why a point cloud alone for several
+layers: a LaserScan describes one fan of rays (its ranges must number ``(angle_max - angle_min) / angle_increment +
+1``), so one holding several layers one after another, as recordings before this held them (:func:`decode_world`
+still reads those), is invalid and drawn wrong; the organized cloud holds the ranges and the hits (the hits' own
+float32 ``x, y, z`` at their rays, in the order the laser makes them), so both read back bit for bit.
+Recordings made before these types wrote Foxglove's JSON schemas (:mod:`vilma.record.world_schemas`);
+:func:`decode_world` reads both.
 """
 
 from __future__ import annotations
@@ -38,6 +51,8 @@ import io
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+
+import numpy as np
 
 from vilma.core.messages import Image, Message, PointCloud
 from vilma.plant3d.camera import CameraParams
@@ -50,11 +65,17 @@ IMAGE, COMPRESSED_IMAGE, CAMERA_INFO = ("sensor_msgs/msg/Image", "sensor_msgs/ms
                                         "sensor_msgs/msg/CameraInfo")
 LASER_SCAN, POINT_CLOUD2 = "sensor_msgs/msg/LaserScan", "sensor_msgs/msg/PointCloud2"
 WORLD_SCHEMAS = (IMAGE, COMPRESSED_IMAGE, LASER_SCAN, *js.WORLD_SCHEMAS)
-"""The types of world sensors' own topics (not those beside them), these and those of older recordings."""
-POINTS = "laser/points"
-"""The topic of a LaserScan's hit points."""
-FLOAT32 = 7
-"""``sensor_msgs/PointField`` datatype of a float32."""
+"""The types of world sensors' own topics (not those beside them), these and those of older recordings; and a
+PointCloud2 on ``laser`` (:func:`is_world`)."""
+LASER, POINTS = "laser", "laser/points"
+"""The laser's topic, and that of a LaserScan's hit points."""
+UINT16, FLOAT32 = 4, 7
+"""``sensor_msgs/PointField`` datatypes of a uint16 and a float32."""
+POINT_STEP = 20
+"""Bytes a point of a multi-layer laser's organized cloud: ``x, y, z, range`` float32 at 0, 4, 8, 12, ``ring``
+uint16 at 16, then 2 bytes of zeros so that every point's floats stay 4-byte aligned."""
+_LAYERED = np.dtype({"names": ["x", "y", "z", "range", "ring"], "formats": ["<f4", "<f4", "<f4", "<f4", "<u2"],
+                     "offsets": [0, 4, 8, 12, 16], "itemsize": POINT_STEP})
 
 _IMAGE_SCHEMA = ros2msg(_STAMPED + "uint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\n"
                         "uint8[] data", _HEADER, _TIME)
@@ -96,7 +117,7 @@ def sensor_topics(sensors: tuple[WorldSensorParams, ...]) -> dict[str, WorldSens
     out: dict[str, WorldSensorParams] = {}
     for s in sensors:
         if isinstance(s, LaserParams):
-            out["laser"] = s
+            out[LASER] = s
         else:
             out[f"camera/{s.name}"] = out[f"camera/{s.name}/depth"] = s
     return out
@@ -147,6 +168,8 @@ def _camera(name: str, camera: CameraParams | None, jpeg_quality: int | None) ->
 
 
 def _laser(laser: LaserParams | None) -> WorldChannels:
+    layered = laser is not None and len(laser.layers) > 1
+
     def encode(msg: Message) -> tuple[bytes, ...]:
         problem = js.cloud_problem(msg)
         if problem is None and laser is None:
@@ -156,6 +179,8 @@ def _laser(laser: LaserParams | None) -> WorldChannels:
             problem = f"{len(msg.ranges) // 4} ranges, but laser {laser.name!r} casts {rays} rays"
         if problem is not None:
             raise js.WorldMessageError(problem)
+        if layered:
+            return (_layered_cloud(msg, len(laser.layers), len(laser.bearings)),)
         b = laser.bearings
         scan = (CdrBody().header(msg.frame_id, msg.stamp_ns)
                 .number("f", b[0], b[-1], math.radians(laser.resolution), 0, 1 / laser.rate_hz,  # one instant
@@ -166,26 +191,54 @@ def _laser(laser: LaserParams | None) -> WorldChannels:
             points.string(axis).number("I", 4 * offset).number("B", FLOAT32).number("I", 1)
         points.number("?", False).number("I", 12, 12 * n).sequence(msg.points).number("?", True)
         return scan, points.payload()[0]
-    return WorldChannels((("laser", LASER_SCAN), (POINTS, POINT_CLOUD2)), encode)
+    if layered:
+        return WorldChannels(((LASER, POINT_CLOUD2),), encode)
+    return WorldChannels(((LASER, LASER_SCAN), (POINTS, POINT_CLOUD2)), encode)
+
+
+def _layered_cloud(msg: PointCloud, layers: int, bearings: int) -> bytes:
+    """The organized ``sensor_msgs/msg/PointCloud2`` of a checked scan of ``layers`` x ``bearings`` rays: each
+    hit's own ``x, y, z`` bytes at its ray (hits and rays are both in scan order), NaN at the others."""
+    ranges = np.frombuffer(msg.ranges, "<f4")
+    cloud = np.zeros(layers * bearings, _LAYERED)
+    hits = np.frombuffer(msg.points, "<f4").reshape(-1, 3)
+    hit = np.isfinite(ranges)
+    for k, axis in enumerate("xyz"):
+        cloud[axis] = np.nan
+        cloud[axis][hit] = hits[:, k]
+    cloud["range"] = ranges
+    cloud["ring"] = np.repeat(np.arange(layers, dtype="<u2"), bearings)
+    body = CdrBody().header(msg.frame_id, msg.stamp_ns).number("I", layers, bearings).number("I", len(_LAYERED.names))
+    for axis in _LAYERED.names:
+        kind, offset = _LAYERED.fields[axis]
+        body.string(axis).number("I", offset).number("B", UINT16 if kind.kind == "u" else FLOAT32).number("I", 1)
+    body.number("?", False).number("I", POINT_STEP, POINT_STEP * bearings).sequence(cloud.tobytes())
+    return body.number("?", False).payload()[0]
 
 
 def world_channels(name: str, sensor: WorldSensorParams | None = None, jpeg_quality: int | None = None
                    ) -> WorldChannels:
     """How world topic ``name`` is written (see the module docstring), given its sensor's parameters if known
     (without them: no camera info, and a laser scan is dropped); ``jpeg_quality`` 1..95: colour as JPEG."""
-    if name == "laser":
+    if name == LASER:
         return _laser(sensor if isinstance(sensor, LaserParams) else None)
     return _camera(name, sensor if isinstance(sensor, CameraParams) else None, jpeg_quality)
 
 
+def is_world(name: str, schema_name: str) -> bool:
+    """Whether topic ``name`` of type ``schema_name`` is a world sensor's own topic (not one beside it)."""
+    return schema_name in WORLD_SCHEMAS or (name == LASER and schema_name == POINT_CLOUD2)
+
+
 def decode_world(schema_name: str, payload: bytes, *beside: bytes) -> Message:
     """The vilma message of one recorded world-sensor payload (and, for a LaserScan, its ``laser/points``
-    payload beside); a JPEG image comes back as its decoded pixels.
+    payload beside); a JPEG image comes back as its decoded pixels, a PointCloud2 (a multi-layer laser's) as the
+    scan whose rays its points are, row by row.
 
     Raises:
         ValueError: not a world schema, or a payload that does not decode (one line).
     """
-    if schema_name not in (IMAGE, COMPRESSED_IMAGE, LASER_SCAN):
+    if schema_name not in (IMAGE, COMPRESSED_IMAGE, LASER_SCAN, POINT_CLOUD2):
         return js.decode_world(schema_name, payload)
     try:
         r = CdrReader(payload)
@@ -203,6 +256,8 @@ def decode_world(schema_name: str, payload: bytes, *beside: bytes) -> Message:
                 rgb = img.convert("RGB")
             w, h = rgb.size
             return Image(stamp_ns, frame_id, w, h, js.RGB, 3 * w, rgb.tobytes())
+        if schema_name == POINT_CLOUD2:
+            return _scan_of_cloud(stamp_ns, frame_id, r)
         r.number("f", 7)
         ranges = bytes(r.sequence(4))
         p = CdrReader(beside[0])
@@ -211,11 +266,39 @@ def decode_world(schema_name: str, payload: bytes, *beside: bytes) -> Message:
             p.string(), p.number("I"), p.number("B"), p.number("I")
         p.number("?"), p.number("I", 2)
         return PointCloud(stamp_ns, frame_id, bytes(p.sequence()), ranges)
-    except (ValueError, OSError, IndexError) as e:
+    except (ValueError, OSError, IndexError, TypeError) as e:
         raise ValueError(f"a {schema_name} message does not decode: {e}") from None
+
+
+def _scan_of_cloud(stamp_ns: int, frame_id: str, r: CdrReader) -> PointCloud:
+    """The scan of a PointCloud2 read up to its header: the ``range`` field of every point in row order, the
+    ``x, y, z`` of those whose range is finite (any layout of float32 fields, either byte order)."""
+    height, width = r.number("I", 2)
+    fields = {}
+    for _ in range(r.number("I")):
+        name, offset, datatype, count = r.string(), r.number("I"), r.number("B"), r.number("I")
+        fields[name] = (offset, datatype, count)
+    order = ">" if r.number("?") else "<"
+    point_step, row_step = r.number("I", 2)
+    data = r.sequence()
+    r.number("?")  # is_dense: NaN points or not, the ranges say which are hits
+    want = ("x", "y", "z", "range")
+    missing = [k for k in want if k not in fields or fields[k][1:] != (FLOAT32, 1)]
+    if missing:
+        raise ValueError(f"no float32 field {', '.join(missing)} (a laser scan needs x, y, z and range)")
+    if row_step < width * point_step or len(data) < height * row_step:
+        raise ValueError(f"{len(data)} bytes of data, less than {height} rows of {width} points of {point_step} "
+                         f"bytes (row step {row_step})")
+    dtype = np.dtype({"names": list(want), "formats": [order + "f4"] * 4,
+                      "offsets": [fields[k][0] for k in want], "itemsize": point_step})
+    rows = np.frombuffer(data, np.uint8, height * row_step).reshape(height, row_step)[:, :width * point_step]
+    cloud = np.ascontiguousarray(rows).view(dtype).reshape(-1)
+    ranges = cloud["range"].astype("<f4")
+    hit = np.isfinite(ranges)
+    points = np.column_stack([cloud[k][hit] for k in "xyz"]).astype("<f4")
+    return PointCloud(stamp_ns, frame_id, points.tobytes(), ranges.tobytes())
 
 
 def points_of(schema_name: str) -> str | None:
     """The topic, beside a world topic of type ``schema_name``, that :func:`decode_world` needs too."""
     return POINTS if schema_name == LASER_SCAN else None
-
