@@ -266,7 +266,7 @@ def decode_world(schema_name: str, payload: bytes, *beside: bytes) -> Message:
             p.string(), p.number("I"), p.number("B"), p.number("I")
         p.number("?"), p.number("I", 2)
         return PointCloud(stamp_ns, frame_id, bytes(p.sequence()), ranges)
-    except (ValueError, OSError, IndexError, TypeError) as e:
+    except (ValueError, OSError, IndexError) as e:
         raise ValueError(f"a {schema_name} message does not decode: {e}") from None
 
 
