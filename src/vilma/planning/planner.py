@@ -202,11 +202,11 @@ def _longitudinal(state: FrenetState, target: _Target | None, p: PlannerParams):
         durations = list(p.position_durations)
         closing = state.s_dot - target.speed
         gap = target.s - state.s
-        if closing > 0 and gap > 0 and not (target.mode == "stop" and closing * closing > 2.0 * gap * (
-                p.vehicle.actuators.max_decel)):  # and the time a steady slow-down to the target speed closes the gap in
-            # (at most SLOWDOWN_HORIZONS horizons: closing at a crawl it would overflow the polynomials, or itself); a
-            # stop nearer than the car's emergency stop has none: shorter than a step, it went to rest between two
-            # samples, where no check sees its deceleration
+        # a stop nearer than the car's emergency stop has no steady slow-down: shorter than a step, it went to rest
+        # between two samples, where no check sees its deceleration
+        beyond = target.mode == "stop" and closing * closing > 2.0 * gap * p.vehicle.actuators.max_decel
+        if closing > 0 and gap > 0 and not beyond:  # and the time a steady slow-down to the target speed closes the gap
+            # in (at most SLOWDOWN_HORIZONS horizons: closing at a crawl it would overflow the polynomials, or itself)
             longest = SLOWDOWN_HORIZONS * p.horizon
             durations.append(max(2.0 * gap / closing, p.dt) if 2.0 * gap < closing * longest else longest)
         T = np.repeat(np.asarray(durations), len(p.position_offsets))
