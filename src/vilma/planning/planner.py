@@ -425,12 +425,11 @@ def _arriving(lat_m: np.ndarray, lon_m: np.ndarray, arrivals: tuple[Arrival, ...
     s, v, d = lon_m[0], lon_m[1], lat_m[0]
     out = np.zeros((d.shape[0], s.shape[0]), bool)
     for w in arrivals:
-        on = ((t >= w.t[0]) & (t <= w.t[1]))[None] & (s >= w.s[0]) & (s <= w.s[1]) & (v >= w.v[0]) & (v <= w.v[1])
+        on = w.reached(s, t[None], v)
         if not on.any():
             continue
         if w.d.shape[1]:
-            arc, lo, hi = w.d
-            on = on[None] & (d[:, None] >= np.interp(s, arc, lo)[None]) & (d[:, None] <= np.interp(s, arc, hi)[None])
+            on = on[None] & w.across(s[None], d[:, None])
         out |= on.any(axis=-1)
     return out
 

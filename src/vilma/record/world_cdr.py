@@ -74,6 +74,7 @@ UINT16, FLOAT32 = 4, 7
 POINT_STEP = 20
 """Bytes a point of a multi-layer laser's organized cloud: ``x, y, z, range`` float32 at 0, 4, 8, 12, ``ring``
 uint16 at 16, then 2 bytes of zeros so that every point's floats stay 4-byte aligned."""
+_XYZ = np.dtype({"names": ["x", "y", "z"], "formats": ["<f4"] * 3, "offsets": [0, 4, 8], "itemsize": 12})
 _LAYERED = np.dtype({"names": ["x", "y", "z", "range", "ring"], "formats": ["<f4", "<f4", "<f4", "<f4", "<u2"],
                      "offsets": [0, 4, 8, 12, 16], "itemsize": POINT_STEP})
 
@@ -185,12 +186,7 @@ def _laser(laser: LaserParams | None) -> WorldChannels:
         scan = (CdrBody().header(msg.frame_id, msg.stamp_ns)
                 .number("f", b[0], b[-1], math.radians(laser.resolution), 0, 1 / laser.rate_hz,  # one instant
                         laser.min_range, laser.max_range).sequence(msg.ranges, 4).sequence(b"", 4)).payload()[0]
-        n = len(msg.points) // 12
-        points = CdrBody().header(msg.frame_id, msg.stamp_ns).number("I", 1, n).number("I", 3)
-        for offset, axis in enumerate("xyz"):
-            points.string(axis).number("I", 4 * offset).number("B", FLOAT32).number("I", 1)
-        points.number("?", False).number("I", 12, 12 * n).sequence(msg.points).number("?", True)
-        return scan, points.payload()[0]
+        return scan, _cloud2(msg, 1, len(msg.points) // 12, _XYZ, msg.points, dense=True)
     if layered:
         return WorldChannels(((LASER, POINT_CLOUD2),), encode)
     return WorldChannels(((LASER, LASER_SCAN), (POINTS, POINT_CLOUD2)), encode)
@@ -208,12 +204,18 @@ def _layered_cloud(msg: PointCloud, layers: int, bearings: int) -> bytes:
         cloud[axis][hit] = hits[:, k]
     cloud["range"] = ranges
     cloud["ring"] = np.repeat(np.arange(layers, dtype="<u2"), bearings)
-    body = CdrBody().header(msg.frame_id, msg.stamp_ns).number("I", layers, bearings).number("I", len(_LAYERED.names))
-    for axis in _LAYERED.names:
-        kind, offset = _LAYERED.fields[axis]
-        body.string(axis).number("I", offset).number("B", UINT16 if kind.kind == "u" else FLOAT32).number("I", 1)
-    body.number("?", False).number("I", POINT_STEP, POINT_STEP * bearings).sequence(cloud.tobytes())
-    return body.number("?", False).payload()[0]
+    return _cloud2(msg, layers, bearings, _LAYERED, cloud.tobytes(), dense=False)
+
+
+def _cloud2(msg: PointCloud, height: int, width: int, point: np.dtype, data: bytes, dense: bool) -> bytes:
+    """A little-endian ``sensor_msgs/msg/PointCloud2`` of ``msg``'s stamp and frame: ``height`` x ``width`` points
+    laid out as the structured dtype ``point`` (float32 and uint16 fields) in ``data``."""
+    body = CdrBody().header(msg.frame_id, msg.stamp_ns).number("I", height, width).number("I", len(point.names))
+    for name in point.names:
+        kind, offset = point.fields[name]
+        body.string(name).number("I", offset).number("B", UINT16 if kind.kind == "u" else FLOAT32).number("I", 1)
+    body.number("?", False).number("I", point.itemsize, point.itemsize * width).sequence(data)
+    return body.number("?", dense).payload()[0]
 
 
 def world_channels(name: str, sensor: WorldSensorParams | None = None, jpeg_quality: int | None = None

@@ -48,13 +48,23 @@ class Arrival:
     offsets [m] (left positive) from ``lo`` to ``hi`` (the next rows) inside it, interpolated between them; no
     column: any offset."""
 
+    def reached(self, s, t, v):
+        """Whether arc length ``s`` [m], time ``t`` [s] and speed ``v`` [m/s] are in its intervals (numbers, or arrays
+        that broadcast: element by element)."""
+        return ((t >= self.t[0]) & (t <= self.t[1]) & (s >= self.s[0]) & (s <= self.s[1]) & (v >= self.v[0])
+                & (v <= self.v[1]))
+
+    def across(self, s, d):
+        """Whether offset ``d`` [m] at arc length ``s`` [m] is within its extent across the path (numbers, or arrays
+        that broadcast); any offset is, without columns."""
+        if not self.d.shape[1]:
+            return True
+        arc, lo, hi = self.d
+        return (d >= np.interp(s, arc, lo)) & (d <= np.interp(s, arc, hi))
+
     def holds(self, s: float, t: float, v: float, d: float) -> bool:
         """Whether a car at arc length ``s`` [m], time ``t`` [s], speed ``v`` [m/s] and offset ``d`` [m] is in it."""
-        inside = (self.s[0] <= s <= self.s[1] and self.t[0] <= t <= self.t[1] and self.v[0] <= v <= self.v[1])
-        if not inside or not self.d.shape[1]:
-            return inside
-        arc, lo, hi = self.d
-        return bool(np.interp(s, arc, lo) <= d <= np.interp(s, arc, hi))
+        return bool(self.reached(s, t, v) and self.across(s, d))
 
 
 def arrival_profile(path: Trajectory, v0: float, accel: float, decel: float,
